@@ -1,0 +1,30 @@
+//! Feature front end types: what a camera frame contributes to the estimator.
+
+use nalgebra::Vector2;
+
+/// One tracked feature in one camera image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FeatureObservation {
+    /// Track id, shared by all observations of the same 3-D point (across cameras and time).
+    pub feature_id: u64,
+    /// Distorted pixel coordinates (OpenCV convention: pixel centres at integers).
+    pub uv: Vector2<f64>,
+}
+
+/// The features one camera saw in one frame.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CameraFeatures {
+    /// Index of the camera in the rig (0 = left/cam0).
+    pub cam_id: usize,
+    /// Observations, sorted by `feature_id`.
+    pub features: Vec<FeatureObservation>,
+}
+
+/// A synchronized multi-camera frame of feature observations.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FeatureFrame {
+    /// Frame timestamp (ns), in the camera clock (the estimator corrects it by `td`).
+    pub t_ns: i64,
+    /// Per-camera observations; a camera with no entry produced no image this frame.
+    pub cameras: Vec<CameraFeatures>,
+}
