@@ -56,7 +56,10 @@ impl ImuNoise {
             ("accelerometer_random_walk", accelerometer_random_walk),
         ] {
             if !(v.is_finite() && v > 0.0) {
-                return Err(ImuError::InvalidNoise { field: name, value: v });
+                return Err(ImuError::InvalidNoise {
+                    field: name,
+                    value: v,
+                });
             }
         }
         Ok(Self {
@@ -261,7 +264,10 @@ impl Preintegration {
     /// Rejects non-finite values and timestamps that do not increase.
     pub fn push(&mut self, sample: ImuSample) -> Result<(), ImuError> {
         ImuSample::new(sample.t_ns, sample.gyro, sample.accel)?;
-        let prev = *self.samples.last().expect("a preintegration always holds its first sample");
+        let prev = *self
+            .samples
+            .last()
+            .expect("a preintegration always holds its first sample");
         if sample.t_ns <= prev.t_ns {
             return Err(ImuError::NonIncreasingTime {
                 t_ns: sample.t_ns,
@@ -355,7 +361,8 @@ impl Preintegration {
         ba_threshold: f64,
         bg_threshold: f64,
     ) -> bool {
-        let far = (ba - self.lin_ba).norm() > ba_threshold || (bg - self.lin_bg).norm() > bg_threshold;
+        let far =
+            (ba - self.lin_ba).norm() > ba_threshold || (bg - self.lin_bg).norm() > bg_threshold;
         if far {
             self.repropagate(ba, bg);
         }
@@ -387,12 +394,10 @@ impl Preintegration {
         let dba = ba - self.lin_ba;
         let dbg = bg - self.lin_bg;
         let j = &self.bias_jacobian;
-        let alpha = self.delta_p
-            + j.fixed_view::<3, 3>(O_P, 0) * dba
-            + j.fixed_view::<3, 3>(O_P, 3) * dbg;
-        let beta = self.delta_v
-            + j.fixed_view::<3, 3>(O_V, 0) * dba
-            + j.fixed_view::<3, 3>(O_V, 3) * dbg;
+        let alpha =
+            self.delta_p + j.fixed_view::<3, 3>(O_P, 0) * dba + j.fixed_view::<3, 3>(O_P, 3) * dbg;
+        let beta =
+            self.delta_v + j.fixed_view::<3, 3>(O_V, 0) * dba + j.fixed_view::<3, 3>(O_V, 3) * dbg;
         let gamma = quat_plus(&self.delta_q, &(j.fixed_view::<3, 3>(O_R, 3) * dbg));
         (alpha, beta, gamma)
     }

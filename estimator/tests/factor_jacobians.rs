@@ -7,8 +7,8 @@ use std::sync::Arc;
 
 use common::{pose, rotation, small_rotation, vec3};
 use estimator::factors::{
-    FeatureMeasurement, ImuFactor, PriorFactor, ProjectionOneFrameTwoCam,
-    ProjectionTwoFrameOneCam, ProjectionTwoFrameTwoCam,
+    FeatureMeasurement, ImuFactor, PriorFactor, ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam,
+    ProjectionTwoFrameTwoCam,
 };
 use estimator::geometry::Pose;
 use estimator::imu::{ImuNoise, ImuSample, Preintegration};
@@ -34,7 +34,11 @@ fn check(factor: &dyn Factor, params: &[Vec<f64>], manifolds: &[&dyn Manifold]) 
 }
 
 fn speed_bias(v: Vector3<f64>, ba: Vector3<f64>, bg: Vector3<f64>) -> Vec<f64> {
-    v.iter().chain(ba.iter()).chain(bg.iter()).copied().collect()
+    v.iter()
+        .chain(ba.iter())
+        .chain(bg.iter())
+        .copied()
+        .collect()
 }
 
 /// An IMU interval of `n` samples at `rate_hz` with smoothly varying random motion.
@@ -235,7 +239,12 @@ fn checker_catches_a_wrong_jacobian() {
         fn parameter_tangent_sizes(&self) -> &[usize] {
             &[1]
         }
-        fn evaluate(&self, p: &[&[f64]], r: &mut [f64], j: Option<&mut [Option<&mut [f64]>]>) -> bool {
+        fn evaluate(
+            &self,
+            p: &[&[f64]],
+            r: &mut [f64],
+            j: Option<&mut [Option<&mut [f64]>]>,
+        ) -> bool {
             r[0] = p[0][0].sin();
             if let Some(j) = j
                 && let Some(b) = j[0].as_deref_mut()

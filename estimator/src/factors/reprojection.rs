@@ -108,14 +108,7 @@ fn reproject_core(
         return true;
     }
     let wz = weight * inv_z;
-    let reduce = Matrix2x3::new(
-        wz,
-        0.0,
-        -wz * p_cb.x * inv_z,
-        0.0,
-        wz,
-        -wz * p_cb.y * inv_z,
-    );
+    let reduce = Matrix2x3::new(wz, 0.0, -wz * p_cb.x * inv_z, 0.0, wz, -wz * p_cb.y * inv_z);
     // d P_cb / d P_w and d P_cb / d P_ca.
     let a: Matrix3<f64> = rb_t * rj_t;
     let a_ri = a * ri;

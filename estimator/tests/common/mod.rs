@@ -18,7 +18,9 @@ pub fn angle() -> impl Strategy<Value = f64> {
 /// A unit axis (never degenerate).
 pub fn axis() -> impl Strategy<Value = Vector3<f64>> {
     (-1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64)
-        .prop_filter("non-degenerate axis", |(x, y, z)| x * x + y * y + z * z > 1e-2)
+        .prop_filter("non-degenerate axis", |(x, y, z)| {
+            x * x + y * y + z * z > 1e-2
+        })
         .prop_map(|(x, y, z)| Vector3::new(x, y, z).normalize())
 }
 
