@@ -97,8 +97,13 @@ fn invariants(m: &dyn Manifold, x: &[f64], delta: &[f64]) {
             sizes: [a],
             tangents: [t],
         };
-        check_factor_jacobians(&f, &[base.clone()], &[m], CheckOptions::default())
-            .unwrap_or_else(|e| panic!("minus_jacobian: {e}"));
+        check_factor_jacobians(
+            &f,
+            std::slice::from_ref(base),
+            &[m],
+            CheckOptions::default(),
+        )
+        .unwrap_or_else(|e| panic!("minus_jacobian: {e}"));
     }
 }
 

@@ -1,1 +1,1 @@
-
+//! Deterministic simulation harness (filled by the simulator issue).
