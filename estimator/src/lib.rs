@@ -6,6 +6,7 @@
 //! This crate knows nothing about simulation: it is the product for real sensors.
 
 pub mod camera;
+pub mod estimator;
 pub mod factors;
 pub mod frontend;
 pub mod geometry;

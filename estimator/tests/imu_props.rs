@@ -2,69 +2,15 @@
 //! covariance, and a noise-free IMU factor on an analytic trajectory.
 
 use estimator::factors::ImuFactor;
-use estimator::geometry::{Pose, so3_log};
-use estimator::gravity_w;
+mod common;
+
+use common::Analytic;
+use estimator::geometry::so3_log;
 use estimator::imu::{ImuError, ImuNoise, ImuSample, Preintegration};
 use nalgebra::{Matrix3, SMatrix, UnitQuaternion, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
-
-/// A smooth analytic trajectory: position sinusoids and ZYX Euler angles, with closed-form
-/// body rates and specific force.
-struct Analytic;
-
-impl Analytic {
-    fn euler(t: f64) -> ([f64; 3], [f64; 3]) {
-        let (r, rd) = (0.2 * (0.7 * t).sin(), 0.14 * (0.7 * t).cos());
-        let (p, pd) = (0.15 * (0.9 * t).sin(), 0.135 * (0.9 * t).cos());
-        let (y, yd) = (
-            0.8 * (0.3 * t).sin() + 0.2 * t,
-            0.24 * (0.3 * t).cos() + 0.2,
-        );
-        ([r, p, y], [rd, pd, yd])
-    }
-    fn rotation(t: f64) -> UnitQuaternion<f64> {
-        let ([r, p, y], _) = Self::euler(t);
-        UnitQuaternion::from_euler_angles(r, p, y)
-    }
-    fn position(t: f64) -> Vector3<f64> {
-        Vector3::new(
-            2.0 * (0.5 * t).sin(),
-            1.5 * (0.8 * t).sin(),
-            0.3 * (1.1 * t).sin(),
-        )
-    }
-    fn velocity(t: f64) -> Vector3<f64> {
-        Vector3::new(
-            (0.5 * t).cos(),
-            1.2 * (0.8 * t).cos(),
-            0.33 * (1.1 * t).cos(),
-        )
-    }
-    fn acceleration(t: f64) -> Vector3<f64> {
-        Vector3::new(
-            -0.5 * (0.5 * t).sin(),
-            -0.96 * (0.8 * t).sin(),
-            -0.363 * (1.1 * t).sin(),
-        )
-    }
-    fn sample(t_ns: i64) -> ImuSample {
-        let t = t_ns as f64 * 1e-9;
-        let ([r, p, _], [rd, pd, yd]) = Self::euler(t);
-        let gyro = Vector3::new(
-            rd - yd * p.sin(),
-            pd * r.cos() + yd * r.sin() * p.cos(),
-            -pd * r.sin() + yd * r.cos() * p.cos(),
-        );
-        let accel = Self::rotation(t).inverse() * (Self::acceleration(t) - gravity_w());
-        ImuSample { t_ns, gyro, accel }
-    }
-    fn pose(t_ns: i64) -> Pose {
-        let t = t_ns as f64 * 1e-9;
-        Pose::new(Self::rotation(t), Self::position(t))
-    }
-}
 
 fn integrate(
     t0_ns: i64,

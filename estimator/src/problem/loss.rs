@@ -59,8 +59,11 @@ pub fn apply_loss(
     let s: f64 = residuals.iter().map(|r| r * r).sum();
     let rho = loss.evaluate(s);
     let sqrt_rho1 = rho[1].max(0.0).sqrt();
-    // α solves ½α² − α − (ρ''/ρ') s = 0 (smaller root); no correction where ρ'' ≥ 0 or s = 0.
-    let (residual_scaling, alpha_sq_norm) = if s == 0.0 || rho[2] >= 0.0 || rho[1] <= 0.0 {
+    // α solves ½α² − α − (ρ''/ρ') s = 0 (smaller root). Like Ceres, the curvature correction is
+    // applied only where ρ'' > 0: for the usual robust losses (ρ'' ≤ 0) it could make the
+    // Gauss-Newton Hessian indefinite (Huber's linear region even gives α = 1, a division by
+    // zero), so there the residual and Jacobian are just scaled by √ρ' (IRLS).
+    let (residual_scaling, alpha_sq_norm) = if s == 0.0 || rho[2] <= 0.0 || rho[1] <= 0.0 {
         (sqrt_rho1, 0.0)
     } else {
         let d = (1.0 + 2.0 * s * rho[2] / rho[1]).max(0.0);
@@ -86,4 +89,47 @@ pub fn apply_loss(
         *r *= residual_scaling;
     }
     rho[0]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The corrected model's gradient `J̃ᵀ r̃` equals the robust cost's gradient `ρ' Jᵀ r`, and
+    /// the scaled residual stays finite, inside and outside the inlier region.
+    #[test]
+    fn corrected_gradient_is_the_robust_gradient() {
+        let losses: [&dyn LossFunction; 2] = [&HuberLoss { delta: 1.0 }, &CauchyLoss { c: 1.0 }];
+        for loss in losses {
+            for scale in [0.1, 0.9, 3.0, 40.0] {
+                let r0 = [0.6 * scale, -0.8 * scale];
+                let j0 = [1.0, 2.0, -0.5, 0.3, 0.7, 1.1]; // 2×3 row-major
+                let (mut r, mut j) = (r0, j0);
+                let s = r0[0] * r0[0] + r0[1] * r0[1];
+                let rho = loss.evaluate(s);
+                apply_loss(loss, &mut r, &mut [Some(&mut j[..])]);
+                assert!(r.iter().chain(&j).all(|v| v.is_finite()));
+                for c in 0..3 {
+                    let corrected = j[c] * r[0] + j[3 + c] * r[1];
+                    let expected = rho[1] * (j0[c] * r0[0] + j0[3 + c] * r0[1]);
+                    assert!((corrected - expected).abs() < 1e-12 * (1.0 + expected.abs()));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn loss_derivatives_match_finite_differences() {
+        let losses: [&dyn LossFunction; 2] = [&HuberLoss { delta: 1.5 }, &CauchyLoss { c: 2.0 }];
+        for loss in losses {
+            for s in [0.3, 1.0, 5.0, 100.0] {
+                let h = 1e-6 * s;
+                let [_, d1, d2] = loss.evaluate(s);
+                let num1 = (loss.evaluate(s + h)[0] - loss.evaluate(s - h)[0]) / (2.0 * h);
+                let num2 = (loss.evaluate(s + h)[1] - loss.evaluate(s - h)[1]) / (2.0 * h);
+                assert!((d1 - num1).abs() < 1e-6, "{loss:?} ρ' at {s}");
+                assert!((d2 - num2).abs() < 1e-6, "{loss:?} ρ'' at {s}");
+            }
+        }
+    }
 }

@@ -1,7 +1,11 @@
 //! Shared generators for the estimator's property tests.
 #![allow(dead_code)]
 
+pub mod world;
+
 use estimator::geometry::{Pose, so3_exp};
+use estimator::gravity_w;
+use estimator::imu::ImuSample;
 use nalgebra::{UnitQuaternion, Vector3};
 use proptest::prelude::*;
 
@@ -43,3 +47,60 @@ pub fn pose(bound: f64) -> impl Strategy<Value = Pose> {
 pub fn small_rotation(max_angle: f64) -> impl Strategy<Value = UnitQuaternion<f64>> {
     (axis(), 0.0..max_angle).prop_map(|(a, t)| so3_exp(&(a * t)))
 }
+
+/// A smooth analytic trajectory: position sinusoids and ZYX Euler angles, with closed-form
+/// body rates and specific force.
+pub struct Analytic;
+
+impl Analytic {
+    pub fn euler(t: f64) -> ([f64; 3], [f64; 3]) {
+        let (r, rd) = (0.2 * (0.7 * t).sin(), 0.14 * (0.7 * t).cos());
+        let (p, pd) = (0.15 * (0.9 * t).sin(), 0.135 * (0.9 * t).cos());
+        let (y, yd) = (
+            0.8 * (0.3 * t).sin() + 0.2 * t,
+            0.24 * (0.3 * t).cos() + 0.2,
+        );
+        ([r, p, y], [rd, pd, yd])
+    }
+    pub fn rotation(t: f64) -> UnitQuaternion<f64> {
+        let ([r, p, y], _) = Self::euler(t);
+        UnitQuaternion::from_euler_angles(r, p, y)
+    }
+    pub fn position(t: f64) -> Vector3<f64> {
+        Vector3::new(
+            2.0 * (0.5 * t).sin(),
+            1.5 * (0.8 * t).sin(),
+            0.3 * (1.1 * t).sin(),
+        )
+    }
+    pub fn velocity(t: f64) -> Vector3<f64> {
+        Vector3::new(
+            (0.5 * t).cos(),
+            1.2 * (0.8 * t).cos(),
+            0.33 * (1.1 * t).cos(),
+        )
+    }
+    pub fn acceleration(t: f64) -> Vector3<f64> {
+        Vector3::new(
+            -0.5 * (0.5 * t).sin(),
+            -0.96 * (0.8 * t).sin(),
+            -0.363 * (1.1 * t).sin(),
+        )
+    }
+    pub fn sample(t_ns: i64) -> ImuSample {
+        let t = t_ns as f64 * 1e-9;
+        let ([r, p, _], [rd, pd, yd]) = Self::euler(t);
+        let gyro = Vector3::new(
+            rd - yd * p.sin(),
+            pd * r.cos() + yd * r.sin() * p.cos(),
+            -pd * r.sin() + yd * r.cos() * p.cos(),
+        );
+        let accel = Self::rotation(t).inverse() * (Self::acceleration(t) - gravity_w());
+        ImuSample { t_ns, gyro, accel }
+    }
+    pub fn pose(t_ns: i64) -> Pose {
+        let t = t_ns as f64 * 1e-9;
+        Pose::new(Self::rotation(t), Self::position(t))
+    }
+}
+

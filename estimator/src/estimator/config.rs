@@ -1,0 +1,107 @@
+//! Estimator configuration.
+
+use std::sync::Arc;
+
+use crate::camera::CameraModel;
+use crate::geometry::Pose;
+use crate::imu::ImuNoise;
+use crate::problem::SolverOptions;
+
+/// Which sensors the estimator fuses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Suite {
+    /// Stereo camera and IMU.
+    StereoImu,
+    /// Stereo camera only (visual odometry; the oldest pose anchors the gauge).
+    Stereo,
+}
+
+impl Suite {
+    /// Whether IMU factors are used.
+    pub fn uses_imu(self) -> bool {
+        matches!(self, Suite::StereoImu)
+    }
+}
+
+/// One camera of the rig.
+#[allow(non_snake_case)]
+#[derive(Clone, Debug)]
+pub struct CameraConfig {
+    /// Projection model (intrinsics and distortion).
+    pub model: Arc<dyn CameraModel>,
+    /// Extrinsic `T_b_c`: camera to body (IMU) frame.
+    pub T_b_c: Pose,
+    /// Pixel noise standard deviation (px).
+    pub pixel_sigma: f64,
+}
+
+/// Sliding-window estimator settings (defaults follow VINS-Fusion's EuRoC configuration).
+#[derive(Clone, Debug)]
+pub struct EstimatorConfig {
+    /// Sensor suite.
+    pub suite: Suite,
+    /// Cameras: index 0 is the left (anchor) camera, index 1 the right one.
+    pub cameras: Vec<CameraConfig>,
+    /// IMU noise densities.
+    pub imu_noise: ImuNoise,
+    /// Keyframes kept in the window (the newest frame comes on top).
+    pub window_size: usize,
+    /// Average parallax (px) between the second- and third-newest frames that makes the
+    /// second-newest a keyframe.
+    pub keyframe_parallax_px: f64,
+    /// Fewer features tracked from earlier frames than this makes a keyframe.
+    pub keyframe_min_tracked: usize,
+    /// Solver settings for each window optimization.
+    pub solver: SolverOptions,
+    /// Huber threshold on the whitened reprojection residual (σ units).
+    pub huber_sigma: f64,
+    /// Tracks whose average reprojection error exceeds this after a solve are dropped (px).
+    pub outlier_reprojection_px: f64,
+    /// Valid landmark depth range (m).
+    pub min_depth_m: f64,
+    /// Valid landmark depth range (m).
+    pub max_depth_m: f64,
+    /// Camera-IMU time offset `td` (s): a frame stamped `t` was taken at IMU time `t + td`.
+    pub td_s: f64,
+    /// Estimate `td` online.
+    pub estimate_td: bool,
+    /// Estimate the camera extrinsics online.
+    pub estimate_extrinsics: bool,
+    /// Frames collected for the visual-inertial alignment before IMU factors are used.
+    pub init_frames: usize,
+    /// Re-propagate a preintegration when the accelerometer bias moved more than this (m/s²).
+    pub repropagate_ba: f64,
+    /// Re-propagate a preintegration when the gyroscope bias moved more than this (rad/s).
+    pub repropagate_bg: f64,
+    /// Keep every frame's factors to allow [`super::Estimator::batch_solve`] at the end.
+    pub record_history: bool,
+}
+
+impl EstimatorConfig {
+    /// Defaults for a stereo rig given its cameras.
+    pub fn new(suite: Suite, cameras: Vec<CameraConfig>, imu_noise: ImuNoise) -> Self {
+        Self {
+            suite,
+            cameras,
+            imu_noise,
+            window_size: 10,
+            keyframe_parallax_px: 10.0,
+            keyframe_min_tracked: 20,
+            solver: SolverOptions {
+                max_iterations: 8,
+                ..SolverOptions::default()
+            },
+            huber_sigma: 1.5,
+            outlier_reprojection_px: 3.0,
+            min_depth_m: 0.1,
+            max_depth_m: 100.0,
+            td_s: 0.0,
+            estimate_td: false,
+            estimate_extrinsics: false,
+            init_frames: 10,
+            repropagate_ba: 0.1,
+            repropagate_bg: 0.01,
+            record_history: false,
+        }
+    }
+}
