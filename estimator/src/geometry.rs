@@ -285,7 +285,10 @@ mod tests {
     fn skew_vee_inverse() {
         let v = Vector3::new(1.0, -2.0, 3.0);
         assert_eq!(vee(&skew(&v)), v);
-        assert_eq!(skew(&v) * Vector3::new(0.5, 0.1, -0.7), v.cross(&Vector3::new(0.5, 0.1, -0.7)));
+        assert_eq!(
+            skew(&v) * Vector3::new(0.5, 0.1, -0.7),
+            v.cross(&Vector3::new(0.5, 0.1, -0.7))
+        );
     }
 
     #[test]

@@ -54,7 +54,10 @@ impl ImuNoise {
             ("accelerometer_random_walk", accelerometer_random_walk),
         ] {
             if !(v.is_finite() && v > 0.0) {
-                return Err(ImuError::InvalidNoise { field: name, value: v });
+                return Err(ImuError::InvalidNoise {
+                    field: name,
+                    value: v,
+                });
             }
         }
         Ok(Self {

@@ -97,7 +97,10 @@ pub fn check_factor_jacobians(
 ) -> Result<f64, CheckError> {
     let sizes = factor.parameter_block_sizes();
     let tangents = factor.parameter_tangent_sizes();
-    if sizes.len() != params.len() || manifolds.len() != params.len() || tangents.len() != params.len() {
+    if sizes.len() != params.len()
+        || manifolds.len() != params.len()
+        || tangents.len() != params.len()
+    {
         return Err(CheckError::SizeMismatch(format!(
             "factor has {} blocks, given {} parameter blocks and {} manifolds",
             sizes.len(),
@@ -119,8 +122,10 @@ pub fn check_factor_jacobians(
     let mut r0 = vec![0.0; m];
     let mut jac_store: Vec<Vec<f64>> = tangents.iter().map(|t| vec![0.0; m * t]).collect();
     {
-        let mut jacs: Vec<Option<&mut [f64]>> =
-            jac_store.iter_mut().map(|j| Some(j.as_mut_slice())).collect();
+        let mut jacs: Vec<Option<&mut [f64]>> = jac_store
+            .iter_mut()
+            .map(|j| Some(j.as_mut_slice()))
+            .collect();
         if !factor.evaluate(&views, &mut r0, Some(&mut jacs)) {
             return Err(CheckError::EvaluationFailed { at: None });
         }
@@ -129,7 +134,11 @@ pub fn check_factor_jacobians(
     if !factor.evaluate(&views, &mut r_plain, None) {
         return Err(CheckError::EvaluationFailed { at: None });
     }
-    if r0.iter().chain(jac_store.iter().flatten()).any(|v| !v.is_finite()) {
+    if r0
+        .iter()
+        .chain(jac_store.iter().flatten())
+        .any(|v| !v.is_finite())
+    {
         return Err(CheckError::NonFinite);
     }
     for i in 0..m {
@@ -160,11 +169,15 @@ pub fn check_factor_jacobians(
             let mut pv = views.clone();
             pv[k] = &xp;
             if !factor.evaluate(&pv, &mut rp, None) {
-                return Err(CheckError::EvaluationFailed { at: Some((k, d, 1)) });
+                return Err(CheckError::EvaluationFailed {
+                    at: Some((k, d, 1)),
+                });
             }
             pv[k] = &xm;
             if !factor.evaluate(&pv, &mut rm, None) {
-                return Err(CheckError::EvaluationFailed { at: Some((k, d, -1)) });
+                return Err(CheckError::EvaluationFailed {
+                    at: Some((k, d, -1)),
+                });
             }
             for i in 0..m {
                 numeric[i * t + d] = (rp[i] - rm[i]) / (2.0 * h);

@@ -20,7 +20,11 @@ impl LossFunction for HuberLoss {
             [s, 1.0, 0.0]
         } else {
             let r = s.sqrt();
-            [2.0 * self.delta * r - b, self.delta / r, -0.5 * self.delta / (s * r)]
+            [
+                2.0 * self.delta * r - b,
+                self.delta / r,
+                -0.5 * self.delta / (s * r),
+            ]
         }
     }
 }

@@ -78,12 +78,7 @@ pub struct QuaternionManifold;
 fn quat_plus_jacobian_into(q: &[f64], out: &mut [f64], cols: usize, row0: usize, col0: usize) {
     // q ⊗ (0, δ/2): vector part ½(w δ + q_v × δ), scalar part −½ q_v·δ.
     let (x, y, z, w) = (q[0], q[1], q[2], q[3]);
-    let m = [
-        [w, -z, y],
-        [z, w, -x],
-        [-y, x, w],
-        [-x, -y, -z],
-    ];
+    let m = [[w, -z, y], [z, w, -x], [-y, x, w], [-x, -y, -z]];
     for (r, row) in m.iter().enumerate() {
         for (c, v) in row.iter().enumerate() {
             out[(row0 + r) * cols + col0 + c] = 0.5 * v;
@@ -110,7 +105,10 @@ impl Manifold for QuaternionManifold {
         3
     }
     fn plus(&self, x: &[f64], delta: &[f64], out: &mut [f64]) {
-        let q = quat_plus(&quat_from_xyzw(x), &Vector3::new(delta[0], delta[1], delta[2]));
+        let q = quat_plus(
+            &quat_from_xyzw(x),
+            &Vector3::new(delta[0], delta[1], delta[2]),
+        );
         quat_to_xyzw(&q, out);
     }
     fn minus(&self, y: &[f64], x: &[f64], out: &mut [f64]) {
