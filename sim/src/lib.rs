@@ -4,5 +4,6 @@
 //! generated, time-ordered [`stream::Stream`] of [`stream::Measurement`] events, with ground truth
 //! queryable at any timestamp.
 
+pub mod imu;
 pub mod motion;
 pub mod rng;

@@ -1,0 +1,172 @@
+//! The linearized prior left behind by marginalization.
+
+use std::sync::Arc;
+
+use crate::problem::{Factor, Manifold};
+
+/// A linear(ized) prior `r(x) = r₀ + J · [x₁ ⊟ x̄₁, …, xₙ ⊟ x̄ₙ]` over parameter blocks.
+///
+/// `J` (m × Σ tangent sizes, row-major) and `r₀` are the square-root information form of the
+/// marginal: `‖r‖² = (x ⊟ x̄)ᵀ H (x ⊟ x̄) + 2 bᵀ(x ⊟ x̄) + const`. `x̄` are the linearization
+/// points (first-estimate Jacobians: `J` never changes while the prior lives).
+#[derive(Clone, Debug)]
+pub struct PriorFactor {
+    manifolds: Vec<Arc<dyn Manifold>>,
+    linearization_points: Vec<Vec<f64>>,
+    sizes: Vec<usize>,
+    tangents: Vec<usize>,
+    offsets: Vec<usize>,
+    jacobian: Vec<f64>,
+    r0: Vec<f64>,
+}
+
+/// Largest tangent size of a prior block (the evaluation uses fixed scratch buffers).
+pub const MAX_TANGENT: usize = 16;
+
+/// Errors constructing a [`PriorFactor`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PriorError {
+    /// Dimensions do not agree.
+    #[error("prior dimensions disagree: {0}")]
+    Dimension(String),
+    /// NaN or ∞ in the Jacobian, residual or linearization point.
+    #[error("prior has non-finite values")]
+    NonFinite,
+}
+
+impl PriorFactor {
+    /// Builds a prior from per-block manifolds and linearization points, a row-major Jacobian
+    /// (`r0.len()` rows × total tangent size) and the residual at the linearization point.
+    pub fn new(
+        manifolds: Vec<Arc<dyn Manifold>>,
+        linearization_points: Vec<Vec<f64>>,
+        jacobian: Vec<f64>,
+        r0: Vec<f64>,
+    ) -> Result<Self, PriorError> {
+        if manifolds.len() != linearization_points.len() {
+            return Err(PriorError::Dimension(format!(
+                "{} manifolds, {} linearization points",
+                manifolds.len(),
+                linearization_points.len()
+            )));
+        }
+        let sizes: Vec<usize> = manifolds.iter().map(|m| m.ambient_size()).collect();
+        let tangents: Vec<usize> = manifolds.iter().map(|m| m.tangent_size()).collect();
+        for (k, (x, s)) in linearization_points.iter().zip(&sizes).enumerate() {
+            if x.len() != *s {
+                return Err(PriorError::Dimension(format!(
+                    "block {k}: {} values, manifold needs {s}",
+                    x.len()
+                )));
+            }
+        }
+        if let Some(t) = tangents.iter().find(|t| **t > MAX_TANGENT) {
+            return Err(PriorError::Dimension(format!(
+                "block tangent size {t} exceeds {MAX_TANGENT}"
+            )));
+        }
+        let mut offsets = Vec::with_capacity(tangents.len());
+        let mut n = 0;
+        for t in &tangents {
+            offsets.push(n);
+            n += t;
+        }
+        if jacobian.len() != r0.len() * n {
+            return Err(PriorError::Dimension(format!(
+                "Jacobian has {} entries, expected {} × {n}",
+                jacobian.len(),
+                r0.len()
+            )));
+        }
+        let finite = jacobian
+            .iter()
+            .chain(&r0)
+            .chain(linearization_points.iter().flatten())
+            .all(|v| v.is_finite());
+        if !finite {
+            return Err(PriorError::NonFinite);
+        }
+        Ok(Self {
+            manifolds,
+            linearization_points,
+            sizes,
+            tangents,
+            offsets,
+            jacobian,
+            r0,
+        })
+    }
+
+    /// Total tangent dimension of the prior's blocks.
+    pub fn tangent_dim(&self) -> usize {
+        self.tangents.iter().sum()
+    }
+
+    /// Linearization points `x̄`.
+    pub fn linearization_points(&self) -> &[Vec<f64>] {
+        &self.linearization_points
+    }
+
+    /// The row-major square-root information Jacobian.
+    pub fn jacobian(&self) -> &[f64] {
+        &self.jacobian
+    }
+
+    /// Residual at the linearization point.
+    pub fn r0(&self) -> &[f64] {
+        &self.r0
+    }
+}
+
+impl Factor for PriorFactor {
+    fn residual_dim(&self) -> usize {
+        self.r0.len()
+    }
+    fn parameter_block_sizes(&self) -> &[usize] {
+        &self.sizes
+    }
+    fn parameter_tangent_sizes(&self) -> &[usize] {
+        &self.tangents
+    }
+    fn evaluate(
+        &self,
+        params: &[&[f64]],
+        residuals: &mut [f64],
+        mut jacobians: Option<&mut [Option<&mut [f64]>]>,
+    ) -> bool {
+        let m = self.r0.len();
+        let n = self.tangent_dim();
+        residuals[..m].copy_from_slice(&self.r0);
+        let mut dx = [0.0; MAX_TANGENT];
+        let mut mj = [0.0; MAX_TANGENT * MAX_TANGENT];
+        for (k, manifold) in self.manifolds.iter().enumerate() {
+            let t = self.tangents[k];
+            let off = self.offsets[k];
+            let x0 = &self.linearization_points[k];
+            let dx = &mut dx[..t];
+            manifold.minus(params[k], x0, dx);
+            for r in 0..m {
+                let row = &self.jacobian[r * n + off..r * n + off + t];
+                residuals[r] += row.iter().zip(dx.iter()).map(|(a, b)| a * b).sum::<f64>();
+            }
+            if let Some(js) = jacobians.as_deref_mut()
+                && let Some(out) = js[k].as_deref_mut()
+            {
+                // ∂r/∂δ = J_k · ∂((x ⊞ δ) ⊟ x̄)/∂δ.
+                let mj = &mut mj[..t * t];
+                manifold.minus_jacobian(params[k], x0, mj);
+                for r in 0..m {
+                    let row = &self.jacobian[r * n + off..r * n + off + t];
+                    for c in 0..t {
+                        let mut s = 0.0;
+                        for (i, a) in row.iter().enumerate() {
+                            s += a * mj[i * t + c];
+                        }
+                        out[r * t + c] = s;
+                    }
+                }
+            }
+        }
+        residuals[..m].iter().all(|v| v.is_finite())
+    }
+}
