@@ -1,6 +1,3 @@
-<<<<<<< HEAD
-fn main() {}
-=======
 //! Cost of evaluating factors with Jacobians and of preintegrating one IMU sample.
 //!
 //! `cargo bench -p estimator --bench factors`
@@ -168,4 +165,3 @@ fn factors(c: &mut Criterion) {
 
 criterion_group!(benches, factors);
 criterion_main!(benches);
->>>>>>> main

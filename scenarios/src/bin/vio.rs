@@ -1,6 +1,3 @@
-<<<<<<< HEAD
-fn main() {}
-=======
 //! `vio`: the command-line entry point of the harness.
 
 use std::process::ExitCode;
@@ -35,4 +32,3 @@ fn main() -> ExitCode {
         }
     }
 }
->>>>>>> main
