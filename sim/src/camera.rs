@@ -96,6 +96,19 @@ impl RigConfig {
         }
     }
 
+    /// A stereo pair of `model` looking along body +x (camera x = body −y, camera y = body −z;
+    /// the generators' body frame has z up), `baseline_m` apart along body y, named `cam0`
+    /// (left, +y) and `cam1`; 20 Hz.
+    pub fn stereo_forward(model: Arc<dyn CameraModel>, baseline_m: f64) -> Self {
+        let r = nalgebra::Matrix3::new(0.0, 0.0, 1.0, -1.0, 0.0, 0.0, 0.0, -1.0, 0.0);
+        let q = nalgebra::UnitQuaternion::from_matrix(&r);
+        let b = 0.5 * baseline_m;
+        Self::new(vec![
+            CameraConfig::new("cam0", model.clone(), Pose::new(q, Vector3::new(0.0, b, 0.0))),
+            CameraConfig::new("cam1", model, Pose::new(q, Vector3::new(0.0, -b, 0.0))),
+        ])
+    }
+
     /// Frame period (ns).
     pub fn period_ns(&self) -> i64 {
         (1e9 / self.rate_hz).round() as i64

@@ -22,7 +22,7 @@ const DIM: usize = 7;
 /// A uniform cubic B-spline with 7 channels (position + quaternion components).
 ///
 /// Control point `k` sits at time `t0 + (k − 1)·dt`; the spline is valid on
-/// `[t0, t0 + (n − 3)·dt]` and is held constant (zero rates) outside.
+/// `[t0, t0 + (n − 3)·dt]` and is extrapolated at constant rates outside.
 #[derive(Clone, Debug)]
 pub struct PoseSpline {
     t0: f64,
@@ -284,9 +284,8 @@ impl PoseSpline {
         self.t0 + (self.ctrl.len() - 3) as f64 * self.dt
     }
 
-    /// The 7 channels and their first two time derivatives at `t` (held outside the range).
+    /// The 7 channels and their first two time derivatives at `t` (inside the range).
     fn eval(&self, t: f64) -> ([f64; DIM], [f64; DIM], [f64; DIM]) {
-        let inside = t >= self.t0 && t <= self.end_time();
         let (seg, u) = Self::locate_raw(t - self.t0, self.dt, self.ctrl.len());
         let (b, db, ddb) = basis(u);
         let mut y = [0.0; DIM];
@@ -300,16 +299,40 @@ impl PoseSpline {
                 ddy[d] += ddb[j] * c[d] / (self.dt * self.dt);
             }
         }
-        if !inside {
-            dy = [0.0; DIM];
-            ddy = [0.0; DIM];
-        }
         (y, dy, ddy)
     }
 }
 
 impl Reference for PoseSpline {
+    /// Inside the range: the spline. Outside: extrapolated at the end's constant linear and
+    /// angular velocity (zero accelerations), so a body started slightly before the first
+    /// sample (the IMU pre-roll) joins a moving recording without a jolt.
     fn state(&self, t: f64) -> RefState {
+        let (lo, hi) = (self.t0, self.end_time());
+        if t < lo || t > hi {
+            let te = t.clamp(lo, hi);
+            let e = self.state_inside(te);
+            let dt = t - te;
+            let q = e.q * UnitQuaternion::from_scaled_axis(e.q.inverse() * e.omega_w * dt);
+            return RefState {
+                p: e.p + e.v * dt,
+                v: e.v,
+                a: Vector3::zeros(),
+                q,
+                omega_w: e.omega_w,
+                alpha_w: Vector3::zeros(),
+            };
+        }
+        self.state_inside(t)
+    }
+
+    fn duration(&self) -> Option<f64> {
+        Some(self.end_time())
+    }
+}
+
+impl PoseSpline {
+    fn state_inside(&self, t: f64) -> RefState {
         let (y, dy, ddy) = self.eval(t);
         let q = Quaternion::new(y[3], y[4], y[5], y[6]);
         let qd = Quaternion::new(dy[3], dy[4], dy[5], dy[6]);
@@ -326,10 +349,6 @@ impl Reference for PoseSpline {
             omega_w: qu * omega_b,
             alpha_w: qu * alpha_b,
         }
-    }
-
-    fn duration(&self) -> Option<f64> {
-        Some(self.end_time())
     }
 }
 
