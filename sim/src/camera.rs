@@ -104,7 +104,11 @@ impl RigConfig {
         let q = nalgebra::UnitQuaternion::from_matrix(&r);
         let b = 0.5 * baseline_m;
         Self::new(vec![
-            CameraConfig::new("cam0", model.clone(), Pose::new(q, Vector3::new(0.0, b, 0.0))),
+            CameraConfig::new(
+                "cam0",
+                model.clone(),
+                Pose::new(q, Vector3::new(0.0, b, 0.0)),
+            ),
             CameraConfig::new("cam1", model, Pose::new(q, Vector3::new(0.0, -b, 0.0))),
         ])
     }

@@ -34,7 +34,11 @@ fn measurements_reproject_within_noise_and_are_unoccluded() {
         for cf in &f.cameras {
             let c = &rig.cameras[cf.cam_id];
             let t_w_c = gt.pose.compose(&c.t_b_c);
-            assert!(cf.features.windows(2).all(|w| w[0].feature_id < w[1].feature_id));
+            assert!(
+                cf.features
+                    .windows(2)
+                    .all(|w| w[0].feature_id < w[1].feature_id)
+            );
             assert!(cf.features.len() <= c.max_features);
             for o in &cf.features {
                 let lm = scene.landmarks[o.feature_id as usize];
@@ -44,15 +48,27 @@ fn measurements_reproject_within_noise_and_are_unoccluded() {
                 sum_sq += e * e;
                 max_err = max_err.max(e);
                 n += 1;
-                assert!(!scene.occluded(&t_w_c.p, &lm.p), "occluded landmark reported");
-                assert!(lm.normal.dot(&(t_w_c.p - lm.p)) > 0.0, "back-facing landmark reported");
+                assert!(
+                    !scene.occluded(&t_w_c.p, &lm.p),
+                    "occluded landmark reported"
+                );
+                assert!(
+                    lm.normal.dot(&(t_w_c.p - lm.p)) > 0.0,
+                    "back-facing landmark reported"
+                );
             }
         }
         let ids0: Vec<u64> = f.cameras[0].features.iter().map(|o| o.feature_id).collect();
-        stereo += f.cameras[1].features.iter().filter(|o| ids0.binary_search(&o.feature_id).is_ok()).count();
+        stereo += f.cameras[1]
+            .features
+            .iter()
+            .filter(|o| ids0.binary_search(&o.feature_id).is_ok())
+            .count();
     }
     let rms = (sum_sq / n as f64).sqrt();
-    println!("{frames} frames, {n} observations, {stereo} stereo matches, rms {rms:.3} px, max {max_err:.2} px");
+    println!(
+        "{frames} frames, {n} observations, {stereo} stereo matches, rms {rms:.3} px, max {max_err:.2} px"
+    );
     assert_eq!(frames, 401);
     assert!(n > frames * 150, "too few observations: {n}");
     // 2-D isotropic noise of σ = 0.5 px: rms of the error norm is σ·√2.
@@ -92,7 +108,10 @@ fn a_box_between_camera_and_wall_hides_the_wall_behind_it() {
     }
     assert!(hidden > 50);
     // Outside the shadow but within the field of view, the wall is seen.
-    assert!(vis.iter().any(|p| scene.landmarks[p.id as usize].p.y.abs() > 1.5));
+    assert!(
+        vis.iter()
+            .any(|p| scene.landmarks[p.id as usize].p.y.abs() > 1.5)
+    );
 }
 
 #[test]

@@ -101,7 +101,9 @@ fn centred_200hz_samples_make_midpoint_preintegration_accurate() {
         worst_v = worst_v.max((v - end.v_w).norm());
         worst_r = worst_r.max(q.angle_to(&end.pose.q).to_degrees());
     }
-    println!("midpoint over 50 ms: position {worst_p:.2e} m, velocity {worst_v:.2e} m/s, attitude {worst_r:.2e} deg");
+    println!(
+        "midpoint over 50 ms: position {worst_p:.2e} m, velocity {worst_v:.2e} m/s, attitude {worst_r:.2e} deg"
+    );
     assert!(worst_p < 2e-4 && worst_v < 5e-3 && worst_r < 5e-3);
 }
 
@@ -154,10 +156,26 @@ fn noise_statistics_match_densities_and_initial_bias_is_reported() {
     };
     let dt: f64 = 0.005;
     let checks = [
-        ("gyro noise", std(&n_g), noise.gyroscope_noise_density / dt.sqrt()),
-        ("accel noise", std(&n_a), noise.accelerometer_noise_density / dt.sqrt()),
-        ("gyro bias step", std(&d_g), noise.gyroscope_random_walk * dt.sqrt()),
-        ("accel bias step", std(&d_a), noise.accelerometer_random_walk * dt.sqrt()),
+        (
+            "gyro noise",
+            std(&n_g),
+            noise.gyroscope_noise_density / dt.sqrt(),
+        ),
+        (
+            "accel noise",
+            std(&n_a),
+            noise.accelerometer_noise_density / dt.sqrt(),
+        ),
+        (
+            "gyro bias step",
+            std(&d_g),
+            noise.gyroscope_random_walk * dt.sqrt(),
+        ),
+        (
+            "accel bias step",
+            std(&d_a),
+            noise.accelerometer_random_walk * dt.sqrt(),
+        ),
     ];
     for (name, got, want) in checks {
         println!("{name}: sample σ {got:.4e}, configured {want:.4e}");

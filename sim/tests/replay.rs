@@ -44,7 +44,9 @@ fn tracking(path: &Path) -> (f64, f64, f64, usize) {
 #[test]
 fn body_tracks_the_recorded_euroc_motion() {
     let (ep, er, eref, n) = tracking(&fixture());
-    println!("fixture: {n} samples, max |p − p_rec| {ep:.2e} m, max attitude {er:.3} deg, max |p − p_ref| {eref:.2e} m");
+    println!(
+        "fixture: {n} samples, max |p − p_rec| {ep:.2e} m, max attitude {er:.3} deg, max |p − p_ref| {eref:.2e} m"
+    );
     assert!(n > 790);
     assert!(eref < 5e-5, "tracking of the spline: {eref}");
     assert!(ep < 1e-3, "position vs recording: {ep}");
@@ -60,13 +62,22 @@ fn asl_csv_and_tum_parse_to_the_same_poses() {
         let q = s.q.quaternion();
         csv += &format!(
             "{},{},{},{},{},{},{},{}\n",
-            (s.t * 1e9).round() as i64, s.p.x, s.p.y, s.p.z, q.w, q.i, q.j, q.k
+            (s.t * 1e9).round() as i64,
+            s.p.x,
+            s.p.y,
+            s.p.z,
+            q.w,
+            q.i,
+            q.j,
+            q.k
         );
     }
     let asl = sim::motion::spline::parse_trajectory(&csv).unwrap();
     assert_eq!(asl.len(), tum.len());
     for (a, b) in asl.iter().zip(&tum) {
-        assert!((a.t - b.t).abs() < 1e-6 && (a.p - b.p).norm() < 1e-12 && a.q.angle_to(&b.q) < 1e-12);
+        assert!(
+            (a.t - b.t).abs() < 1e-6 && (a.p - b.p).norm() < 1e-12 && a.q.angle_to(&b.q) < 1e-12
+        );
     }
 }
 

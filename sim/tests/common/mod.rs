@@ -19,7 +19,13 @@ pub struct Pinhole {
 
 impl Pinhole {
     pub fn euroc_like() -> Self {
-        Self { w: 752, h: 480, f: 458.0, cx: 367.0, cy: 248.0 }
+        Self {
+            w: 752,
+            h: 480,
+            f: 458.0,
+            cx: 367.0,
+            cy: 248.0,
+        }
     }
 }
 
@@ -31,14 +37,19 @@ impl CameraModel for Pinhole {
         self.h
     }
     fn project(&self, p: &Vector3<f64>) -> Option<Vector2<f64>> {
-        (p.z > 1e-6).then(|| Vector2::new(self.f * p.x / p.z + self.cx, self.f * p.y / p.z + self.cy))
+        (p.z > 1e-6)
+            .then(|| Vector2::new(self.f * p.x / p.z + self.cx, self.f * p.y / p.z + self.cy))
     }
     fn project_with_jacobian(&self, p: &Vector3<f64>) -> Option<(Vector2<f64>, Matrix2x3<f64>)> {
         let uv = self.project(p)?;
         let iz = 1.0 / p.z;
         let j = Matrix2x3::new(
-            self.f * iz, 0.0, -self.f * p.x * iz * iz,
-            0.0, self.f * iz, -self.f * p.y * iz * iz,
+            self.f * iz,
+            0.0,
+            -self.f * p.x * iz * iz,
+            0.0,
+            self.f * iz,
+            -self.f * p.y * iz * iz,
         );
         Some((uv, j))
     }
@@ -59,9 +70,17 @@ pub fn forward_camera(p: Vector3<f64>) -> Pose {
 /// A stereo rig (baseline 0.11 m) of `n` (1 or 2) forward cameras.
 pub fn rig(n: usize) -> RigConfig {
     let model: Arc<dyn CameraModel> = Arc::new(Pinhole::euroc_like());
-    let mut cams = vec![CameraConfig::new("cam0", model.clone(), forward_camera(Vector3::new(0.0, 0.055, 0.0)))];
+    let mut cams = vec![CameraConfig::new(
+        "cam0",
+        model.clone(),
+        forward_camera(Vector3::new(0.0, 0.055, 0.0)),
+    )];
     if n > 1 {
-        cams.push(CameraConfig::new("cam1", model, forward_camera(Vector3::new(0.0, -0.055, 0.0))));
+        cams.push(CameraConfig::new(
+            "cam1",
+            model,
+            forward_camera(Vector3::new(0.0, -0.055, 0.0)),
+        ));
     }
     RigConfig::new(cams)
 }
