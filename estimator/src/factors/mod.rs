@@ -4,10 +4,12 @@
 //! extrinsic `T_b_c` 7/6, inverse depth 1/1, camera-IMU time offset `td` 1/1 (s).
 
 mod imu;
+mod linear;
 mod prior;
 mod reprojection;
 
 pub use imu::ImuFactor;
+pub use linear::LinearFactor;
 pub use prior::{PriorError, PriorFactor};
 pub use reprojection::{
     FeatureMeasurement, ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam,

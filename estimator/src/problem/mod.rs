@@ -1,12 +1,17 @@
-//! The nonlinear least-squares problem: parameter-block manifolds, factors, robust losses and the
-//! shared Jacobian checker.
+//! The nonlinear least-squares problem: parameter-block manifolds, factors, robust losses, the
+//! shared Jacobian checker, the solver and marginalization.
 
 mod factor;
 pub mod gradient_check;
+mod graph;
 mod loss;
 mod manifold;
+pub mod marginalization;
+pub mod solver;
 
 pub use factor::{Factor, write_row_major};
 pub use gradient_check::{CheckError, CheckOptions, check_factor_jacobians};
+pub use graph::{BlockId, BlockKind, Problem, ProblemError, ResidualId};
 pub use loss::{CauchyLoss, HuberLoss, LossFunction, apply_loss};
 pub use manifold::{Euclidean, Manifold, PoseManifold, QuaternionManifold};
+pub use solver::{Method, SolverOptions, SolverSummary, Termination, solve};

@@ -1,0 +1,279 @@
+//! The factor graph: parameter blocks (with manifolds) and residual blocks over them.
+
+use std::sync::Arc;
+
+use super::{Factor, LossFunction, Manifold, apply_loss};
+
+/// Handle of a parameter block in a [`Problem`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct BlockId(pub usize);
+
+/// Handle of a residual block in a [`Problem`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct ResidualId(pub usize);
+
+/// How the solver treats a parameter block.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BlockKind {
+    /// Solved for in the reduced (dense) system: poses, speed-biases, extrinsics, td.
+    State,
+    /// Eliminated per block by the Schur complement before the dense solve (landmarks, e.g.
+    /// inverse depths). A residual may touch at most one eliminated block.
+    Landmark,
+}
+
+#[derive(Clone, Debug)]
+pub(crate) struct Block {
+    pub offset: usize,
+    pub manifold: Arc<dyn Manifold>,
+    pub kind: BlockKind,
+    pub constant: bool,
+}
+
+#[derive(Clone)]
+pub(crate) struct Residual {
+    pub factor: Arc<dyn Factor>,
+    pub loss: Option<Arc<dyn LossFunction>>,
+    pub blocks: Vec<BlockId>,
+}
+
+/// Errors building a [`Problem`].
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ProblemError {
+    /// A block id does not exist.
+    #[error("unknown parameter block {0:?}")]
+    UnknownBlock(BlockId),
+    /// The factor's block sizes disagree with the blocks it was given.
+    #[error("factor expects {expected} blocks of sizes {sizes:?}; block {index} has size {got}")]
+    SizeMismatch {
+        /// Number of blocks the factor expects.
+        expected: usize,
+        /// The factor's ambient sizes.
+        sizes: Vec<usize>,
+        /// First offending position.
+        index: usize,
+        /// Size of the block given there.
+        got: usize,
+    },
+    /// A residual touches two eliminated (landmark) blocks.
+    #[error("a residual may touch at most one landmark block")]
+    TwoLandmarks,
+    /// Initial values hold NaN/∞.
+    #[error("parameter block values are not finite")]
+    NonFinite,
+}
+
+/// A nonlinear least-squares problem `min ½ Σ ρᵢ(‖rᵢ(x)‖²)` over parameter blocks on manifolds.
+#[derive(Clone, Default)]
+pub struct Problem {
+    pub(crate) values: Vec<f64>,
+    pub(crate) blocks: Vec<Block>,
+    pub(crate) residuals: Vec<Residual>,
+}
+
+impl Problem {
+    /// An empty problem.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds a parameter block with initial `values` on `manifold`.
+    pub fn add_block(
+        &mut self,
+        values: &[f64],
+        manifold: Arc<dyn Manifold>,
+        kind: BlockKind,
+    ) -> Result<BlockId, ProblemError> {
+        if values.len() != manifold.ambient_size() {
+            return Err(ProblemError::SizeMismatch {
+                expected: 1,
+                sizes: vec![manifold.ambient_size()],
+                index: 0,
+                got: values.len(),
+            });
+        }
+        if values.iter().any(|v| !v.is_finite()) {
+            return Err(ProblemError::NonFinite);
+        }
+        let id = BlockId(self.blocks.len());
+        self.blocks.push(Block {
+            offset: self.values.len(),
+            manifold,
+            kind,
+            constant: false,
+        });
+        self.values.extend_from_slice(values);
+        Ok(id)
+    }
+
+    /// Holds a block fixed (`true`) or lets the solver move it (`false`).
+    pub fn set_constant(&mut self, id: BlockId, constant: bool) {
+        self.blocks[id.0].constant = constant;
+    }
+
+    /// Whether a block is held fixed.
+    pub fn is_constant(&self, id: BlockId) -> bool {
+        self.blocks[id.0].constant
+    }
+
+    /// Adds a residual block `factor(blocks…)`, optionally robustified by `loss`.
+    pub fn add_factor(
+        &mut self,
+        factor: Arc<dyn Factor>,
+        loss: Option<Arc<dyn LossFunction>>,
+        blocks: &[BlockId],
+    ) -> Result<ResidualId, ProblemError> {
+        let sizes = factor.parameter_block_sizes();
+        let tangents = factor.parameter_tangent_sizes();
+        let mut landmarks = 0;
+        for (i, id) in blocks.iter().enumerate() {
+            let b = self
+                .blocks
+                .get(id.0)
+                .ok_or(ProblemError::UnknownBlock(*id))?;
+            if i >= sizes.len()
+                || sizes[i] != b.manifold.ambient_size()
+                || tangents[i] != b.manifold.tangent_size()
+            {
+                return Err(ProblemError::SizeMismatch {
+                    expected: sizes.len(),
+                    sizes: sizes.to_vec(),
+                    index: i,
+                    got: b.manifold.ambient_size(),
+                });
+            }
+            landmarks += usize::from(b.kind == BlockKind::Landmark);
+        }
+        if blocks.len() != sizes.len() {
+            return Err(ProblemError::SizeMismatch {
+                expected: sizes.len(),
+                sizes: sizes.to_vec(),
+                index: blocks.len(),
+                got: 0,
+            });
+        }
+        if landmarks > 1 {
+            return Err(ProblemError::TwoLandmarks);
+        }
+        self.residuals.push(Residual {
+            factor,
+            loss,
+            blocks: blocks.to_vec(),
+        });
+        Ok(ResidualId(self.residuals.len() - 1))
+    }
+
+    /// Current values of a block.
+    pub fn values(&self, id: BlockId) -> &[f64] {
+        let b = &self.blocks[id.0];
+        &self.values[b.offset..b.offset + b.manifold.ambient_size()]
+    }
+
+    /// Overwrites the values of a block.
+    pub fn set_values(&mut self, id: BlockId, values: &[f64]) {
+        let b = &self.blocks[id.0];
+        let n = b.manifold.ambient_size();
+        self.values[b.offset..b.offset + n].copy_from_slice(&values[..n]);
+    }
+
+    /// The manifold of a block.
+    pub fn manifold(&self, id: BlockId) -> &Arc<dyn Manifold> {
+        &self.blocks[id.0].manifold
+    }
+
+    /// The kind of a block.
+    pub fn kind(&self, id: BlockId) -> BlockKind {
+        self.blocks[id.0].kind
+    }
+
+    /// Number of parameter blocks.
+    pub fn num_blocks(&self) -> usize {
+        self.blocks.len()
+    }
+
+    /// Number of residual blocks.
+    pub fn num_residuals(&self) -> usize {
+        self.residuals.len()
+    }
+
+    /// The blocks a residual touches.
+    pub fn residual_blocks(&self, id: ResidualId) -> &[BlockId] {
+        &self.residuals[id.0].blocks
+    }
+
+    /// The factor of a residual.
+    pub fn factor(&self, id: ResidualId) -> &Arc<dyn Factor> {
+        &self.residuals[id.0].factor
+    }
+
+    /// Evaluates residual `id` at `values` (a full value vector), optionally with loss, into
+    /// `r`; Jacobians where requested. Returns the robustified `ρ(‖r‖²)` or `None` if the factor
+    /// cannot be evaluated.
+    pub(crate) fn evaluate_residual(
+        &self,
+        values: &[f64],
+        id: usize,
+        r: &mut [f64],
+        jacobians: Option<&mut [Option<&mut [f64]>]>,
+    ) -> Option<f64> {
+        let res = &self.residuals[id];
+        let slice = |b: &BlockId| {
+            let blk = &self.blocks[b.0];
+            &values[blk.offset..blk.offset + blk.manifold.ambient_size()]
+        };
+        // Most factors touch few blocks: avoid an allocation for them.
+        let mut small: [&[f64]; 8] = [&[]; 8];
+        let large: Vec<&[f64]>;
+        let params: &[&[f64]] = if res.blocks.len() <= small.len() {
+            for (k, b) in res.blocks.iter().enumerate() {
+                small[k] = slice(b);
+            }
+            &small[..res.blocks.len()]
+        } else {
+            large = res.blocks.iter().map(slice).collect();
+            &large
+        };
+        let has_j = jacobians.is_some();
+        let mut jacobians = jacobians;
+        if !res.factor.evaluate(params, r, jacobians.as_deref_mut()) {
+            return None;
+        }
+        if r.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        match &res.loss {
+            Some(loss) => {
+                let mut empty: [Option<&mut [f64]>; 0] = [];
+                let js = if has_j {
+                    jacobians.unwrap()
+                } else {
+                    &mut empty[..]
+                };
+                Some(apply_loss(loss.as_ref(), r, js))
+            }
+            None => Some(r.iter().map(|v| v * v).sum()),
+        }
+    }
+
+    /// Total cost `½ Σ ρ(‖r‖²)` at the current values; `None` if a factor fails to evaluate.
+    pub fn cost(&self) -> Option<f64> {
+        self.cost_at(&self.values)
+    }
+
+    pub(crate) fn cost_at(&self, values: &[f64]) -> Option<f64> {
+        let mut r = [0.0; 64];
+        let mut total = 0.0;
+        for i in 0..self.residuals.len() {
+            let m = self.residuals[i].factor.residual_dim();
+            let mut heap;
+            let r = if m <= r.len() {
+                &mut r[..m]
+            } else {
+                heap = vec![0.0; m];
+                &mut heap[..]
+            };
+            total += self.evaluate_residual(values, i, r, None)?;
+        }
+        Some(0.5 * total)
+    }
+}
