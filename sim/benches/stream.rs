@@ -1,15 +1,12 @@
 //! Cost of generating 60 s of ground truth + IMU + stereo feature frames.
 
-#[path = "../tests/common/mod.rs"]
-mod common;
-
 use criterion::{Criterion, criterion_group, criterion_main};
 use sim::{World, WorldConfig};
 
 fn bench(c: &mut Criterion) {
     let world = World::new(WorldConfig {
         duration_s: 60.0,
-        rig: Some(common::rig(2)),
+        rig: Some(sim::camera::RigConfig::euroc_like()),
         ..WorldConfig::default()
     })
     .unwrap();

@@ -113,6 +113,15 @@ impl RigConfig {
         ])
     }
 
+    /// The EuRoC-like stereo rig of DESIGN.md: two EuRoC `cam0` pinhole-radtan models
+    /// (752×480) 0.11 m apart, looking along body +x ([`RigConfig::stereo_forward`]), 20 Hz.
+    pub fn euroc_like() -> Self {
+        let model: Arc<dyn CameraModel> = Arc::new(estimator::camera::Camera::PinholeRadtan(
+            estimator::camera::PinholeRadtan::euroc_cam0(),
+        ));
+        Self::stereo_forward(model, 0.11)
+    }
+
     /// Frame period (ns).
     pub fn period_ns(&self) -> i64 {
         (1e9 / self.rate_hz).round() as i64

@@ -68,7 +68,7 @@ pub struct StaticStartConfig {
 }
 
 /// Everything a world is built from. Plain data with defaults: a 60 s figure-eight in the room,
-/// EuRoC-like IMU, no cameras, no faults.
+/// EuRoC-like IMU and stereo rig ([`RigConfig::euroc_like`]), no faults.
 #[derive(Clone, Debug)]
 pub struct WorldConfig {
     /// Scenario seed.
@@ -114,7 +114,7 @@ impl Default for WorldConfig {
             physics_steps_per_imu: 5,
             imu: ImuConfig::default(),
             scene: SceneConfig::default(),
-            rig: None,
+            rig: Some(RigConfig::euroc_like()),
             faults: Vec::new(),
             truth_retention_s: 5.0,
         }

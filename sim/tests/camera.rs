@@ -136,3 +136,36 @@ fn max_track_length_ends_tracks() {
         }
     }
 }
+
+#[test]
+fn euroc_radtan_rig_reprojects_through_the_distortion() {
+    let world = World::new(WorldConfig {
+        seed: 9,
+        duration_s: 5.0,
+        ..WorldConfig::default()
+    })
+    .unwrap();
+    let rig = world.config().rig.clone().unwrap();
+    let scene = world.scene().clone();
+    let mut stream = world.stream();
+    let (mut n, mut sum_sq) = (0usize, 0.0);
+    while let Some(m) = stream.next() {
+        let Measurement::Frame(f) = m else { continue };
+        let gt = stream.truth(f.t_ns).unwrap();
+        for cf in &f.cameras {
+            let c = &rig.cameras[cf.cam_id];
+            let t_c_w = gt.pose.compose(&c.t_b_c).inverse();
+            for o in &cf.features {
+                let uv = c
+                    .model
+                    .project(&t_c_w.transform(&scene.landmarks[o.feature_id as usize].p))
+                    .unwrap();
+                sum_sq += (uv - o.uv).norm_squared();
+                n += 1;
+            }
+        }
+    }
+    let rms = (sum_sq / n as f64).sqrt();
+    assert!(n > 101 * 2 * 100, "{n}");
+    assert!((rms / (0.5 * 2f64.sqrt()) - 1.0).abs() < 0.05, "rms {rms}");
+}
