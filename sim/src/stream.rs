@@ -1,0 +1,223 @@
+//! One lazily generated, time-ordered stream of all sensors' measurements, with ground truth
+//! queryable at any timestamp.
+//!
+//! Events are ordered by their stamps (IMU before a frame with the same stamp). Physics, IMU and
+//! frames are generated on demand, and ground truth older than the retention window is dropped,
+//! so memory stays bounded however long the scenario runs.
+
+use crate::camera::RigSim;
+use crate::faults::FaultTimeline;
+use crate::imu::{ImuBias, ImuSim};
+use crate::motion::{Kinematics, TruthBuffer};
+use estimator::frontend::FeatureFrame;
+use estimator::geometry::Pose;
+use estimator::imu::ImuSample;
+use nalgebra::Vector3;
+use std::collections::VecDeque;
+
+/// One measurement event.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Measurement {
+    /// An IMU sample.
+    Imu(ImuSample),
+    /// A (multi-camera) feature frame, stamped in the camera clock.
+    Frame(FeatureFrame),
+}
+
+impl Measurement {
+    /// The event's stamp (ns).
+    pub fn t_ns(&self) -> i64 {
+        match self {
+            Measurement::Imu(s) => s.t_ns,
+            Measurement::Frame(f) => f.t_ns,
+        }
+    }
+}
+
+/// Ground truth at one instant.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GroundTruth {
+    /// Time (ns, true time = IMU clock).
+    pub t_ns: i64,
+    /// Pose `T_w_b`.
+    pub pose: Pose,
+    /// Velocity in the world frame (m/s).
+    pub v_w: Vector3<f64>,
+    /// Acceleration in the world frame (m/s²).
+    pub a_w: Vector3<f64>,
+    /// Angular velocity in the body frame (rad/s).
+    pub omega_b: Vector3<f64>,
+    /// Gyroscope bias (rad/s).
+    pub gyro_bias: Vector3<f64>,
+    /// Accelerometer bias (m/s²).
+    pub accel_bias: Vector3<f64>,
+}
+
+/// The merged measurement stream of a [`crate::World`] (see [`crate::World::stream`]).
+#[derive(Debug)]
+pub struct Stream {
+    truth: TruthBuffer,
+    imu: ImuSim,
+    rig: Option<RigSim>,
+    faults: FaultTimeline,
+    end_ns: i64,
+    retention_ns: i64,
+    /// IMU samples generated but not yet emitted (after faults).
+    imu_queue: VecDeque<ImuSample>,
+    /// True biases of generated samples (trimmed to the retention window).
+    biases: VecDeque<ImuBias>,
+    /// The next frame to emit (after faults).
+    frame: Option<FeatureFrame>,
+    imu_done: bool,
+    rig_done: bool,
+    last_emitted_ns: i64,
+}
+
+impl Stream {
+    pub(crate) fn new(
+        truth: TruthBuffer,
+        imu: ImuSim,
+        rig: Option<RigSim>,
+        faults: FaultTimeline,
+        end_ns: i64,
+        retention_ns: i64,
+    ) -> Self {
+        let rig_done = rig.is_none();
+        Self {
+            truth,
+            imu,
+            rig,
+            faults,
+            end_ns,
+            retention_ns,
+            imu_queue: VecDeque::new(),
+            biases: VecDeque::new(),
+            frame: None,
+            imu_done: false,
+            rig_done,
+            last_emitted_ns: i64::MIN,
+        }
+    }
+
+    /// End of the scenario (ns): no sample or frame is taken after it.
+    pub fn end_ns(&self) -> i64 {
+        self.end_ns
+    }
+
+    /// Generates one more IMU sample into the queue (possibly lost to a fault); `false` once the
+    /// IMU has passed the end.
+    fn generate_imu(&mut self) -> bool {
+        if self.imu.next_time_ns() > self.end_ns {
+            self.imu_done = true;
+            return false;
+        }
+        let period = self.imu.period_ns();
+        let (s, b) = self.imu.next_sample(&mut self.truth);
+        self.biases.push_back(b);
+        if let Some(s) = self.faults.apply_imu(s, period) {
+            self.imu_queue.push_back(s);
+        }
+        true
+    }
+
+    /// Makes sure a frame is pending unless the rig has passed the end.
+    fn fill_frame(&mut self) {
+        while self.frame.is_none() && !self.rig_done {
+            let Some(rig) = self.rig.as_mut() else {
+                self.rig_done = true;
+                return;
+            };
+            if rig.next_capture_ns() > self.end_ns {
+                self.rig_done = true;
+                return;
+            }
+            let period = rig.config().period_ns();
+            let (t_cap, f) = rig.next_frame(&mut self.truth);
+            self.frame = self.faults.apply_frame(f, t_cap, period);
+        }
+    }
+
+    fn fill_imu(&mut self) {
+        while self.imu_queue.is_empty() && !self.imu_done {
+            self.generate_imu();
+        }
+    }
+
+    fn trim(&mut self) {
+        let keep_from = self
+            .last_emitted_ns
+            .saturating_sub(self.retention_ns)
+            .min(self.imu.needs_from_ns())
+            .min(
+                self.rig
+                    .as_ref()
+                    .map_or(i64::MAX, |r| r.next_capture_ns() - self.truth.step_ns()),
+            );
+        self.truth.trim(keep_from);
+        while self.biases.len() > 2 && self.biases[1].t_ns <= keep_from {
+            self.biases.pop_front();
+        }
+    }
+
+    /// Ground truth at `t_ns` (true time), generating ahead as needed. `None` before the start
+    /// or older than the retention window behind the last emitted event.
+    ///
+    /// Pose, velocity and rates come from the physics (see [`TruthBuffer`]); biases are the
+    /// IMU's bias random walk, linear between IMU samples.
+    pub fn truth(&mut self, t_ns: i64) -> Option<GroundTruth> {
+        if t_ns < 0 {
+            return None;
+        }
+        while self.biases.back().is_none_or(|b| b.t_ns < t_ns) && self.generate_imu() {}
+        let k: Kinematics = self.truth.kinematics(t_ns)?;
+        let (gyro_bias, accel_bias) = self.bias_at(t_ns)?;
+        Some(GroundTruth {
+            t_ns,
+            pose: k.pose,
+            v_w: k.v_w,
+            a_w: k.a_w,
+            omega_b: k.omega_b,
+            gyro_bias,
+            accel_bias,
+        })
+    }
+
+    fn bias_at(&self, t_ns: i64) -> Option<(Vector3<f64>, Vector3<f64>)> {
+        let first = self.biases.front()?;
+        if t_ns < first.t_ns {
+            return None;
+        }
+        let i = self.biases.partition_point(|b| b.t_ns <= t_ns);
+        let b0 = &self.biases[i - 1];
+        match self.biases.get(i) {
+            Some(b1) => {
+                let f = (t_ns - b0.t_ns) as f64 / (b1.t_ns - b0.t_ns) as f64;
+                Some((
+                    b0.gyro + (b1.gyro - b0.gyro) * f,
+                    b0.accel + (b1.accel - b0.accel) * f,
+                ))
+            }
+            None => Some((b0.gyro, b0.accel)),
+        }
+    }
+}
+
+impl Iterator for Stream {
+    type Item = Measurement;
+
+    fn next(&mut self) -> Option<Measurement> {
+        self.fill_imu();
+        self.fill_frame();
+        let imu_t = self.imu_queue.front().map(|s| s.t_ns);
+        let frame_t = self.frame.as_ref().map(|f| f.t_ns);
+        let out = match (imu_t, frame_t) {
+            (None, None) => return None,
+            (Some(a), Some(b)) if b < a => Measurement::Frame(self.frame.take()?),
+            (None, Some(_)) => Measurement::Frame(self.frame.take()?),
+            _ => Measurement::Imu(self.imu_queue.pop_front()?),
+        };
+        self.last_emitted_ns = self.last_emitted_ns.max(out.t_ns());
+        self.trim();
+        Some(out)
+    }
+}

@@ -1,0 +1,171 @@
+//! Feature-level cameras: measurements reproject to their landmarks within the noise; occluded
+//! and back-facing landmarks are never reported; stereo association by id.
+
+mod common;
+
+use nalgebra::Vector3;
+use sim::camera::RigSim;
+use sim::scene::{Aabb, Scene, Surface};
+use sim::stream::Measurement;
+use sim::{World, WorldConfig};
+use std::sync::Arc;
+
+#[test]
+fn measurements_reproject_within_noise_and_are_unoccluded() {
+    let mut rig = common::rig(2);
+    for c in &mut rig.cameras {
+        c.pixel_sigma = 0.5;
+    }
+    let world = World::new(WorldConfig {
+        seed: 3,
+        duration_s: 20.0,
+        rig: Some(rig.clone()),
+        ..WorldConfig::default()
+    })
+    .unwrap();
+    let scene = world.scene().clone();
+    let mut stream = world.stream();
+    let (mut n, mut sum_sq, mut max_err, mut frames, mut stereo): (usize, f64, f64, usize, usize) =
+        (0, 0.0, 0.0, 0, 0);
+    while let Some(m) = stream.next() {
+        let Measurement::Frame(f) = m else { continue };
+        frames += 1;
+        let gt = stream.truth(f.t_ns).unwrap();
+        for cf in &f.cameras {
+            let c = &rig.cameras[cf.cam_id];
+            let t_w_c = gt.pose.compose(&c.t_b_c);
+            assert!(
+                cf.features
+                    .windows(2)
+                    .all(|w| w[0].feature_id < w[1].feature_id)
+            );
+            assert!(cf.features.len() <= c.max_features);
+            for o in &cf.features {
+                let lm = scene.landmarks[o.feature_id as usize];
+                let p_c = t_w_c.inverse().transform(&lm.p);
+                let uv = c.model.project(&p_c).unwrap();
+                let e = (uv - o.uv).norm();
+                sum_sq += e * e;
+                max_err = max_err.max(e);
+                n += 1;
+                assert!(
+                    !scene.occluded(&t_w_c.p, &lm.p),
+                    "occluded landmark reported"
+                );
+                assert!(
+                    lm.normal.dot(&(t_w_c.p - lm.p)) > 0.0,
+                    "back-facing landmark reported"
+                );
+            }
+        }
+        let ids0: Vec<u64> = f.cameras[0].features.iter().map(|o| o.feature_id).collect();
+        stereo += f.cameras[1]
+            .features
+            .iter()
+            .filter(|o| ids0.binary_search(&o.feature_id).is_ok())
+            .count();
+    }
+    let rms = (sum_sq / n as f64).sqrt();
+    println!(
+        "{frames} frames, {n} observations, {stereo} stereo matches, rms {rms:.3} px, max {max_err:.2} px"
+    );
+    assert_eq!(frames, 401);
+    assert!(n > frames * 150, "too few observations: {n}");
+    // 2-D isotropic noise of σ = 0.5 px: rms of the error norm is σ·√2.
+    assert!((rms / (0.5 * 2f64.sqrt()) - 1.0).abs() < 0.05, "rms {rms}");
+    assert!(max_err < 0.5 * 6.0);
+    assert!(stereo > n / 4, "stereo association too rare: {stereo}");
+}
+
+#[test]
+fn a_box_between_camera_and_wall_hides_the_wall_behind_it() {
+    // A wall at x = 5 facing −x, a 1 m box at x ∈ [2, 3] in front of the camera at the origin.
+    let wall = Surface {
+        origin: Vector3::new(5.0, -5.0, -5.0),
+        u: Vector3::new(0.0, 10.0, 0.0),
+        v: Vector3::new(0.0, 0.0, 10.0),
+        normal: -Vector3::x(),
+    };
+    let bx = Aabb::new(Vector3::new(2.0, -0.5, -0.5), Vector3::new(3.0, 0.5, 0.5));
+    let scene = Arc::new(Scene::with_landmarks(vec![wall], vec![bx], 20.0, 1));
+    let mut rig = common::rig(1);
+    rig.cameras[0].t_b_c = common::forward_camera(Vector3::zeros());
+    rig.cameras[0].max_features = 100_000;
+    let sim = RigSim::new(rig, scene.clone(), 1);
+    let pose = estimator::geometry::Pose::identity();
+    let vis = sim.visible(0, &pose);
+    assert!(!vis.is_empty());
+    let mut hidden = 0;
+    for lm in &scene.landmarks {
+        // The box's shadow on the wall: |y|, |z| < 0.5·5/2 (projected from the origin through
+        // the box's near face at x = 2), minus a margin.
+        let in_shadow = lm.p.y.abs() < 1.2 && lm.p.z.abs() < 1.2;
+        let seen = vis.iter().any(|p| p.id == lm.id);
+        if in_shadow {
+            assert!(!seen, "landmark {:?} behind the box was reported", lm.p);
+            hidden += 1;
+        }
+    }
+    assert!(hidden > 50);
+    // Outside the shadow but within the field of view, the wall is seen.
+    assert!(
+        vis.iter()
+            .any(|p| scene.landmarks[p.id as usize].p.y.abs() > 1.5)
+    );
+}
+
+#[test]
+fn max_track_length_ends_tracks() {
+    let mut rig = common::rig(1);
+    rig.cameras[0].max_track_length = Some(10);
+    let world = World::new(WorldConfig {
+        duration_s: 10.0,
+        rig: Some(rig),
+        ..WorldConfig::default()
+    })
+    .unwrap();
+    let mut run: std::collections::BTreeMap<u64, u32> = Default::default();
+    for m in world.stream() {
+        let Measurement::Frame(f) = m else { continue };
+        let ids: Vec<u64> = f.cameras[0].features.iter().map(|o| o.feature_id).collect();
+        run.retain(|id, _| ids.contains(id));
+        for id in ids {
+            let r = run.entry(id).or_insert(0);
+            *r += 1;
+            assert!(*r <= 10, "track {id} longer than 10 frames");
+        }
+    }
+}
+
+#[test]
+fn euroc_radtan_rig_reprojects_through_the_distortion() {
+    let world = World::new(WorldConfig {
+        seed: 9,
+        duration_s: 5.0,
+        ..WorldConfig::default()
+    })
+    .unwrap();
+    let rig = world.config().rig.clone().unwrap();
+    let scene = world.scene().clone();
+    let mut stream = world.stream();
+    let (mut n, mut sum_sq) = (0usize, 0.0);
+    while let Some(m) = stream.next() {
+        let Measurement::Frame(f) = m else { continue };
+        let gt = stream.truth(f.t_ns).unwrap();
+        for cf in &f.cameras {
+            let c = &rig.cameras[cf.cam_id];
+            let t_c_w = gt.pose.compose(&c.t_b_c).inverse();
+            for o in &cf.features {
+                let uv = c
+                    .model
+                    .project(&t_c_w.transform(&scene.landmarks[o.feature_id as usize].p))
+                    .unwrap();
+                sum_sq += (uv - o.uv).norm_squared();
+                n += 1;
+            }
+        }
+    }
+    let rms = (sum_sq / n as f64).sqrt();
+    assert!(n > 101 * 2 * 100, "{n}");
+    assert!((rms / (0.5 * 2f64.sqrt()) - 1.0).abs() < 0.05, "rms {rms}");
+}
