@@ -18,8 +18,12 @@ pub fn gravity_aligned_rotation(samples: &[ImuSample]) -> Option<UnitQuaternion<
         return None;
     }
     // R · f̂ = e_z: the minimal rotation taking the measured "up" to the world's up.
-    UnitQuaternion::rotation_between(&mean, &Vector3::z())
-        .or_else(|| Some(UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)))
+    UnitQuaternion::rotation_between(&mean, &Vector3::z()).or_else(|| {
+        Some(UnitQuaternion::from_axis_angle(
+            &Vector3::x_axis(),
+            std::f64::consts::PI,
+        ))
+    })
 }
 
 /// Gyroscope bias that best explains the visual relative rotations:
@@ -91,7 +95,9 @@ pub fn align_velocities_and_gravity(
         let ata = a.transpose() * &a;
         let atb = a.transpose() * b;
         let x = ata.cholesky()?.solve(&atb);
-        let v = (0..n).map(|k| x.fixed_rows::<3>(3 * k).into_owned()).collect();
+        let v = (0..n)
+            .map(|k| x.fixed_rows::<3>(3 * k).into_owned())
+            .collect();
         let g = fixed_g.unwrap_or_else(|| x.fixed_rows::<3>(3 * n).into_owned());
         Some((v, g))
     };

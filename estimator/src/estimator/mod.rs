@@ -26,8 +26,8 @@ pub use config::{CameraConfig, EstimatorConfig, Suite};
 use features::{FeatureManager, Observation};
 
 use crate::factors::{
-    FeatureMeasurement, ImuFactor, PriorFactor, ProjectionOneFrameTwoCam,
-    ProjectionTwoFrameOneCam, ProjectionTwoFrameTwoCam,
+    FeatureMeasurement, ImuFactor, PriorFactor, ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam,
+    ProjectionTwoFrameTwoCam,
 };
 use crate::frontend::FeatureFrame;
 use crate::geometry::Pose;
@@ -249,9 +249,9 @@ impl Estimator {
     /// Adds a camera frame; returns estimates of frames that became processable (with an IMU,
     /// a frame waits until IMU samples cover its time).
     pub fn push_frame(&mut self, frame: FeatureFrame) -> Result<Vec<Estimate>, EstimatorError> {
-        let prev = self.pending.back().map(|f| f.t_ns).or(self.last_frame_t.map(|t| {
-            t - (self.td * 1e9).round() as i64
-        }));
+        let prev = self.pending.back().map(|f| f.t_ns).or(self
+            .last_frame_t
+            .map(|t| t - (self.td * 1e9).round() as i64));
         if let Some(prev) = prev
             && frame.t_ns <= prev
         {
@@ -286,7 +286,13 @@ impl Estimator {
     }
 
     /// Cuts the IMU buffer into a preintegration over `[t0, t1]` linearized at the biases.
-    fn take_interval(&mut self, t0: i64, t1: i64, ba: Vector3<f64>, bg: Vector3<f64>) -> Option<Preintegration> {
+    fn take_interval(
+        &mut self,
+        t0: i64,
+        t1: i64,
+        ba: Vector3<f64>,
+        bg: Vector3<f64>,
+    ) -> Option<Preintegration> {
         let at = |buf: &VecDeque<ImuSample>, t: i64| -> Option<ImuSample> {
             let i = buf.iter().position(|s| s.t_ns >= t)?;
             if buf[i].t_ns == t || i == 0 {
@@ -318,8 +324,14 @@ impl Estimator {
         let mut wf = match self.frames.back() {
             None => {
                 let q = if uses_imu {
-                    let recent: Vec<ImuSample> =
-                        self.imu.iter().filter(|s| s.t_ns <= t_ns).rev().take(20).copied().collect();
+                    let recent: Vec<ImuSample> = self
+                        .imu
+                        .iter()
+                        .filter(|s| s.t_ns <= t_ns)
+                        .rev()
+                        .take(20)
+                        .copied()
+                        .collect();
                     init::gravity_aligned_rotation(&recent).unwrap_or_else(UnitQuaternion::identity)
                 } else {
                     UnitQuaternion::identity()
@@ -342,7 +354,9 @@ impl Estimator {
                     None
                 };
                 let (pose, v) = match (&preint, self.status) {
-                    (Some(p), Status::Tracking) => p.predict(&last.pose, &last.v, &last.ba, &last.bg),
+                    (Some(p), Status::Tracking) => {
+                        p.predict(&last.pose, &last.v, &last.ba, &last.bg)
+                    }
                     _ => (self.constant_velocity_guess(&last, t_ns), last.v),
                 };
                 WindowFrame {
@@ -385,7 +399,10 @@ impl Estimator {
 
         // 4. Triangulate, solve, reject outliers, marginalize, slide.
         self.triangulate_tracks();
-        if uses_imu && self.status == Status::Initializing && self.frames.len() >= self.config.init_frames {
+        if uses_imu
+            && self.status == Status::Initializing
+            && self.frames.len() >= self.config.init_frames
+        {
             self.try_initialize();
         }
         let imu_active = uses_imu && self.status == Status::Tracking;
@@ -449,7 +466,8 @@ impl Estimator {
 
     /// Undistorts a frame's features and computes their image velocities.
     fn observations(&self, frame: &FeatureFrame, seq: u64, t_ns: i64) -> Vec<(u64, Observation)> {
-        let mut by_id: std::collections::BTreeMap<u64, Observation> = std::collections::BTreeMap::new();
+        let mut by_id: std::collections::BTreeMap<u64, Observation> =
+            std::collections::BTreeMap::new();
         for cf in &frame.cameras {
             if cf.cam_id > 1 {
                 continue;
@@ -538,7 +556,9 @@ impl Estimator {
             // Reject triangulations that do not reproject onto their observations.
             let ok = views.iter().all(|(t_w_c, z)| {
                 let q = t_w_c.inverse().transform(&p_w);
-                q.z > 0.0 && (Vector2::new(q.x / q.z, q.y / q.z) - z).norm() * self.focal[0] < 5.0 * self.config.outlier_reprojection_px
+                q.z > 0.0
+                    && (Vector2::new(q.x / q.z, q.y / q.z) - z).norm() * self.focal[0]
+                        < 5.0 * self.config.outlier_reprojection_px
             });
             if ok {
                 self.features.tracks.get_mut(&id).expect("exists").inv_depth = Some(1.0 / p_c.z);
@@ -559,17 +579,28 @@ impl Estimator {
                 .expect("finite pose");
             refs.push((BlockRef::Pose(f.seq), b));
             if imu_active {
-                let sb: Vec<f64> = f.v.iter().chain(f.ba.iter()).chain(f.bg.iter()).copied().collect();
-                let b = problem.add_block(&sb, sb_m.clone(), BlockKind::State).expect("finite");
+                let sb: Vec<f64> =
+                    f.v.iter()
+                        .chain(f.ba.iter())
+                        .chain(f.bg.iter())
+                        .copied()
+                        .collect();
+                let b = problem
+                    .add_block(&sb, sb_m.clone(), BlockKind::State)
+                    .expect("finite");
                 refs.push((BlockRef::SpeedBias(f.seq), b));
             }
         }
         for (i, e) in self.extrinsics.iter().enumerate() {
-            let b = problem.add_block(&e.to_array(), pose_m.clone(), BlockKind::State).expect("finite");
+            let b = problem
+                .add_block(&e.to_array(), pose_m.clone(), BlockKind::State)
+                .expect("finite");
             problem.set_constant(b, !self.config.estimate_extrinsics);
             refs.push((BlockRef::Extrinsic(i), b));
         }
-        let td_block = problem.add_block(&[self.td], one.clone(), BlockKind::State).expect("finite");
+        let td_block = problem
+            .add_block(&[self.td], one.clone(), BlockKind::State)
+            .expect("finite");
         problem.set_constant(td_block, !self.config.estimate_td);
         refs.push((BlockRef::Td, td_block));
         let mut built = Built {
@@ -582,7 +613,9 @@ impl Estimator {
         };
         if !imu_active {
             // Vision only: the oldest pose fixes the gauge.
-            let b = built.block(BlockRef::Pose(self.frames[0].seq)).expect("exists");
+            let b = built
+                .block(BlockRef::Pose(self.frames[0].seq))
+                .expect("exists");
             built.problem.set_constant(b, true);
         }
 
@@ -600,14 +633,19 @@ impl Estimator {
             for k in 1..self.frames.len() {
                 let (a, b) = (&self.frames[k - 1], &self.frames[k]);
                 let Some(p) = &b.preint else { continue };
-                let Ok(factor) = ImuFactor::new(p) else { continue };
+                let Ok(factor) = ImuFactor::new(p) else {
+                    continue;
+                };
                 let ids = [
                     built.block(BlockRef::Pose(a.seq)).expect("pose"),
                     built.block(BlockRef::SpeedBias(a.seq)).expect("sb"),
                     built.block(BlockRef::Pose(b.seq)).expect("pose"),
                     built.block(BlockRef::SpeedBias(b.seq)).expect("sb"),
                 ];
-                let r = built.problem.add_factor(Arc::new(factor), None, &ids).expect("sizes match");
+                let r = built
+                    .problem
+                    .add_factor(Arc::new(factor), None, &ids)
+                    .expect("sizes match");
                 built.imu.push((r, k));
             }
         }
@@ -622,31 +660,71 @@ impl Estimator {
             self.focal[1] / self.config.cameras[1].pixel_sigma,
         ];
         for (id, track) in &self.features.tracks {
-            let Some(inv_depth) = track.inv_depth else { continue };
+            let Some(inv_depth) = track.inv_depth else {
+                continue;
+            };
             if track.measurement_count() < 2 {
                 continue;
             }
             let anchor = &track.obs[0];
-            let Some(obs_i) = anchor.meas[0] else { continue };
-            let Some(pose_i) = built.block(BlockRef::Pose(anchor.seq)) else { continue };
-            let lm = built.problem.add_block(&[inv_depth], one.clone(), BlockKind::Landmark).expect("finite");
+            let Some(obs_i) = anchor.meas[0] else {
+                continue;
+            };
+            let Some(pose_i) = built.block(BlockRef::Pose(anchor.seq)) else {
+                continue;
+            };
+            let lm = built
+                .problem
+                .add_block(&[inv_depth], one.clone(), BlockKind::Landmark)
+                .expect("finite");
             built.landmarks.push((*id, lm));
             let loss = Some(self.huber.clone());
             if let Some(obs_b) = anchor.meas[1] {
-                let f = ProjectionOneFrameTwoCam { obs_a: obs_i, obs_b, weight: weights[1] };
-                let r = built.problem.add_factor(Arc::new(f), loss.clone(), &[ex[0], ex[1], lm, td_block]).expect("sizes");
+                let f = ProjectionOneFrameTwoCam {
+                    obs_a: obs_i,
+                    obs_b,
+                    weight: weights[1],
+                };
+                let r = built
+                    .problem
+                    .add_factor(Arc::new(f), loss.clone(), &[ex[0], ex[1], lm, td_block])
+                    .expect("sizes");
                 built.visual.push((r, *id));
             }
             for o in &track.obs[1..] {
-                let Some(pose_j) = built.block(BlockRef::Pose(o.seq)) else { continue };
+                let Some(pose_j) = built.block(BlockRef::Pose(o.seq)) else {
+                    continue;
+                };
                 if let Some(obs_j) = o.meas[0] {
-                    let f = ProjectionTwoFrameOneCam { obs_i, obs_j, weight: weights[0] };
-                    let r = built.problem.add_factor(Arc::new(f), loss.clone(), &[pose_i, pose_j, ex[0], lm, td_block]).expect("sizes");
+                    let f = ProjectionTwoFrameOneCam {
+                        obs_i,
+                        obs_j,
+                        weight: weights[0],
+                    };
+                    let r = built
+                        .problem
+                        .add_factor(
+                            Arc::new(f),
+                            loss.clone(),
+                            &[pose_i, pose_j, ex[0], lm, td_block],
+                        )
+                        .expect("sizes");
                     built.visual.push((r, *id));
                 }
                 if let Some(obs_j) = o.meas[1] {
-                    let f = ProjectionTwoFrameTwoCam { obs_i, obs_j, weight: weights[1] };
-                    let r = built.problem.add_factor(Arc::new(f), loss.clone(), &[pose_i, pose_j, ex[0], ex[1], lm, td_block]).expect("sizes");
+                    let f = ProjectionTwoFrameTwoCam {
+                        obs_i,
+                        obs_j,
+                        weight: weights[1],
+                    };
+                    let r = built
+                        .problem
+                        .add_factor(
+                            Arc::new(f),
+                            loss.clone(),
+                            &[pose_i, pose_j, ex[0], ex[1], lm, td_block],
+                        )
+                        .expect("sizes");
                     built.visual.push((r, *id));
                 }
             }
@@ -679,7 +757,9 @@ impl Estimator {
             let d = built.problem.values(*b)[0];
             if let Some(t) = self.features.tracks.get_mut(id) {
                 let depth = 1.0 / d;
-                t.inv_depth = (d.is_finite() && depth >= self.config.min_depth_m && depth <= self.config.max_depth_m)
+                t.inv_depth = (d.is_finite()
+                    && depth >= self.config.min_depth_m
+                    && depth <= self.config.max_depth_m)
                     .then_some(d);
             }
         }
@@ -699,20 +779,36 @@ impl Estimator {
         if self.frames.iter().skip(1).any(|f| f.preint.is_none()) {
             return;
         }
-        let intervals: Vec<&Preintegration> = self.frames.iter().skip(1).filter_map(|f| f.preint.as_ref()).collect();
-        let Some(bg) = init::estimate_gyro_bias(&poses, &intervals) else { return };
+        let intervals: Vec<&Preintegration> = self
+            .frames
+            .iter()
+            .skip(1)
+            .filter_map(|f| f.preint.as_ref())
+            .collect();
+        let Some(bg) = init::estimate_gyro_bias(&poses, &intervals) else {
+            return;
+        };
         let ba = Vector3::zeros();
         for f in self.frames.iter_mut().skip(1) {
             if let Some(p) = &mut f.preint {
                 p.repropagate(ba, bg);
             }
         }
-        let intervals: Vec<&Preintegration> = self.frames.iter().skip(1).filter_map(|f| f.preint.as_ref()).collect();
-        let Some((vel, g)) = init::align_velocities_and_gravity(&poses, &intervals, &ba, &bg, crate::GRAVITY) else {
+        let intervals: Vec<&Preintegration> = self
+            .frames
+            .iter()
+            .skip(1)
+            .filter_map(|f| f.preint.as_ref())
+            .collect();
+        let Some((vel, g)) =
+            init::align_velocities_and_gravity(&poses, &intervals, &ba, &bg, crate::GRAVITY)
+        else {
             return;
         };
         // Rotate the world so that gravity points along −z (minimal rotation).
-        let Some(r_align) = UnitQuaternion::rotation_between(&g, &crate::gravity_w()) else { return };
+        let Some(r_align) = UnitQuaternion::rotation_between(&g, &crate::gravity_w()) else {
+            return;
+        };
         let origin = self.frames[0].pose.p;
         for (f, v) in self.frames.iter_mut().zip(vel) {
             f.pose = Pose::new(r_align * f.pose.q, r_align * (f.pose.p - origin));
@@ -733,9 +829,16 @@ impl Estimator {
             let pose = built.block(BlockRef::Pose(oldest)).expect("pose");
             let mut remove = vec![pose];
             remove.extend(built.block(BlockRef::SpeedBias(oldest)));
-            let mut residuals: Vec<ResidualId> = built.imu.iter().filter(|(_, k)| *k == 1).map(|(r, _)| *r).collect();
+            let mut residuals: Vec<ResidualId> = built
+                .imu
+                .iter()
+                .filter(|(_, k)| *k == 1)
+                .map(|(r, _)| *r)
+                .collect();
             if let Some(r) = built.prior
-                && remove.iter().any(|b| built.problem.residual_blocks(r).contains(b))
+                && remove
+                    .iter()
+                    .any(|b| built.problem.residual_blocks(r).contains(b))
             {
                 residuals.push(r);
             }
@@ -744,8 +847,19 @@ impl Estimator {
                     remove.push(*lm);
                 }
             }
-            let anchored: Vec<u64> = built.landmarks.iter().filter(|(_, lm)| remove.contains(lm)).map(|(id, _)| *id).collect();
-            residuals.extend(built.visual.iter().filter(|(_, id)| anchored.contains(id)).map(|(r, _)| *r));
+            let anchored: Vec<u64> = built
+                .landmarks
+                .iter()
+                .filter(|(_, lm)| remove.contains(lm))
+                .map(|(id, _)| *id)
+                .collect();
+            residuals.extend(
+                built
+                    .visual
+                    .iter()
+                    .filter(|(_, id)| anchored.contains(id))
+                    .map(|(r, _)| *r),
+            );
             residuals.sort();
             self.set_prior(built, &residuals, &remove);
         } else {
@@ -770,7 +884,9 @@ impl Estimator {
             }
             t.inv_depth = None;
             let new_anchor = t.obs[0].seq;
-            if let (Some(p_w), Some(fi)) = (world, self.frames.iter().position(|f| f.seq == new_anchor)) {
+            if let (Some(p_w), Some(fi)) =
+                (world, self.frames.iter().position(|f| f.seq == new_anchor))
+            {
                 let t_w_c = self.frames[fi].pose.compose(&self.extrinsics[0]);
                 let z = t_w_c.inverse().transform(&p_w).z;
                 if z >= self.config.min_depth_m && z <= self.config.max_depth_m {
@@ -803,7 +919,9 @@ impl Estimator {
         let ids: Vec<u64> = self.features.tracks.keys().copied().collect();
         for id in ids {
             let t = self.features.tracks.get_mut(&id).expect("exists");
-            let Some(k) = t.obs.iter().position(|o| o.seq == drop) else { continue };
+            let Some(k) = t.obs.iter().position(|o| o.seq == drop) else {
+                continue;
+            };
             t.obs.remove(k);
             if k == 0 {
                 // The anchor left: re-triangulate from what remains.
@@ -819,7 +937,12 @@ impl Estimator {
     }
 
     fn set_prior(&mut self, built: &Built, residuals: &[ResidualId], remove: &[BlockId]) {
-        match marginalize(&built.problem, residuals, remove, &MarginalizationOptions::default()) {
+        match marginalize(
+            &built.problem,
+            residuals,
+            remove,
+            &MarginalizationOptions::default(),
+        ) {
             Ok(mp) => {
                 let refs: Vec<BlockRef> = mp
                     .blocks
@@ -827,7 +950,8 @@ impl Estimator {
                     .map(|b| built.refs.iter().find(|(_, x)| x == b).map(|(r, _)| *r))
                     .collect::<Option<Vec<_>>>()
                     .unwrap_or_default();
-                self.prior = (refs.len() == mp.blocks.len() && mp.rank > 0).then(|| (Arc::new(mp.factor), refs));
+                self.prior = (refs.len() == mp.blocks.len() && mp.rank > 0)
+                    .then(|| (Arc::new(mp.factor), refs));
             }
             Err(_) => self.prior = None,
         }
@@ -847,12 +971,18 @@ impl Estimator {
     fn reject_outliers(&mut self) {
         let mut bad = Vec::new();
         for (id, t) in &self.features.tracks {
-            let Some(p_w) = self.track_world_point(*id) else { continue };
+            let Some(p_w) = self.track_world_point(*id) else {
+                continue;
+            };
             let (mut sum, mut n) = (0.0, 0);
             for o in &t.obs {
-                let Some(fi) = self.frame_index(o.seq) else { continue };
+                let Some(fi) = self.frame_index(o.seq) else {
+                    continue;
+                };
                 for cam in 0..2 {
-                    let (Some(uv), Some(_)) = (o.uv[cam], o.meas[cam]) else { continue };
+                    let (Some(uv), Some(_)) = (o.uv[cam], o.meas[cam]) else {
+                        continue;
+                    };
                     let p_c = self.camera_pose(fi, cam).inverse().transform(&p_w);
                     match self.config.cameras[cam].model.project(&p_c) {
                         Some(px) if p_c.z > 0.0 => sum += (px - uv).norm(),
@@ -895,7 +1025,10 @@ impl Estimator {
         }
         // An interval is used only if it starts at the previous frame (not across a gap).
         for k in 1..frames.len() {
-            let contiguous = frames[k].preint.as_ref().is_some_and(|p| p.start_ns() == frames[k - 1].t_ns);
+            let contiguous = frames[k]
+                .preint
+                .as_ref()
+                .is_some_and(|p| p.start_ns() == frames[k - 1].t_ns);
             if !contiguous {
                 frames[k].preint = None;
             }

@@ -103,4 +103,3 @@ impl Analytic {
         Pose::new(Self::rotation(t), Self::position(t))
     }
 }
-

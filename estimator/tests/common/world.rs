@@ -70,7 +70,9 @@ impl World {
         }
         let priority = (0..n).map(|_| rng.random_range(0.0..1.0)).collect();
         // Camera z forward = body x; camera x right = −body y; camera y down = −body z.
-        let r_b_c = UnitQuaternion::from_matrix(&Matrix3::new(0.0, 0.0, 1.0, -1.0, 0.0, 0.0, 0.0, -1.0, 0.0));
+        let r_b_c = UnitQuaternion::from_matrix(&Matrix3::new(
+            0.0, 0.0, 1.0, -1.0, 0.0, 0.0, 0.0, -1.0, 0.0,
+        ));
         let extrinsics = [
             Pose::new(r_b_c, Vector3::new(0.05, 0.055, 0.0)),
             Pose::new(r_b_c, Vector3::new(0.05, -0.055, 0.0)),
@@ -108,9 +110,19 @@ impl World {
     pub fn imu(&mut self, t_ns: i64) -> ImuSample {
         let s = Analytic::sample(t_ns);
         let dt = IMU_NS as f64 * 1e-9;
-        let na = gauss3(&mut self.imu_rng, self.noise.accelerometer_noise_density / dt.sqrt());
-        let ng = gauss3(&mut self.imu_rng, self.noise.gyroscope_noise_density / dt.sqrt());
-        ImuSample { t_ns, gyro: s.gyro + self.bg + ng, accel: s.accel + self.ba + na }
+        let na = gauss3(
+            &mut self.imu_rng,
+            self.noise.accelerometer_noise_density / dt.sqrt(),
+        );
+        let ng = gauss3(
+            &mut self.imu_rng,
+            self.noise.gyroscope_noise_density / dt.sqrt(),
+        );
+        ImuSample {
+            t_ns,
+            gyro: s.gyro + self.bg + ng,
+            accel: s.accel + self.ba + na,
+        }
     }
 
     /// Stereo feature frame at `t_ns`.
@@ -119,7 +131,11 @@ impl World {
         let mut visible: Vec<usize> = (0..self.landmarks.len())
             .filter(|&i| self.project(&pose, 0, i).is_some())
             .collect();
-        visible.sort_by(|a, b| self.priority[*b].total_cmp(&self.priority[*a]).then(a.cmp(b)));
+        visible.sort_by(|a, b| {
+            self.priority[*b]
+                .total_cmp(&self.priority[*a])
+                .then(a.cmp(b))
+        });
         visible.truncate(self.max_features);
         visible.sort();
         let mut cameras = Vec::new();
@@ -131,16 +147,25 @@ impl World {
                         StandardNormal.sample(&mut self.cam_rng),
                         StandardNormal.sample(&mut self.cam_rng),
                     ) * self.pixel_sigma;
-                    features.push(FeatureObservation { feature_id: i as u64, uv: uv + noise });
+                    features.push(FeatureObservation {
+                        feature_id: i as u64,
+                        uv: uv + noise,
+                    });
                 }
             }
-            cameras.push(CameraFeatures { cam_id: cam, features });
+            cameras.push(CameraFeatures {
+                cam_id: cam,
+                features,
+            });
         }
         FeatureFrame { t_ns, cameras }
     }
 
     fn project(&self, t_w_b: &Pose, cam: usize, i: usize) -> Option<Vector2<f64>> {
-        let p_c = t_w_b.compose(&self.extrinsics[cam]).inverse().transform(&self.landmarks[i]);
+        let p_c = t_w_b
+            .compose(&self.extrinsics[cam])
+            .inverse()
+            .transform(&self.landmarks[i]);
         if p_c.z < 0.2 || p_c.z > 20.0 {
             return None;
         }
