@@ -12,10 +12,25 @@ use nalgebra::Vector3;
 fn run(world: &mut World, suite: Suite, seconds: f64, record: bool) -> (Estimator, Vec<Estimate>) {
     let mut config = world.config(suite);
     config.record_history = record;
-    if let Ok(h) = std::env::var("HUBER") {
-        config.huber_sigma = h.parse().unwrap();
+    // Knobs for experiments (unset in CI).
+    let knob = |k: &str| std::env::var(k).ok().map(|v| v.parse::<f64>().unwrap());
+    if let Some(h) = knob("HUBER") {
+        config.huber_sigma = h;
+    }
+    if let Some(h) = knob("ITERS") {
+        config.solver.max_iterations = h as usize;
+    }
+    if let Some(h) = knob("PARALLAX") {
+        config.keyframe_parallax_px = h;
+    }
+    if let Some(h) = knob("WINDOW") {
+        config.window_size = h as usize;
     }
     let mut est = Estimator::new(config).unwrap();
+    if std::env::var("KNOWNSTART").is_ok() {
+        let t0 = 0;
+        est.start_from(Analytic::pose(t0), Analytic::velocity(0.0), world.ba, world.bg);
+    }
     let mut out = Vec::new();
     let end = (seconds * 1e9) as i64;
     let mut t_imu = 0;
@@ -26,6 +41,15 @@ fn run(world: &mut World, suite: Suite, seconds: f64, record: bool) -> (Estimato
             t_imu += IMU_NS;
         }
         out.extend(est.push_frame(world.frame(t_frame)).unwrap());
+        if std::env::var("TRUECOSTS").is_ok() {
+            let (ba, bg) = (world.ba, world.bg);
+            let lms = world.landmarks.clone();
+            let c = est.debug_costs_at(
+                &|t| (Analytic::pose(t), Analytic::velocity(t as f64 * 1e-9), ba, bg),
+                &|id| lms[id as usize],
+            );
+            eprintln!("true-state costs: imu {:.4} visual {:.4}", c.0, c.1);
+        }
         t_frame += FRAME_NS;
     }
     (est, out)
@@ -68,6 +92,52 @@ fn stereo_imu_converges_and_estimates_biases() {
 }
 
 #[test]
+fn window_is_within_a_stated_factor_of_the_batch_solution() {
+    let px: f64 = std::env::var("PX").map(|v| v.parse().unwrap()).unwrap_or(1.0);
+    let mut world = World::new(2, 3000, px);
+    if let Ok(v) = std::env::var("IMUNOISE") {
+        world.imu_noise_scale = v.parse().unwrap();
+    }
+    if std::env::var("NOBIAS").is_ok() {
+        world.ba = Vector3::zeros();
+        world.bg = Vector3::zeros();
+    }
+    let (mut est, estimates) = run(&mut world, Suite::StereoImu, 8.0, true);
+    let window_ate = ate(&estimates);
+    let lagged = est.take_finalized();
+    let lp: Vec<Vector3<f64>> = lagged.iter().map(|(_, p)| p.p).collect();
+    let lg: Vec<Vector3<f64>> = lagged.iter().map(|(t, _)| Analytic::pose(*t).p).collect();
+    let la = align_position_yaw(&lp, &lg);
+    let lagged_ate = (la.iter().zip(&lg).map(|(a, g)| (a - g).norm_squared()).sum::<f64>() / lg.len() as f64).sqrt();
+    println!("lagged ATE {lagged_ate:.4} over {}", lagged.len());
+    let batch = est
+        .batch_solve(&estimator::problem::SolverOptions { max_iterations: 20, ..Default::default() })
+        .unwrap();
+    let est_p: Vec<Vector3<f64>> = batch.iter().map(|(_, p)| p.p).collect();
+    let gt_p: Vec<Vector3<f64>> = batch.iter().map(|(t, _)| Analytic::pose(*t).p).collect();
+    let aligned = align_position_yaw(&est_p, &gt_p);
+    let batch_ate = (aligned.iter().zip(&gt_p).map(|(a, g)| (a - g).norm_squared()).sum::<f64>() / gt_p.len() as f64).sqrt();
+    println!("window ATE {window_ate:.4} m, batch ATE {batch_ate:.4} m over {} frames", batch.len());
+    assert!(batch.len() > 140);
+    assert!(batch_ate < window_ate * 1.05, "batch should not be worse: {batch_ate} vs {window_ate}");
+    assert!(window_ate < 3.0 * batch_ate, "window {window_ate} vs batch {batch_ate}");
+}
+
+#[test]
+fn same_input_gives_bit_identical_estimates() {
+    let bits = |e: &Estimate| -> Vec<u64> {
+        e.T_w_b.to_array().iter().chain(e.v_w.iter()).chain(e.ba.iter()).chain(e.bg.iter()).map(|v| v.to_bits()).collect()
+    };
+    let (_, a) = run(&mut World::new(4, 2000, 1.0), Suite::StereoImu, 3.0, false);
+    let (_, b) = run(&mut World::new(4, 2000, 1.0), Suite::StereoImu, 3.0, false);
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(x.t_ns, y.t_ns);
+        assert_eq!(bits(x), bits(y));
+    }
+}
+
+#[test]
 #[ignore]
 fn debug_trace() {
     let suite = if std::env::var("SUITE").as_deref() == Ok("stereo") {
@@ -75,19 +145,31 @@ fn debug_trace() {
     } else {
         Suite::StereoImu
     };
-    let mut world = World::new(1, 3000, 1.0);
+    let px: f64 = std::env::var("PX").map(|v| v.parse().unwrap()).unwrap_or(1.0);
+    let mut world = World::new(1, 3000, px);
+    if let Ok(v) = std::env::var("IMUNOISE") {
+        world.imu_noise_scale = v.parse().unwrap();
+    }
     let secs: f64 = std::env::var("SECS")
         .map(|s| s.parse().unwrap())
         .unwrap_or(6.0);
     let (_, estimates) = run(&mut world, suite, secs, false);
     let p0 = Analytic::pose(estimates[0].t_ns);
     let e0 = estimates[0].T_w_b;
-    for e in estimates.iter().step_by(20) {
+    let step: usize = std::env::var("STEP").map(|v| v.parse().unwrap()).unwrap_or(20);
+    for e in estimates.iter().step_by(step) {
         let gt = Analytic::pose(e.t_ns);
         // relative to the first frame, in the first frame's body coordinates
         let rel_gt = p0.inverse().compose(&gt);
         let rel_e = e0.inverse().compose(&e.T_w_b);
         let s = e.solver.unwrap();
+        let tilt = (e.T_w_b.q.inverse() * Vector3::z()).angle(&(gt.q.inverse() * Vector3::z())).to_degrees();
+        let yaw_err = {
+            let (_, _, ye) = e.T_w_b.q.euler_angles();
+            let (_, _, yg) = gt.q.euler_angles();
+            (ye - yg).to_degrees()
+        };
+        print!("tilt={tilt:.2}deg yaw_err={yaw_err:.2} perr={:.3} ba={:.3?} ", (e.T_w_b.p - gt.p).norm(), e.ba.as_slice());
         println!(
             "t={:.2} {:?} kf={} lm={} err={:.3} rot={:.2}deg cost {:.1}->{:.1} it={} {:?} bg={:.4?} v={:.2?} vgt={:.2?}",
             e.t_ns as f64 * 1e-9,

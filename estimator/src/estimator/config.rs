@@ -73,6 +73,15 @@ pub struct EstimatorConfig {
     pub repropagate_ba: f64,
     /// Re-propagate a preintegration when the gyroscope bias moved more than this (rad/s).
     pub repropagate_bg: f64,
+    /// Standard deviation of the prior on the accelerometer bias at initialization (m/s²).
+    /// Over a short window the accelerometer bias is nearly indistinguishable from tilt; without
+    /// this prior noise can trade one for the other.
+    pub initial_ba_sigma: f64,
+    /// Standard deviation of the prior on the gyroscope bias around its initial estimate (rad/s).
+    pub initial_bg_sigma: f64,
+    /// Standard deviation (m and rad) of the prior that pins the first frame's position and yaw,
+    /// the four unobservable directions of visual-inertial odometry.
+    pub gauge_sigma: f64,
     /// Keep every frame's factors to allow [`super::Estimator::batch_solve`] at the end.
     pub record_history: bool,
 }
@@ -87,8 +96,12 @@ impl EstimatorConfig {
             window_size: 10,
             keyframe_parallax_px: 10.0,
             keyframe_min_tracked: 20,
+            // The window starts next to the optimum (IMU prediction, previous solve): start
+            // with almost no damping so weakly observable directions (accelerometer bias
+            // against tilt) converge in a few iterations instead of being damped for many.
             solver: SolverOptions {
                 max_iterations: 8,
+                initial_trust_radius: 1e12,
                 ..SolverOptions::default()
             },
             huber_sigma: 1.5,
@@ -101,6 +114,9 @@ impl EstimatorConfig {
             init_frames: 10,
             repropagate_ba: 0.1,
             repropagate_bg: 0.01,
+            initial_ba_sigma: 0.2,
+            initial_bg_sigma: 0.01,
+            gauge_sigma: 1e-4,
             record_history: false,
         }
     }

@@ -73,6 +73,10 @@ pub struct Estimate {
     pub solver: Option<SolverSummary>,
     /// Back-end wall time for this frame (measured for reports only), seconds.
     pub backend_s: f64,
+    /// Part of `backend_s` spent in the window solve (s).
+    pub solve_s: f64,
+    /// Part of `backend_s` spent marginalizing and sliding (s).
+    pub marginalization_s: f64,
 }
 
 /// Errors from the estimator's inputs.
@@ -158,6 +162,18 @@ pub struct Estimator {
     last_frame_t: Option<i64>,
     history: Option<History>,
     huber: Arc<dyn LossFunction>,
+    finalized: Vec<(i64, Pose)>,
+    known_start: Option<KnownStart>,
+    pending_bias_prior: bool,
+}
+
+/// A known state for the first frame (see [`Estimator::start_from`]).
+#[derive(Clone, Copy, Debug)]
+struct KnownStart {
+    pose: Pose,
+    v: Vector3<f64>,
+    ba: Vector3<f64>,
+    bg: Vector3<f64>,
 }
 
 impl Estimator {
@@ -176,6 +192,9 @@ impl Estimator {
         }
         if config.window_size < 3 {
             return Err(EstimatorError::Config("window_size must be ≥ 3".into()));
+        }
+        if !(config.initial_ba_sigma > 0.0 && config.initial_bg_sigma > 0.0) {
+            return Err(EstimatorError::Config("initial bias sigmas must be > 0".into()));
         }
         if config.suite.uses_imu() && config.init_frames < 4 {
             return Err(EstimatorError::Config("init_frames must be ≥ 4".into()));
@@ -214,12 +233,28 @@ impl Estimator {
             last_frame_t: None,
             history,
             huber,
+            finalized: Vec::new(),
+            known_start: None,
+            pending_bias_prior: false,
         })
     }
 
     /// The configuration.
     pub fn config(&self) -> &EstimatorConfig {
         &self.config
+    }
+
+    /// Starts from a known state at the first frame instead of initializing from the data
+    /// (e.g. a vehicle starting at a surveyed pose, or simulation studies that isolate the
+    /// sliding window from initialization). Must be called before the first frame; the
+    /// estimator is then tracking from the first frame on, with the bias prior around `ba`, `bg`.
+    #[allow(non_snake_case)]
+    pub fn start_from(&mut self, T_w_b: Pose, v_w: Vector3<f64>, ba: Vector3<f64>, bg: Vector3<f64>) {
+        self.known_start = Some(KnownStart { pose: T_w_b, v: v_w, ba, bg });
+        if self.config.suite.uses_imu() {
+            self.status = Status::Tracking;
+            self.pending_bias_prior = true;
+        }
     }
 
     /// Current life-cycle status.
@@ -322,6 +357,10 @@ impl Estimator {
 
         // 1. State prediction.
         let mut wf = match self.frames.back() {
+            None if self.known_start.is_some() => {
+                let k = self.known_start.take().expect("checked");
+                WindowFrame { seq, t_ns, pose: k.pose, v: k.v, ba: k.ba, bg: k.bg, preint: None }
+            }
             None => {
                 let q = if uses_imu {
                     let recent: Vec<ImuSample> = self
@@ -398,6 +437,10 @@ impl Estimator {
         };
 
         // 4. Triangulate, solve, reject outliers, marginalize, slide.
+        if self.pending_bias_prior {
+            self.pending_bias_prior = false;
+            self.set_initial_prior();
+        }
         self.triangulate_tracks();
         if uses_imu
             && self.status == Status::Initializing
@@ -409,10 +452,29 @@ impl Estimator {
         let mut built = self.build(imu_active);
         let summary = solve(&mut built.problem, &self.config.solver);
         self.write_back(&built);
+        if std::env::var("DEBUG_COSTS").is_ok() {
+            let cost_of = |ids: &[ResidualId]| -> f64 {
+                let mut total = 0.0;
+                for r in ids {
+                    let f = built.problem.factor(*r);
+                    let blocks = built.problem.residual_blocks(*r);
+                    let params: Vec<&[f64]> = blocks.iter().map(|b| built.problem.values(*b)).collect();
+                    let mut res = vec![0.0; f.residual_dim()];
+                    f.evaluate(&params, &mut res, None);
+                    total += 0.5 * res.iter().map(|v| v * v).sum::<f64>();
+                }
+                total
+            };
+            let imu: Vec<ResidualId> = built.imu.iter().map(|x| x.0).collect();
+            let vis: Vec<ResidualId> = built.visual.iter().map(|x| x.0).collect();
+            let pri: Vec<ResidualId> = built.prior.into_iter().collect();
+            eprintln!("costs: imu {:.3} visual {:.3} prior {:.3}", cost_of(&imu), cost_of(&vis), cost_of(&pri));
+        }
         let landmarks = built.landmarks.len();
         // The newest frame's state and (not yet merged) IMU interval, as solved.
         let newest = self.frames.back().expect("just pushed").clone();
         let window_full = self.frames.len() > self.config.window_size;
+        let marg_start = Instant::now();
         if window_full {
             if keyframe {
                 self.marginalize_oldest(&built, imu_active);
@@ -420,6 +482,7 @@ impl Estimator {
                 self.marginalize_second_newest(&built);
             }
         }
+        let marginalization_s = marg_start.elapsed().as_secs_f64();
         self.reject_outliers();
         if !uses_imu {
             self.status = Status::Tracking;
@@ -441,6 +504,8 @@ impl Estimator {
             landmarks,
             solver: Some(summary),
             backend_s: start.elapsed().as_secs_f64(),
+            solve_s: summary.time.as_secs_f64(),
+            marginalization_s,
         }
     }
 
@@ -816,9 +881,41 @@ impl Estimator {
             f.ba = ba;
             f.bg = bg;
         }
-        // Landmarks are anchored in camera frames: unaffected. Any prior is in the old frame.
-        self.prior = None;
+        // Landmarks are anchored in camera frames: unaffected. The prior starts as a bias prior
+        // on the oldest frame (no earlier prior exists: vision-only frames carry none).
+        self.set_initial_prior();
         self.status = Status::Tracking;
+    }
+
+    /// Replaces the prior by the initial prior on the oldest frame: its position and yaw (the
+    /// four directions no sensor observes, pinned with `gauge_sigma` so that the solver never
+    /// wanders along them) and its biases (`initial_ba_sigma`, `initial_bg_sigma` around their
+    /// current estimates). Marginalization carries it forward.
+    fn set_initial_prior(&mut self) {
+        let first = &self.frames[0];
+        let sb0: Vec<f64> = first.v.iter().chain(first.ba.iter()).chain(first.bg.iter()).copied().collect();
+        // Rows: position (3), yaw (1), ba (3), bg (3); columns: pose tangent (6), speed-bias (9).
+        let (rows, cols) = (10, 15);
+        let mut jac = vec![0.0; rows * cols];
+        let w_gauge = 1.0 / self.config.gauge_sigma;
+        for i in 0..3 {
+            jac[i * cols + i] = w_gauge;
+        }
+        // Yaw of R·Exp(δθ) about world z: e_zᵀ R δθ.
+        let r = first.pose.q.to_rotation_matrix().into_inner();
+        for c in 0..3 {
+            jac[3 * cols + 3 + c] = w_gauge * r[(2, c)];
+        }
+        for i in 0..3 {
+            jac[(4 + i) * cols + 6 + 3 + i] = 1.0 / self.config.initial_ba_sigma;
+            jac[(7 + i) * cols + 6 + 6 + i] = 1.0 / self.config.initial_bg_sigma;
+        }
+        let manifolds: Vec<Arc<dyn crate::problem::Manifold>> =
+            vec![Arc::new(PoseManifold), Arc::new(Euclidean::new(9))];
+        let points = vec![first.pose.to_array().to_vec(), sb0];
+        self.prior = PriorFactor::new(manifolds, points, jac, vec![0.0; rows])
+            .ok()
+            .map(|f| (Arc::new(f), vec![BlockRef::Pose(first.seq), BlockRef::SpeedBias(first.seq)]));
     }
 
     /// Marginalizes the oldest frame (its pose, speed-bias and anchored landmarks) into the
@@ -865,15 +962,27 @@ impl Estimator {
         } else {
             self.prior = None;
         }
-        // Slide: re-anchor the oldest frame's tracks in their next left view.
+        // Slide. Tracks anchored in the oldest frame: with a prior, their landmark and all its
+        // observations are now in the prior, so the track ends here (re-anchoring and re-using
+        // the observations, as VINS-Fusion does, would count them twice); a later sighting of
+        // the same feature starts a new track. Without a prior (vision only, or during
+        // initialization) they are re-anchored in their next left view.
         let removed = self.frames[0].clone();
+        if self.status == Status::Tracking {
+            self.finalized.push((removed.t_ns, removed.pose));
+        }
+        let in_prior = imu_active && self.prior.is_some() && std::env::var("REANCHOR").is_err();
         let ids: Vec<u64> = self.features.tracks.keys().copied().collect();
         for id in ids {
-            let world = self.track_world_point(id);
-            let t = self.features.tracks.get_mut(&id).expect("exists");
-            if t.obs[0].seq != removed.seq {
+            if self.features.tracks[&id].obs[0].seq != removed.seq {
                 continue;
             }
+            if in_prior {
+                self.features.tracks.remove(&id);
+                continue;
+            }
+            let world = self.track_world_point(id);
+            let t = self.features.tracks.get_mut(&id).expect("exists");
             t.obs.remove(0);
             while t.obs.first().is_some_and(|o| o.meas[0].is_none()) {
                 t.obs.remove(0);
@@ -884,11 +993,8 @@ impl Estimator {
             }
             t.inv_depth = None;
             let new_anchor = t.obs[0].seq;
-            if let (Some(p_w), Some(fi)) =
-                (world, self.frames.iter().position(|f| f.seq == new_anchor))
-            {
-                let t_w_c = self.frames[fi].pose.compose(&self.extrinsics[0]);
-                let z = t_w_c.inverse().transform(&p_w).z;
+            if let (Some(p_w), Some(fi)) = (world, self.frame_index(new_anchor)) {
+                let z = self.camera_pose(fi, 0).inverse().transform(&p_w).z;
                 if z >= self.config.min_depth_m && z <= self.config.max_depth_m {
                     self.features.tracks.get_mut(&id).expect("exists").inv_depth = Some(1.0 / z);
                 }
@@ -912,6 +1018,9 @@ impl Estimator {
             }
         }
         let dropped = self.frames.remove(n - 2).expect("exists");
+        if self.status == Status::Tracking {
+            self.finalized.push((dropped.t_ns, dropped.pose));
+        }
         let newest = self.frames.back_mut().expect("exists");
         if let (Some(mut a), Some(b)) = (dropped.preint, newest.preint.take()) {
             newest.preint = a.merge(&b).is_ok().then_some(a);
@@ -937,6 +1046,7 @@ impl Estimator {
     }
 
     fn set_prior(&mut self, built: &Built, residuals: &[ResidualId], remove: &[BlockId]) {
+        if std::env::var("NOPRIOR").is_ok() { self.prior = None; return; }
         match marginalize(
             &built.problem,
             residuals,
@@ -998,6 +1108,57 @@ impl Estimator {
         for id in bad {
             self.features.tracks.remove(&id);
         }
+    }
+
+    #[doc(hidden)]
+    #[allow(clippy::type_complexity)]
+    pub fn debug_costs_at(
+        &mut self,
+        states: &dyn Fn(i64) -> (Pose, Vector3<f64>, Vector3<f64>, Vector3<f64>),
+        landmark: &dyn Fn(u64) -> Vector3<f64>,
+    ) -> (f64, f64) {
+        let saved_frames = self.frames.clone();
+        let saved_tracks = self.features.clone();
+        for f in self.frames.iter_mut() {
+            let (p, v, ba, bg) = states(f.t_ns);
+            f.pose = p;
+            f.v = v;
+            f.ba = ba;
+            f.bg = bg;
+        }
+        let ids: Vec<u64> = self.features.tracks.keys().copied().collect();
+        for id in ids {
+            let a = self.features.tracks[&id].obs[0].seq;
+            let fi = self.frame_index(a).unwrap();
+            let z = self.camera_pose(fi, 0).inverse().transform(&landmark(id)).z;
+            self.features.tracks.get_mut(&id).unwrap().inv_depth = Some(1.0 / z);
+        }
+        let built = self.build(self.status == Status::Tracking);
+        let cost_of = |ids: &[ResidualId]| -> f64 {
+            let mut total = 0.0;
+            for r in ids {
+                let f = built.problem.factor(*r);
+                let blocks = built.problem.residual_blocks(*r);
+                let params: Vec<&[f64]> = blocks.iter().map(|b| built.problem.values(*b)).collect();
+                let mut res = vec![0.0; f.residual_dim()];
+                f.evaluate(&params, &mut res, None);
+                total += 0.5 * res.iter().map(|v| v * v).sum::<f64>();
+            }
+            total
+        };
+        let imu: Vec<ResidualId> = built.imu.iter().map(|x| x.0).collect();
+        let vis: Vec<ResidualId> = built.visual.iter().map(|x| x.0).collect();
+        let out = (cost_of(&imu), cost_of(&vis));
+        self.frames = saved_frames;
+        self.features = saved_tracks;
+        out
+    }
+
+    /// Poses of frames that have left the window since the last call, as last estimated inside
+    /// it (fixed-lag smoothed: keyframes after `window_size` keyframes, non-keyframes after one
+    /// frame), in the order they left.
+    pub fn take_finalized(&mut self) -> Vec<(i64, Pose)> {
+        std::mem::take(&mut self.finalized)
     }
 
     /// Solves all recorded frames at once without marginalization (the "physical limit"

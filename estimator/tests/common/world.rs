@@ -37,6 +37,8 @@ pub struct World {
     pub noise: ImuNoise,
     /// Pixel noise σ.
     pub pixel_sigma: f64,
+    /// Multiplies the IMU white noise (1 = the configured densities, 0 = noise-free).
+    pub imu_noise_scale: f64,
     imu_rng: ChaCha8Rng,
     cam_rng: ChaCha8Rng,
     max_features: usize,
@@ -86,6 +88,7 @@ impl World {
             bg: Vector3::new(0.01, -0.015, 0.008),
             noise: ImuNoise::euroc(),
             pixel_sigma,
+            imu_noise_scale: 1.0,
             imu_rng: ChaCha8Rng::seed_from_u64(seed ^ 0x1111),
             cam_rng: ChaCha8Rng::seed_from_u64(seed ^ 0x2222),
             max_features: 150,
@@ -110,14 +113,9 @@ impl World {
     pub fn imu(&mut self, t_ns: i64) -> ImuSample {
         let s = Analytic::sample(t_ns);
         let dt = IMU_NS as f64 * 1e-9;
-        let na = gauss3(
-            &mut self.imu_rng,
-            self.noise.accelerometer_noise_density / dt.sqrt(),
-        );
-        let ng = gauss3(
-            &mut self.imu_rng,
-            self.noise.gyroscope_noise_density / dt.sqrt(),
-        );
+        let k = self.imu_noise_scale / dt.sqrt();
+        let na = gauss3(&mut self.imu_rng, self.noise.accelerometer_noise_density * k);
+        let ng = gauss3(&mut self.imu_rng, self.noise.gyroscope_noise_density * k);
         ImuSample {
             t_ns,
             gyro: s.gyro + self.bg + ng,
