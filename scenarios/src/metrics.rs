@@ -702,6 +702,8 @@ pub fn rpe(gt: &[Pose], est: &[Pose], opts: &RpeOptions) -> Result<RpeResult, Me
 
 /// The estimator's covariance of one pose.
 #[derive(Clone, Copy, Debug, PartialEq)]
+// Stored in plain slices, one per pose: boxing the 6×6 case would cost an allocation each.
+#[allow(clippy::large_enum_variant)]
 pub enum Covariance {
     /// Position only (m², world frame).
     Position(Matrix3<f64>),

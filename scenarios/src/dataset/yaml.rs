@@ -19,17 +19,29 @@ pub(crate) struct Doc {
 }
 
 fn strip_comment(line: &str) -> &str {
-    let mut in_single = false;
-    let mut in_double = false;
-    let mut prev_ws = true;
+    // A quote opens a quoted scalar only where a scalar starts (after `:`, `[`, `,` or at the
+    // start); inside double quotes a backslash escapes the next character.
+    let mut quote: Option<char> = None;
+    let mut escaped = false;
+    let mut prev = ' ';
+    let mut prev_non_ws = ':';
     for (i, c) in line.char_indices() {
-        match c {
-            '\'' if !in_double => in_single = !in_single,
-            '"' if !in_single => in_double = !in_double,
-            '#' if !in_single && !in_double && prev_ws => return &line[..i],
-            _ => {}
+        match quote {
+            Some(_) if escaped => escaped = false,
+            Some('"') if c == '\\' => escaped = true,
+            Some('\'') if c == '\'' && line[i + 1..].starts_with('\'') => escaped = true,
+            Some(q) if c == q => quote = None,
+            Some(_) => {}
+            None if (c == '"' || c == '\'') && matches!(prev_non_ws, ':' | '[' | ',') => {
+                quote = Some(c)
+            }
+            None if c == '#' && prev.is_whitespace() => return &line[..i],
+            None => {}
         }
-        prev_ws = c.is_whitespace();
+        prev = c;
+        if !c.is_whitespace() {
+            prev_non_ws = c;
+        }
     }
     line
 }
@@ -102,13 +114,28 @@ impl Doc {
     }
 }
 
-/// Unquotes a scalar.
+/// Unquotes a scalar (double quotes with `\\` escapes, single quotes with `''`).
 pub(crate) fn scalar(v: &str) -> String {
     let v = v.trim();
-    for q in ['"', '\''] {
-        if v.len() >= 2 && v.starts_with(q) && v.ends_with(q) {
-            return v[1..v.len() - 1].to_string();
+    if v.len() >= 2 && v.starts_with('"') && v.ends_with('"') {
+        let mut out = String::new();
+        let mut chars = v[1..v.len() - 1].chars();
+        while let Some(c) = chars.next() {
+            if c == '\\' {
+                match chars.next() {
+                    Some('n') => out.push('\n'),
+                    Some('t') => out.push('\t'),
+                    Some(o) => out.push(o),
+                    None => {}
+                }
+            } else {
+                out.push(c);
+            }
         }
+        return out;
+    }
+    if v.len() >= 2 && v.starts_with('\'') && v.ends_with('\'') {
+        return v[1..v.len() - 1].replace("''", "'");
     }
     v.to_string()
 }
@@ -123,7 +150,7 @@ pub(crate) fn list(v: &str) -> RowResult<Vec<String>> {
     if inner.trim().is_empty() {
         return Ok(Vec::new());
     }
-    Ok(inner.split(',').map(|s| scalar(s)).collect())
+    Ok(inner.split(',').map(scalar).collect())
 }
 
 #[cfg(test)]
@@ -141,5 +168,16 @@ mod tests {
         );
         assert_eq!(d.get("rate_hz").unwrap().line, 7);
         assert_eq!(list(&d.get("intrinsics").unwrap().value).unwrap().len(), 2);
+    }
+
+    #[test]
+    fn quotes_and_comments() {
+        assert_eq!(strip_comment("a: x # c"), "a: x ");
+        assert_eq!(strip_comment("a: x#y"), "a: x#y");
+        assert_eq!(strip_comment(r#"a: "p \" # q" # c"#), r#"a: "p \" # q" "#);
+        assert_eq!(strip_comment("a: don't # c"), "a: don't ");
+        assert_eq!(strip_comment("a: 'it''s # x' # c"), "a: 'it''s # x' ");
+        assert_eq!(scalar(r#""p \"q\" \\""#), r#"p "q" \"#);
+        assert_eq!(scalar("'it''s'"), "it's");
     }
 }
