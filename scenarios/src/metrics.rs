@@ -84,31 +84,70 @@ pub enum MetricsError {
 /// shorter trajectory to its nearest neighbour in the longer one without enforcing uniqueness.
 /// Inputs need not be sorted.
 pub fn associate(a: &[i64], b: &[i64], max_diff_ns: i64) -> Vec<(usize, usize)> {
-    let tol = max_diff_ns.max(0);
+    let tol = max_diff_ns.max(0) as u64;
     let mut bo: Vec<usize> = (0..b.len()).collect();
     bo.sort_by_key(|&j| (b[j], j));
     let bs: Vec<i64> = bo.iter().map(|&j| b[j]).collect();
+    let dist = |t: i64, k: usize| (i128::from(bs[k]) - i128::from(t)).unsigned_abs() as u64;
+    let mut used_b = vec![false; b.len()];
 
-    let mut candidates: Vec<(u64, usize, usize)> = Vec::new();
-    for (i, &t) in a.iter().enumerate() {
-        let lo = t.saturating_sub(tol);
-        let hi = t.saturating_add(tol);
-        let start = bs.partition_point(|&s| s < lo);
-        for k in start..bs.len() {
-            if bs[k] > hi {
-                break;
-            }
-            let d = (i128::from(bs[k]) - i128::from(t)).unsigned_abs() as u64;
-            candidates.push((d, i, bo[k]));
+    // Lazy greedy matching: the global order of all candidate pairs (|Δt|, i, j) is produced by
+    // merging, per i, its candidates in increasing (|Δt|, j) order, so memory stays O(n + m)
+    // whatever the tolerance. Per i, two boundaries walk outwards from the insertion point over
+    // used entries of b: `left[i]` (one past the nearest unused entry below) and `right[i]`.
+    // A candidate is only asked for again once it has been used, so skipping used entries is
+    // all the advancing needed.
+    let mut left: Vec<usize> = Vec::with_capacity(a.len());
+    let mut right: Vec<usize> = Vec::with_capacity(a.len());
+    for &t in a {
+        let p = bs.partition_point(|&s| s < t);
+        left.push(p);
+        right.push(p);
+    }
+    let next = |i: usize, left: &mut [usize], right: &mut [usize], used_b: &[bool]| {
+        let t = a[i];
+        while left[i] > 0 && used_b[bo[left[i] - 1]] {
+            left[i] -= 1;
+        }
+        while right[i] < bs.len() && used_b[bo[right[i]]] {
+            right[i] += 1;
+        }
+        // Below: among equal timestamps the smallest j comes first, i.e. the lowest unused
+        // index of the run of equal stamps that ends at the boundary.
+        let l = (left[i] > 0)
+            .then(|| {
+                let end = left[i] - 1;
+                let mut k = end;
+                while k > 0 && bs[k - 1] == bs[end] {
+                    k -= 1;
+                }
+                (k..=end).find(|&k| !used_b[bo[k]]).unwrap_or(end)
+            })
+            .map(|k| (dist(t, k), bo[k]))
+            .filter(|c| c.0 <= tol);
+        let r = (right[i] < bs.len())
+            .then_some(right[i])
+            .map(|k| (dist(t, k), bo[k]))
+            .filter(|c| c.0 <= tol);
+        let (d, j) = match (l, r) {
+            (Some(x), Some(y)) => Some(x.min(y)),
+            (x, y) => x.or(y),
+        }?;
+        Some(std::cmp::Reverse((d, i, j)))
+    };
+    let mut heap = std::collections::BinaryHeap::new();
+    for i in 0..a.len() {
+        if let Some(c) = next(i, &mut left, &mut right, &used_b) {
+            heap.push(c);
         }
     }
-    candidates.sort_unstable();
-    let mut used_a = vec![false; a.len()];
-    let mut used_b = vec![false; b.len()];
     let mut pairs = Vec::new();
-    for (_, i, j) in candidates {
-        if !used_a[i] && !used_b[j] {
-            used_a[i] = true;
+    while let Some(std::cmp::Reverse((_, i, j))) = heap.pop() {
+        if used_b[j] {
+            if let Some(c) = next(i, &mut left, &mut right, &used_b) {
+                heap.push(c);
+            }
+        } else {
             used_b[j] = true;
             pairs.push((i, j));
         }
@@ -477,11 +516,13 @@ pub fn ate(gt: &[Pose], est: &[Pose], alignment: Alignment) -> Result<AteResult,
         .zip(&aligned)
         .map(|(g, e)| angle_between(&g.q, &e.q).to_degrees())
         .collect();
-    let (Some(translation), Some(rotation_deg)) =
-        (Stats::from_errors(&te), Stats::from_errors(&re))
-    else {
-        unreachable!("non-empty error lists");
+    let too_few = MetricsError::TooFewPoses {
+        what: "ATE",
+        have: 0,
+        need: 1,
     };
+    let translation = Stats::from_errors(&te).ok_or(too_few.clone())?;
+    let rotation_deg = Stats::from_errors(&re).ok_or(too_few)?;
     Ok(AteResult {
         alignment: s,
         translation,

@@ -494,3 +494,30 @@ fn features_csv_malformed_rows_name_file_and_line() {
         assert_names(&e, "out/features.csv", Some(line));
     }
 }
+
+#[test]
+fn parsers_never_panic_on_garbage() {
+    // Random lines from the characters these formats are made of: errors, never panics.
+    let alphabet: Vec<char> = "0123456789.,-+e #\n\r\t[]:\"'\\nanNaN_xyzT_BSdatasensor_typeé"
+        .chars()
+        .collect();
+    let mut rng = ChaCha8Rng::seed_from_u64(10);
+    let p = Path::new("garbage");
+    for n in 0..3000 {
+        let len = n % 120;
+        let text: String = (0..len)
+            .map(|_| alphabet[(gauss(&mut rng).abs() * 1e6) as usize % alphabet.len()])
+            .collect();
+        for t in [
+            text.clone(),
+            format!("sensor_type: camera\nT_BS:\n  data: [{text}]\n"),
+        ] {
+            let _ = parse_tum(&t, p);
+            let _ = parse_imu_csv(&t, p);
+            let _ = parse_groundtruth_csv(&t, p);
+            let _ = parse_camera_csv(&t, p);
+            let _ = parse_features_csv(&t, p);
+            let _ = parse_sensor_yaml(&t, p);
+        }
+    }
+}

@@ -363,3 +363,62 @@ fn nees_of_known_errors() {
     let mixed = [Covariance::Position(p), Covariance::Pose(p6)];
     assert!(nees(&gt[..2], &est[..2], &mixed).is_err());
 }
+
+/// The definition of [`associate`], written the slow way: all candidate pairs sorted by
+/// (|Δt|, i, j), accepted greedily one-to-one.
+fn associate_brute_force(a: &[i64], b: &[i64], tol: i64) -> Vec<(usize, usize)> {
+    let mut c: Vec<(i64, usize, usize)> = Vec::new();
+    for (i, &x) in a.iter().enumerate() {
+        for (j, &y) in b.iter().enumerate() {
+            if (x - y).abs() <= tol {
+                c.push(((x - y).abs(), i, j));
+            }
+        }
+    }
+    c.sort_unstable();
+    let (mut ua, mut ub) = (vec![false; a.len()], vec![false; b.len()]);
+    let mut out = Vec::new();
+    for (_, i, j) in c {
+        if !ua[i] && !ub[j] {
+            ua[i] = true;
+            ub[j] = true;
+            out.push((i, j));
+        }
+    }
+    out.sort_unstable();
+    out
+}
+
+#[test]
+fn association_equals_its_brute_force_definition() {
+    let mut rng = ChaCha8Rng::seed_from_u64(9);
+    for case in 0..300 {
+        let na = (case % 17) + 1;
+        let nb = (case * 7 % 23) + 1;
+        // Coarse stamps (many ties and duplicates), unsorted.
+        let mut draw = |n: usize| -> Vec<i64> {
+            (0..n)
+                .map(|_| (gauss3(&mut rng, 10.0).x.round() as i64) * 5)
+                .collect()
+        };
+        let a = draw(na);
+        let b = draw(nb);
+        for tol in [0, 4, 5, 12, 1000] {
+            assert_eq!(
+                associate(&a, &b, tol),
+                associate_brute_force(&a, &b, tol),
+                "{a:?} {b:?} {tol}"
+            );
+        }
+    }
+}
+
+#[test]
+fn association_with_a_huge_tolerance_stays_fast() {
+    let a: Vec<i64> = (0..50_000).map(|k| k * 5_000_000).collect();
+    let b: Vec<i64> = (0..40_000).map(|k| k * 6_250_000 + 1).collect();
+    let t = std::time::Instant::now();
+    let p = associate(&a, &b, i64::MAX);
+    assert_eq!(p.len(), 40_000);
+    assert!(t.elapsed().as_secs_f64() < 5.0, "{:?}", t.elapsed());
+}

@@ -70,9 +70,8 @@ pub fn parse_features_csv(text: &str, path: &Path) -> Result<Vec<FeatureFrame>, 
                 cameras: Vec::new(),
             });
         }
-        let Some(frame) = frames.last_mut() else {
-            unreachable!("a frame was just pushed");
-        };
+        let last = frames.len() - 1; // a frame exists: pushed above if needed
+        let frame = &mut frames[last];
         match frame.cameras.last_mut() {
             Some(cam) if cam.cam_id == cam_id => {
                 if let Some(last) = cam.features.last()
