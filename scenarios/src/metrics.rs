@@ -82,7 +82,9 @@ pub enum MetricsError {
 /// neighbour in the other (the usual case of regular sampling with a tolerance below half the
 /// period), this equals evo's association (`--t_max_diff`), which matches each timestamp of the
 /// shorter trajectory to its nearest neighbour in the longer one without enforcing uniqueness.
-/// Inputs need not be sorted.
+/// One more difference: evo compares float seconds, so for a timestamp exactly halfway between two
+/// others its rounding may pick the later neighbour where we pick the earlier. Inputs need not be
+/// sorted.
 pub fn associate(a: &[i64], b: &[i64], max_diff_ns: i64) -> Vec<(usize, usize)> {
     let tol = max_diff_ns.max(0) as u64;
     let mut bo: Vec<usize> = (0..b.len()).collect();
