@@ -147,6 +147,7 @@ struct History {
 }
 
 /// The sliding-window visual(-inertial) odometry estimator.
+#[derive(Clone)]
 pub struct Estimator {
     config: EstimatorConfig,
     focal: Vec<f64>,
@@ -194,7 +195,9 @@ impl Estimator {
             return Err(EstimatorError::Config("window_size must be ≥ 3".into()));
         }
         if !(config.initial_ba_sigma > 0.0 && config.initial_bg_sigma > 0.0) {
-            return Err(EstimatorError::Config("initial bias sigmas must be > 0".into()));
+            return Err(EstimatorError::Config(
+                "initial bias sigmas must be > 0".into(),
+            ));
         }
         if config.suite.uses_imu() && config.init_frames < 4 {
             return Err(EstimatorError::Config("init_frames must be ≥ 4".into()));
@@ -249,8 +252,19 @@ impl Estimator {
     /// sliding window from initialization). Must be called before the first frame; the
     /// estimator is then tracking from the first frame on, with the bias prior around `ba`, `bg`.
     #[allow(non_snake_case)]
-    pub fn start_from(&mut self, T_w_b: Pose, v_w: Vector3<f64>, ba: Vector3<f64>, bg: Vector3<f64>) {
-        self.known_start = Some(KnownStart { pose: T_w_b, v: v_w, ba, bg });
+    pub fn start_from(
+        &mut self,
+        T_w_b: Pose,
+        v_w: Vector3<f64>,
+        ba: Vector3<f64>,
+        bg: Vector3<f64>,
+    ) {
+        self.known_start = Some(KnownStart {
+            pose: T_w_b,
+            v: v_w,
+            ba,
+            bg,
+        });
         if self.config.suite.uses_imu() {
             self.status = Status::Tracking;
             self.pending_bias_prior = true;
@@ -359,7 +373,15 @@ impl Estimator {
         let mut wf = match self.frames.back() {
             None if self.known_start.is_some() => {
                 let k = self.known_start.take().expect("checked");
-                WindowFrame { seq, t_ns, pose: k.pose, v: k.v, ba: k.ba, bg: k.bg, preint: None }
+                WindowFrame {
+                    seq,
+                    t_ns,
+                    pose: k.pose,
+                    v: k.v,
+                    ba: k.ba,
+                    bg: k.bg,
+                    preint: None,
+                }
             }
             None => {
                 let q = if uses_imu {
@@ -452,24 +474,6 @@ impl Estimator {
         let mut built = self.build(imu_active);
         let summary = solve(&mut built.problem, &self.config.solver);
         self.write_back(&built);
-        if std::env::var("DEBUG_COSTS").is_ok() {
-            let cost_of = |ids: &[ResidualId]| -> f64 {
-                let mut total = 0.0;
-                for r in ids {
-                    let f = built.problem.factor(*r);
-                    let blocks = built.problem.residual_blocks(*r);
-                    let params: Vec<&[f64]> = blocks.iter().map(|b| built.problem.values(*b)).collect();
-                    let mut res = vec![0.0; f.residual_dim()];
-                    f.evaluate(&params, &mut res, None);
-                    total += 0.5 * res.iter().map(|v| v * v).sum::<f64>();
-                }
-                total
-            };
-            let imu: Vec<ResidualId> = built.imu.iter().map(|x| x.0).collect();
-            let vis: Vec<ResidualId> = built.visual.iter().map(|x| x.0).collect();
-            let pri: Vec<ResidualId> = built.prior.into_iter().collect();
-            eprintln!("costs: imu {:.3} visual {:.3} prior {:.3}", cost_of(&imu), cost_of(&vis), cost_of(&pri));
-        }
         let landmarks = built.landmarks.len();
         // The newest frame's state and (not yet merged) IMU interval, as solved.
         let newest = self.frames.back().expect("just pushed").clone();
@@ -728,7 +732,7 @@ impl Estimator {
             let Some(inv_depth) = track.inv_depth else {
                 continue;
             };
-            if track.measurement_count() < 2 {
+            if track.obs.len() < self.config.min_track_frames || track.measurement_count() < 2 {
                 continue;
             }
             let anchor = &track.obs[0];
@@ -893,7 +897,13 @@ impl Estimator {
     /// current estimates). Marginalization carries it forward.
     fn set_initial_prior(&mut self) {
         let first = &self.frames[0];
-        let sb0: Vec<f64> = first.v.iter().chain(first.ba.iter()).chain(first.bg.iter()).copied().collect();
+        let sb0: Vec<f64> = first
+            .v
+            .iter()
+            .chain(first.ba.iter())
+            .chain(first.bg.iter())
+            .copied()
+            .collect();
         // Rows: position (3), yaw (1), ba (3), bg (3); columns: pose tangent (6), speed-bias (9).
         let (rows, cols) = (10, 15);
         let mut jac = vec![0.0; rows * cols];
@@ -915,7 +925,12 @@ impl Estimator {
         let points = vec![first.pose.to_array().to_vec(), sb0];
         self.prior = PriorFactor::new(manifolds, points, jac, vec![0.0; rows])
             .ok()
-            .map(|f| (Arc::new(f), vec![BlockRef::Pose(first.seq), BlockRef::SpeedBias(first.seq)]));
+            .map(|f| {
+                (
+                    Arc::new(f),
+                    vec![BlockRef::Pose(first.seq), BlockRef::SpeedBias(first.seq)],
+                )
+            });
     }
 
     /// Marginalizes the oldest frame (its pose, speed-bias and anchored landmarks) into the
@@ -963,15 +978,16 @@ impl Estimator {
             self.prior = None;
         }
         // Slide. Tracks anchored in the oldest frame: with a prior, their landmark and all its
-        // observations are now in the prior, so the track ends here (re-anchoring and re-using
-        // the observations, as VINS-Fusion does, would count them twice); a later sighting of
-        // the same feature starts a new track. Without a prior (vision only, or during
-        // initialization) they are re-anchored in their next left view.
+        // observations are now in the prior, so by default the track ends here and a later
+        // sighting of the same feature starts a new track; re-anchoring and re-using the
+        // observations (VINS-Fusion's choice, `reuse_marginalized_tracks`) counts them twice.
+        // Without a prior (vision only, or during initialization) they are re-anchored in
+        // their next left view.
         let removed = self.frames[0].clone();
         if self.status == Status::Tracking {
             self.finalized.push((removed.t_ns, removed.pose));
         }
-        let in_prior = imu_active && self.prior.is_some() && std::env::var("REANCHOR").is_err();
+        let in_prior = imu_active && self.prior.is_some() && !self.config.reuse_marginalized_tracks;
         let ids: Vec<u64> = self.features.tracks.keys().copied().collect();
         for id in ids {
             if self.features.tracks[&id].obs[0].seq != removed.seq {
@@ -1046,7 +1062,6 @@ impl Estimator {
     }
 
     fn set_prior(&mut self, built: &Built, residuals: &[ResidualId], remove: &[BlockId]) {
-        if std::env::var("NOPRIOR").is_ok() { self.prior = None; return; }
         match marginalize(
             &built.problem,
             residuals,
@@ -1108,50 +1123,6 @@ impl Estimator {
         for id in bad {
             self.features.tracks.remove(&id);
         }
-    }
-
-    #[doc(hidden)]
-    #[allow(clippy::type_complexity)]
-    pub fn debug_costs_at(
-        &mut self,
-        states: &dyn Fn(i64) -> (Pose, Vector3<f64>, Vector3<f64>, Vector3<f64>),
-        landmark: &dyn Fn(u64) -> Vector3<f64>,
-    ) -> (f64, f64) {
-        let saved_frames = self.frames.clone();
-        let saved_tracks = self.features.clone();
-        for f in self.frames.iter_mut() {
-            let (p, v, ba, bg) = states(f.t_ns);
-            f.pose = p;
-            f.v = v;
-            f.ba = ba;
-            f.bg = bg;
-        }
-        let ids: Vec<u64> = self.features.tracks.keys().copied().collect();
-        for id in ids {
-            let a = self.features.tracks[&id].obs[0].seq;
-            let fi = self.frame_index(a).unwrap();
-            let z = self.camera_pose(fi, 0).inverse().transform(&landmark(id)).z;
-            self.features.tracks.get_mut(&id).unwrap().inv_depth = Some(1.0 / z);
-        }
-        let built = self.build(self.status == Status::Tracking);
-        let cost_of = |ids: &[ResidualId]| -> f64 {
-            let mut total = 0.0;
-            for r in ids {
-                let f = built.problem.factor(*r);
-                let blocks = built.problem.residual_blocks(*r);
-                let params: Vec<&[f64]> = blocks.iter().map(|b| built.problem.values(*b)).collect();
-                let mut res = vec![0.0; f.residual_dim()];
-                f.evaluate(&params, &mut res, None);
-                total += 0.5 * res.iter().map(|v| v * v).sum::<f64>();
-            }
-            total
-        };
-        let imu: Vec<ResidualId> = built.imu.iter().map(|x| x.0).collect();
-        let vis: Vec<ResidualId> = built.visual.iter().map(|x| x.0).collect();
-        let out = (cost_of(&imu), cost_of(&vis));
-        self.frames = saved_frames;
-        self.features = saved_tracks;
-        out
     }
 
     /// Poses of frames that have left the window since the last call, as last estimated inside

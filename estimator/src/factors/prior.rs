@@ -18,6 +18,10 @@ pub struct PriorFactor {
     offsets: Vec<usize>,
     jacobian: Vec<f64>,
     r0: Vec<f64>,
+    /// `JᵀJ` (row-major, n × n) and `Jᵀr₀`, `r₀ᵀr₀`: the prior in information form.
+    hessian: Vec<f64>,
+    gradient: Vec<f64>,
+    r0_sq: f64,
 }
 
 /// Largest tangent size of a prior block (the evaluation uses fixed scratch buffers).
@@ -86,6 +90,28 @@ impl PriorFactor {
         if !finite {
             return Err(PriorError::NonFinite);
         }
+        let m = r0.len();
+        let mut hessian = vec![0.0; n * n];
+        let mut gradient = vec![0.0; n];
+        for r in 0..m {
+            let row = &jacobian[r * n..(r + 1) * n];
+            for i in 0..n {
+                gradient[i] += row[i] * r0[r];
+                let ri = row[i];
+                if ri == 0.0 {
+                    continue;
+                }
+                for j in i..n {
+                    hessian[i * n + j] += ri * row[j];
+                }
+            }
+        }
+        for i in 0..n {
+            for j in 0..i {
+                hessian[i * n + j] = hessian[j * n + i];
+            }
+        }
+        let r0_sq = r0.iter().map(|v| v * v).sum();
         Ok(Self {
             manifolds,
             linearization_points,
@@ -94,6 +120,9 @@ impl PriorFactor {
             offsets,
             jacobian,
             r0,
+            hessian,
+            gradient,
+            r0_sq,
         })
     }
 
@@ -168,5 +197,68 @@ impl Factor for PriorFactor {
             }
         }
         residuals[..m].iter().all(|v| v.is_finite())
+    }
+
+    /// `‖r‖² = r₀ᵀr₀ + 2 bᵀd + dᵀHd`, `g = Mᵀ(b + H d)`, `JᵀJ = Mᵀ H M` with `d = x ⊟ x̄`,
+    /// `H = JᵀJ`, `b = Jᵀr₀` precomputed and `M` the block-diagonal minus-Jacobian (identity for
+    /// Euclidean blocks, `Jr⁻¹` for rotations): O(n²) instead of the O(m n²) of forming `JᵀJ`.
+    fn normal_equations(&self, params: &[&[f64]], h: &mut [f64], g: &mut [f64]) -> Option<f64> {
+        let n = self.tangent_dim();
+        let mut d = vec![0.0; n];
+        // Minus-Jacobian blocks; `None` where it is exactly the identity.
+        let mut mj: Vec<Option<Vec<f64>>> = Vec::with_capacity(self.manifolds.len());
+        for (k, manifold) in self.manifolds.iter().enumerate() {
+            let (t, off) = (self.tangents[k], self.offsets[k]);
+            let x0 = &self.linearization_points[k];
+            manifold.minus(params[k], x0, &mut d[off..off + t]);
+            let mut b = vec![0.0; t * t];
+            manifold.minus_jacobian(params[k], x0, &mut b);
+            let identity =
+                (0..t).all(|i| (0..t).all(|j| b[i * t + j] == if i == j { 1.0 } else { 0.0 }));
+            mj.push((!identity).then_some(b));
+        }
+        // u = b + H d, cost.
+        let hd: Vec<f64> = (0..n)
+            .map(|i| {
+                self.hessian[i * n..(i + 1) * n]
+                    .iter()
+                    .zip(&d)
+                    .map(|(a, b)| a * b)
+                    .sum()
+            })
+            .collect();
+        let cost = self.r0_sq
+            + d.iter()
+                .zip(self.gradient.iter().zip(&hd))
+                .map(|(di, (bi, hdi))| 2.0 * bi * di + di * hdi)
+                .sum::<f64>();
+        let u: Vec<f64> = self.gradient.iter().zip(&hd).map(|(a, b)| a + b).collect();
+        h[..n * n].copy_from_slice(&self.hessian);
+        g[..n].copy_from_slice(&u);
+        // Apply M on both sides, block by block (only non-identity blocks cost anything).
+        for (k, m) in mj.iter().enumerate() {
+            let Some(m) = m else { continue };
+            let (t, off) = (self.tangents[k], self.offsets[k]);
+            // g_k ← M_kᵀ u_k
+            let uk: Vec<f64> = g[off..off + t].to_vec();
+            for c in 0..t {
+                g[off + c] = (0..t).map(|r| m[r * t + c] * uk[r]).sum();
+            }
+            // Columns of block k: H[:, k] ← H[:, k] M_k.
+            for row in 0..n {
+                let seg: Vec<f64> = h[row * n + off..row * n + off + t].to_vec();
+                for c in 0..t {
+                    h[row * n + off + c] = (0..t).map(|r| seg[r] * m[r * t + c]).sum();
+                }
+            }
+            // Rows of block k: H[k, :] ← M_kᵀ H[k, :].
+            for col in 0..n {
+                let seg: Vec<f64> = (0..t).map(|r| h[(off + r) * n + col]).collect();
+                for c in 0..t {
+                    h[(off + c) * n + col] = (0..t).map(|r| m[r * t + c] * seg[r]).sum();
+                }
+            }
+        }
+        cost.is_finite().then_some(cost)
     }
 }

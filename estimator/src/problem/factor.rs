@@ -22,6 +22,15 @@ pub trait Factor: Send + Sync {
         residuals: &mut [f64],
         jacobians: Option<&mut [Option<&mut [f64]>]>,
     ) -> bool;
+
+    /// Optionally, the factor's Gauss-Newton contribution computed directly: `h = JᵀJ`
+    /// (row-major, `T × T` with `T` the sum of the tangent sizes, blocks in parameter order),
+    /// `g = Jᵀr`, returning `‖r‖²`. Factors with many residual rows over many blocks (the
+    /// marginalization prior) can do this far cheaper than the solver's `JᵀJ`. `None` (the
+    /// default) means "use `evaluate`". Must agree with `evaluate` exactly up to round-off.
+    fn normal_equations(&self, _params: &[&[f64]], _h: &mut [f64], _g: &mut [f64]) -> Option<f64> {
+        None
+    }
 }
 
 /// Copies a column-major nalgebra matrix into a row-major buffer.

@@ -185,6 +185,19 @@ fn add_jtj(
     } else {
         (ob, tb, jb, oa, ta, ja)
     };
+    if m == 2 {
+        // Reprojection residuals: two rows, summed in one pass over the block.
+        let (a0, a1) = (&ja[..ta], &ja[ta..2 * ta]);
+        let (b0, b1) = (&jb[..tb], &jb[tb..2 * tb]);
+        for i in 0..ta {
+            let (x0, x1) = (a0[i], a1[i]);
+            let row = &mut h[(oa + i) * n + ob..(oa + i) * n + ob + tb];
+            for j in 0..tb {
+                row[j] += x0 * b0[j] + x1 * b1[j];
+            }
+        }
+        return;
+    }
     for r in 0..m {
         let ra = &ja[r * ta..r * ta + ta];
         let rb = &jb[r * tb..r * tb + tb];
@@ -241,10 +254,18 @@ pub(crate) fn linearize(
             &all
         }
     };
+    let mut gn_h: Vec<f64> = Vec::new();
+    let mut gn_g: Vec<f64> = Vec::new();
     for &ri in ids {
         let res = &problem.residuals[ri];
         let m = res.factor.residual_dim();
         let tangents = res.factor.parameter_tangent_sizes();
+        if res.loss.is_none()
+            && res.blocks.iter().all(|b| layout.landmark_slot[b.0] == NONE)
+            && accumulate_direct(problem, layout, ri, &mut gn_h, &mut gn_g, &mut hxx, &mut gx)
+        {
+            continue;
+        }
         if r.len() < m {
             r.resize(m, 0.0);
         }
@@ -266,13 +287,23 @@ pub(crate) fn linearize(
             }
         }
         {
-            let mut js: Vec<Option<&mut [f64]>> = jac
-                .iter_mut()
-                .take(nb)
-                .enumerate()
-                .map(|(k, j)| active[k].then(|| &mut j[..m * tangents[k]]))
-                .collect();
-            problem.evaluate_residual(&problem.values, ri, &mut r[..m], Some(&mut js))?;
+            let mut js: [Option<&mut [f64]>; 16] = Default::default();
+            let mut heap: Vec<Option<&mut [f64]>>;
+            let js: &mut [Option<&mut [f64]>] = if nb <= js.len() {
+                for (k, j) in jac.iter_mut().take(nb).enumerate() {
+                    js[k] = active[k].then(|| &mut j[..m * tangents[k]]);
+                }
+                &mut js[..nb]
+            } else {
+                heap = jac
+                    .iter_mut()
+                    .take(nb)
+                    .enumerate()
+                    .map(|(k, j)| active[k].then(|| &mut j[..m * tangents[k]]))
+                    .collect();
+                &mut heap
+            };
+            problem.evaluate_residual(&problem.values, ri, &mut r[..m], Some(js))?;
         }
         let r = &r[..m];
         // Landmark of this residual, if variable.
@@ -349,6 +380,70 @@ pub(crate) fn linearize(
     })
 }
 
+/// Adds a factor's directly computed normal equations (see `Factor::normal_equations`) into the
+/// reduced system; `false` if the factor does not provide them.
+fn accumulate_direct(
+    problem: &Problem,
+    layout: &Layout,
+    ri: usize,
+    h: &mut Vec<f64>,
+    g: &mut Vec<f64>,
+    hxx: &mut [f64],
+    gx: &mut [f64],
+) -> bool {
+    let res = &problem.residuals[ri];
+    let tangents = res.factor.parameter_tangent_sizes();
+    let total: usize = tangents.iter().sum();
+    h.clear();
+    h.resize(total * total, 0.0);
+    g.clear();
+    g.resize(total, 0.0);
+    let params: Vec<&[f64]> = res
+        .blocks
+        .iter()
+        .map(|b| {
+            let blk = &problem.blocks[b.0];
+            &problem.values[blk.offset..blk.offset + blk.manifold.ambient_size()]
+        })
+        .collect();
+    if res.factor.normal_equations(&params, h, g).is_none() {
+        return false;
+    }
+    let n = layout.n;
+    let mut local = 0;
+    let locals: Vec<usize> = tangents
+        .iter()
+        .map(|t| {
+            let o = local;
+            local += t;
+            o
+        })
+        .collect();
+    for (a, ba) in res.blocks.iter().enumerate() {
+        let oa = layout.state_offset[ba.0];
+        if oa == NONE {
+            continue;
+        }
+        let (la, ta) = (locals[a], tangents[a]);
+        for i in 0..ta {
+            gx[oa + i] += g[la + i];
+        }
+        for (b, bb) in res.blocks.iter().enumerate() {
+            let ob = layout.state_offset[bb.0];
+            if ob == NONE || ob < oa {
+                continue;
+            }
+            let (lb, tb) = (locals[b], tangents[b]);
+            for i in 0..ta {
+                for j in 0..tb {
+                    hxx[(oa + i) * n + ob + j] += h[(la + i) * total + lb + j];
+                }
+            }
+        }
+    }
+    true
+}
+
 /// Inverts a small symmetric positive-definite matrix (row-major); `None` if not PD.
 pub(crate) fn small_spd_inverse(a: &[f64], t: usize) -> Option<Vec<f64>> {
     if t == 1 {
@@ -397,6 +492,32 @@ impl NormalEquations {
                 c[i * t + i] += lambda * dl[i];
             }
             let cinv = small_spd_inverse(&c, t)?;
+            if t == 1 {
+                // Inverse depths: C is a scalar, W C⁻¹ Wᵀ an outer product per block pair.
+                let ci = cinv[0];
+                let gl = l.gl[0];
+                for (ia, (oa, ta, wa)) in l.w.iter().enumerate() {
+                    for i in 0..*ta {
+                        b[oa + i] += wa[i] * ci * gl;
+                    }
+                    for (ob, tb, wb) in &l.w[ia..] {
+                        let (lo, hi, wl, wh, tl, th) = if ob >= oa {
+                            (*oa, *ob, wa, wb, *ta, *tb)
+                        } else {
+                            (*ob, *oa, wb, wa, *tb, *ta)
+                        };
+                        for i in 0..tl {
+                            let si = wl[i] * ci;
+                            let row = &mut a[(lo + i) * n + hi..(lo + i) * n + hi + th];
+                            for (hv, w) in row.iter_mut().zip(wh.iter()) {
+                                *hv -= si * w;
+                            }
+                        }
+                    }
+                }
+                cinv_all.push(cinv);
+                continue;
+            }
             // A −= W C⁻¹ Wᵀ ; b += W C⁻¹ g_l.
             let wc: Vec<Vec<f64>> =
                 l.w.iter()

@@ -114,7 +114,10 @@ impl World {
         let s = Analytic::sample(t_ns);
         let dt = IMU_NS as f64 * 1e-9;
         let k = self.imu_noise_scale / dt.sqrt();
-        let na = gauss3(&mut self.imu_rng, self.noise.accelerometer_noise_density * k);
+        let na = gauss3(
+            &mut self.imu_rng,
+            self.noise.accelerometer_noise_density * k,
+        );
         let ng = gauss3(&mut self.imu_rng, self.noise.gyroscope_noise_density * k);
         ImuSample {
             t_ns,

@@ -1,0 +1,79 @@
+//! One full window update (solve + marginalization) of the stereo+IMU estimator with ~150
+//! tracked features, on the synthetic room of the window tests.
+//!
+//! `cargo bench -p estimator --bench window`
+
+use std::hint::black_box;
+
+use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
+use estimator::estimator::{Estimator, Status, Suite};
+
+#[path = "../tests/common/mod.rs"]
+mod common;
+
+use common::world::{FRAME_NS, IMU_NS, World};
+
+fn window_update(c: &mut Criterion) {
+    let mut world = World::new(1, 3000, 1.0);
+    let mut est = Estimator::new(world.config(Suite::StereoImu)).unwrap();
+    let (mut t_imu, mut t_frame) = (0, 0);
+    let feed = |est: &mut Estimator, world: &mut World, t_frame: i64, t_imu: &mut i64| {
+        while *t_imu <= t_frame {
+            est.push_imu(world.imu(*t_imu)).unwrap();
+            *t_imu += IMU_NS;
+        }
+        est.push_frame(world.frame(t_frame)).unwrap()
+    };
+    // 3 s: initialized, window full, prior in place.
+    while t_frame < 3_000_000_000 {
+        feed(&mut est, &mut world, t_frame, &mut t_imu);
+        t_frame += FRAME_NS;
+    }
+    assert_eq!(est.status(), Status::Tracking);
+
+    // Breakdown over the next 100 frames (the estimator's own timing fields).
+    let mut probe = est.clone();
+    let (mut w2, mut ti, mut tf) = (World::new(1, 3000, 1.0), 0, 0);
+    while tf < 3_000_000_000 {
+        while ti <= tf {
+            w2.imu(ti);
+            ti += IMU_NS;
+        }
+        w2.frame(tf);
+        tf += FRAME_NS;
+    }
+    let mut rows = Vec::new();
+    for _ in 0..100 {
+        rows.extend(feed(&mut probe, &mut w2, tf, &mut ti));
+        tf += FRAME_NS;
+    }
+    let median = |f: &dyn Fn(&estimator::estimator::Estimate) -> f64| {
+        let mut v: Vec<f64> = rows.iter().map(f).collect();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2] * 1e3
+    };
+    eprintln!(
+        "window breakdown over 100 frames (median ms): total {:.3}, solve {:.3}, marginalization {:.3}; landmarks {:.0}",
+        median(&|e| e.backend_s),
+        median(&|e| e.solve_s),
+        median(&|e| e.marginalization_s),
+        median(&|e| e.landmarks as f64) / 1e3
+    );
+
+    // The next frame's IMU samples go in during setup; the measured call is push_frame.
+    while t_imu <= t_frame {
+        est.push_imu(world.imu(t_imu)).unwrap();
+        t_imu += IMU_NS;
+    }
+    let frame = world.frame(t_frame);
+    c.bench_function("stereo_imu_window_update", |b| {
+        b.iter_batched(
+            || (est.clone(), frame.clone()),
+            |(mut e, f)| black_box(e.push_frame(f).unwrap()),
+            BatchSize::LargeInput,
+        )
+    });
+}
+
+criterion_group!(benches, window_update);
+criterion_main!(benches);
