@@ -1,12 +1,12 @@
 //! `scenarios`: scenario files, the runner, metrics, reports, dataset I/O and the `vio` CLI.
 //!
-//! - [`spec`]: the scenario TOML schema and its mapping onto the simulator and the estimator;
-//! - [`catalog`]: the built-in scenarios (`scenarios/catalog/*.toml`, embedded);
-//! - [`run`]: simulated stream → estimator, collecting estimates, ground truth, timings, events;
-//! - [`report`]: evaluation, `report.json`, TUM files, the human summary;
-//! - [`plot`]: `trajectory.png`;
-//! - [`interim`]: minimal TUM writer and ATE/RPE, to be replaced by `metrics`/`dataset`;
-//! - [`selfcheck`]: a quick end-to-end check of the estimator's mathematics.
+//! - [`spec`] — the scenario TOML schema and its mapping onto the simulator and the estimator;
+//! - [`catalog`] — the built-in scenarios (`scenarios/catalog/*.toml`, embedded);
+//! - [`run`] — simulated stream → estimator, collecting estimates, ground truth, timings, events;
+//! - [`report`] — evaluation, `report.json`, TUM files, the human summary;
+//! - [`plot`] — `trajectory.png`;
+//! - [`interim`] — minimal TUM writer and ATE/RPE, to be replaced by `metrics`/`dataset`;
+//! - [`selfcheck`] — a quick end-to-end check of the estimator's mathematics.
 
 pub mod catalog;
 pub mod interim;

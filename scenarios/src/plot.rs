@@ -96,11 +96,15 @@ fn draw(d: &PlotData, buf: &mut [u8]) -> DrawResult {
     let (margin, label_y, label_x, caption) = (20u32, 70u32, 50u32, 40u32);
     let plot_w = f64::from(SIZE.0 - 2 * margin - label_y);
     let plot_h = f64::from(TOP_H - 2 * margin - label_x - caption);
-    let (mut ax0, mut ax1) = padded(x0, x1, 0.5, 0.05);
-    let (mut ay0, mut ay1) = padded(y0, y1, 0.5, 0.05);
-    let scale = ((ax1 - ax0) / plot_w).max((ay1 - ay0) / plot_h);
-    (ax0, ax1) = padded(0.5 * (ax0 + ax1), 0.5 * (ax0 + ax1), scale * plot_w, 0.0);
-    (ay0, ay1) = padded(0.5 * (ay0 + ay1), 0.5 * (ay0 + ay1), scale * plot_h, 0.0);
+    // Equal scale (m per px) on both axes; the data stays below the legend's band at the top.
+    let legend_px = 100.0;
+    let (ax0, ax1) = padded(x0, x1, 0.5, 0.05);
+    let (dy0, dy1) = padded(y0, y1, 0.5, 0.05);
+    let scale = ((ax1 - ax0) / plot_w).max((dy1 - dy0) / (plot_h - legend_px));
+    let (ax0, ax1) = padded(0.5 * (ax0 + ax1), 0.5 * (ax0 + ax1), scale * plot_w, 0.0);
+    let free = (plot_h - legend_px) * scale - (dy1 - dy0);
+    let ay0 = dy0 - 0.5 * free;
+    let ay1 = ay0 + plot_h * scale;
     let mut chart = ChartBuilder::on(&top)
         .caption(&d.title, ("sans-serif", 26).into_font())
         .margin(margin)
@@ -121,7 +125,9 @@ fn draw(d: &PlotData, buf: &mut [u8]) -> DrawResult {
             gt_color.stroke_width(2),
         ))?
         .label("ground truth")
-        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], gt_color.stroke_width(2)));
+        .legend(move |(x, y)| {
+            PathElement::new(vec![(x, y), (x + 24, y)], gt_color.stroke_width(2))
+        });
     let est_label = match d.ate_rmse_m {
         Some(a) => format!(
             "estimate ({} aligned), ATE {:.3} m",
@@ -187,7 +193,10 @@ fn draw(d: &PlotData, buf: &mut [u8]) -> DrawResult {
         )))?
         .label("initializing")
         .legend(|(x, y)| {
-            Rectangle::new([(x, y - 6), (x + 24, y + 6)], RGBColor(225, 225, 225).filled())
+            Rectangle::new(
+                [(x, y - 6), (x + 24, y + 6)],
+                RGBColor(225, 225, 225).filled(),
+            )
         });
     }
     for (i, (kind, a, b)) in d.faults.iter().enumerate() {
@@ -198,7 +207,10 @@ fn draw(d: &PlotData, buf: &mut [u8]) -> DrawResult {
         if i == 0 {
             s.label(format!("fault: {}", kind.replace('_', " ")))
                 .legend(move |(x, y)| {
-                    Rectangle::new([(x, y - 6), (x + 24, y + 6)], fault_color.mix(0.35).filled())
+                    Rectangle::new(
+                        [(x, y - 6), (x + 24, y + 6)],
+                        fault_color.mix(0.35).filled(),
+                    )
                 });
         }
     }

@@ -67,7 +67,10 @@ pub fn evaluate(run: &RunOutput, suite: SuiteSpec) -> Evaluation {
         .iter()
         .map(|&i| run.frames[i].estimate.T_w_b)
         .collect();
-    let gt: Vec<Pose> = evaluated.iter().map(|&i| run.frames[i].truth.pose).collect();
+    let gt: Vec<Pose> = evaluated
+        .iter()
+        .map(|&i| run.frames[i].truth.pose)
+        .collect();
     let pe: Vec<_> = est.iter().map(|p| p.p).collect();
     let pg: Vec<_> = gt.iter().map(|p| p.p).collect();
     let (alignment_kind, alignment) = match suite {

@@ -784,7 +784,10 @@ impl Scenario {
             self.camera_model(i)?;
             self.extrinsic(i)?;
             let c = &rig.cameras[i];
-            nonneg(&format!("rig.cameras[{i}].pixel_sigma_px"), c.pixel_sigma_px)?;
+            nonneg(
+                &format!("rig.cameras[{i}].pixel_sigma_px"),
+                c.pixel_sigma_px,
+            )?;
             if let Some(d) = c.min_depth_m {
                 pos(&format!("rig.cameras[{i}].min_depth_m"), d)?;
             }
@@ -842,7 +845,10 @@ impl Scenario {
         for (key, v) in [
             ("estimator.keyframe_parallax_px", e.keyframe_parallax_px),
             ("estimator.huber_sigma", e.huber_sigma),
-            ("estimator.outlier_reprojection_px", e.outlier_reprojection_px),
+            (
+                "estimator.outlier_reprojection_px",
+                e.outlier_reprojection_px,
+            ),
         ] {
             if let Some(v) = v {
                 pos(key, v)?;
@@ -885,7 +891,7 @@ impl Scenario {
             v.ok_or_else(|| {
                 self.error(
                     &key(k),
-                    format!("missing: the {:?} model needs `{k}`", c.model),
+                    format!("missing: the {} model needs `{k}`", serde_name(c.model)),
                 )
             })
         };
@@ -893,7 +899,7 @@ impl Scenario {
             match v {
                 Some(_) => Err(self.error(
                     &key(k),
-                    format!("not used by the {:?} model: remove it", c.model),
+                    format!("not used by the {} model: remove it", serde_name(c.model)),
                 )),
                 None => Ok(()),
             }
@@ -960,7 +966,8 @@ impl Scenario {
             }
             (None, Some(q)) => {
                 let quat = Quaternion::new(q[3], q[0], q[1], q[2]);
-                if !((quat.norm() - 1.0).abs() < 1e-3) {
+                let unit = (quat.norm() - 1.0).abs() < 1e-3; // false for NaN
+                if !unit {
                     return Err(self.error(
                         &format!("{key}.quaternion_xyzw"),
                         "expected a unit quaternion [qx, qy, qz, qw] (norm 1 to 1e-3)",
@@ -1005,7 +1012,13 @@ impl Scenario {
             FaultKind::FrameDrops => (&["start_s", "end_s", "probability"], &[]),
             FaultKind::ImuDropout => (&["start_s", "end_s"], &[]),
             FaultKind::ImuSpikes => (
-                &["start_s", "end_s", "probability", "gyro_rad_s", "accel_m_s2"],
+                &[
+                    "start_s",
+                    "end_s",
+                    "probability",
+                    "gyro_rad_s",
+                    "accel_m_s2",
+                ],
                 &[],
             ),
             FaultKind::ImuSaturation => (
@@ -1022,15 +1035,15 @@ impl Scenario {
             if req && !p {
                 return Err(self.error(
                     &key(name),
-                    format!("missing: a {:?} fault needs `{name}`", f.kind),
+                    format!("missing: a {} fault needs `{name}`", serde_name(f.kind)),
                 ));
             }
             if p && !req && !optional.contains(&name) {
                 return Err(self.error(
                     &key(name),
                     format!(
-                        "not used by a {:?} fault (it takes {})",
-                        f.kind,
+                        "not used by a {} fault (it takes {})",
+                        serde_name(f.kind),
                         required
                             .iter()
                             .chain(optional)
@@ -1055,10 +1068,7 @@ impl Scenario {
         {
             return Err(self.error(
                 &key("cam_id"),
-                format!(
-                    "expected a camera index < {}",
-                    self.spec.rig.cameras.len()
-                ),
+                format!("expected a camera index < {}", self.spec.rig.cameras.len()),
             ));
         }
         let (start_ns, end_ns) = (ns(start), ns(end));
@@ -1185,16 +1195,19 @@ impl Scenario {
     /// catalog scenarios.
     fn data_file(&self, key: &str, rel: &str) -> Result<String, SpecError> {
         match &self.origin {
-            Origin::Catalog => catalog::data(rel).map(str::to_string).ok_or_else(|| {
-                self.error(key, format!("no embedded catalog data file `{rel}`"))
-            }),
+            Origin::Catalog => catalog::data(rel)
+                .map(str::to_string)
+                .ok_or_else(|| self.error(key, format!("no embedded catalog data file `{rel}`"))),
             Origin::File(p) => {
                 let base = p.parent().unwrap_or(Path::new("."));
                 let path = base.join(rel);
                 std::fs::read_to_string(&path).map_err(|e| {
                     self.error(
                         key,
-                        format!("cannot read {} (relative to the scenario file): {e}", path.display()),
+                        format!(
+                            "cannot read {} (relative to the scenario file): {e}",
+                            path.display()
+                        ),
                     )
                 })
             }
@@ -1349,7 +1362,7 @@ impl Scenario {
 }
 
 /// The serde (snake_case) name of a fault kind.
-fn serde_name(k: FaultKind) -> String {
+fn serde_name(k: impl fmt::Debug) -> String {
     let dbg = format!("{k:?}");
     let mut out = String::new();
     for (i, ch) in dbg.chars().enumerate() {
