@@ -27,7 +27,7 @@ enum Command {
         /// A catalog scenario name (see `vio list`) or a path to a scenario .toml file; default:
         /// the built-in default scenario.
         scenario: Option<String>,
-        /// Output folder [default: ./vio-out/<scenario>].
+        /// Output folder [default: ./vio-out/NAME, NAME the scenario name].
         #[arg(long)]
         out: Option<PathBuf>,
         /// Seed instead of the scenario's `world.seed`.
