@@ -592,6 +592,8 @@ pub struct Scenario {
     pub spec: ScenarioSpec,
     /// The file's text (kept for line lookups in later errors).
     text: String,
+    /// The camera models, built once: the simulator and the estimator share these.
+    models: Vec<Arc<dyn CameraModel>>,
 }
 
 impl Scenario {
@@ -661,9 +663,13 @@ impl Scenario {
             origin,
             spec,
             text: text.into(),
+            models: Vec::new(),
         };
         s.validate()?;
-        Ok(s)
+        let models = (0..s.spec.rig.cameras.len())
+            .map(|i| s.camera_model(i))
+            .collect::<Result<_, _>>()?;
+        Ok(Self { models, ..s })
     }
 
     /// The name errors use for the file.
@@ -1238,7 +1244,7 @@ impl Scenario {
         for (i, c) in s.rig.cameras.iter().enumerate() {
             let mut sc = SimCamera::new(
                 c.name.as_deref().unwrap_or(&format!("cam{i}")),
-                self.camera_model(i)?,
+                self.models[i].clone(),
                 self.extrinsic(i)?,
             );
             sc.pixel_sigma = c.pixel_sigma_px;
@@ -1315,7 +1321,7 @@ impl Scenario {
         let mut cameras = Vec::new();
         for (i, c) in s.rig.cameras.iter().enumerate() {
             cameras.push(EstCamera {
-                model: self.camera_model(i)?,
+                model: self.models[i].clone(),
                 T_b_c: self.extrinsic(i)?,
                 pixel_sigma: e.pixel_sigma_px.unwrap_or(c.pixel_sigma_px.max(0.5)),
             });
@@ -1433,4 +1439,107 @@ fn line_of_key(text: &str, key: &str) -> Option<usize> {
         }
     }
     span.map(|s| line_of_offset(text, s.start))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn default_text() -> &'static str {
+        catalog::get(catalog::DEFAULT).unwrap().text
+    }
+
+    #[test]
+    fn key_lines_are_found_down_to_array_elements() {
+        let text = default_text();
+        let line = |needle: &str| text.lines().position(|l| l.contains(needle)).unwrap() + 1;
+        assert_eq!(line_of_key(text, "world.seed"), Some(line("seed = 1")));
+        assert_eq!(
+            line_of_key(text, "rig.cameras[1].pixel_sigma_px"),
+            Some(
+                text.lines()
+                    .collect::<Vec<_>>()
+                    .iter()
+                    .rposition(|l| l.contains("pixel_sigma_px"))
+                    .unwrap()
+                    + 1
+            )
+        );
+        // A missing key gives the line of its deepest present parent.
+        assert_eq!(
+            line_of_key(text, "trajectory.nope.deeper"),
+            line_of_key(text, "trajectory")
+        );
+        assert_eq!(line_of_key(text, "nope"), None);
+    }
+
+    #[test]
+    fn bounds_check_both_sides_and_reject_missing_values() {
+        let b = Bound {
+            min: Some(1.0),
+            max: Some(2.0),
+        };
+        assert!(b.check(Some(1.5)));
+        assert!(!b.check(Some(0.5)) && !b.check(Some(2.5)));
+        assert!(!b.check(None) && !b.check(Some(f64::NAN)));
+    }
+
+    #[test]
+    fn other_camera_models_and_quaternion_extrinsics_map_onto_the_configs() {
+        let text = default_text()
+            .replacen(
+                "model = \"pinhole_radtan\"",
+                "model = \"double_sphere\"\nxi = -0.2\nalpha = 0.6",
+                1,
+            )
+            .replacen(
+                "distortion = [-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05]\n",
+                "",
+                1,
+            )
+            .replacen(
+                "rotation = [[0, 0, 1], [-1, 0, 0], [0, -1, 0]]",
+                "quaternion_xyzw = [0.5, -0.5, 0.5, -0.5]",
+                1,
+            );
+        let s = Scenario::parse("t", Origin::Catalog, &text).unwrap_or_else(|e| panic!("{e}"));
+        let w = s.world_config(Some(9), Some(1.0)).unwrap();
+        let e = s.estimator_config().unwrap();
+        let rig = w.rig.unwrap();
+        assert_eq!(w.seed, 9);
+        // The estimator gets the very models the simulator projects with.
+        for i in 0..2 {
+            assert!(Arc::ptr_eq(&rig.cameras[i].model, &e.cameras[i].model));
+        }
+        // Both quaternion and matrix extrinsics give the same forward-looking rotation.
+        let d = rig.cameras[0].t_b_c.q.angle_to(&rig.cameras[1].t_b_c.q);
+        assert!(d < 1e-9, "{d}");
+        assert_eq!(e.cameras[0].T_b_c, rig.cameras[0].t_b_c);
+        let p = nalgebra::Vector3::new(0.1, -0.2, 1.0);
+        assert_eq!(
+            e.cameras[0].model.project(&p),
+            rig.cameras[0].model.project(&p)
+        );
+    }
+
+    #[test]
+    fn replay_paths_resolve_relative_to_the_scenario_file() {
+        let dir = std::env::temp_dir().join(format!("vio-spec-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("data")).unwrap();
+        std::fs::write(
+            dir.join("data/traj.txt"),
+            catalog::data("data/euroc_V2_02_medium_20s.txt").unwrap(),
+        )
+        .unwrap();
+        let text = catalog::get("room_replay_v2_02_stereo_imu")
+            .unwrap()
+            .text
+            .replace("data/euroc_V2_02_medium_20s.txt", "data/traj.txt");
+        let file = dir.join("replay.toml");
+        std::fs::write(&file, text).unwrap();
+        let s = Scenario::load(file.to_str().unwrap()).unwrap();
+        assert_eq!(s.name, "replay");
+        assert!(s.world_config(None, None).is_ok());
+        let _ = std::fs::remove_dir_all(dir);
+    }
 }
