@@ -3,10 +3,20 @@
 //! - [`dataset`]: TUM trajectories, EuRoC ASL folders, `sensor.yaml`, `features.csv`.
 //! - [`metrics`]: association, alignment (SE3, Sim3, position+yaw), ATE, RPE, NEES — with
 //!   evo's definitions.
-//! - [`selfcheck`]: a quick end-to-end check of the estimator's mathematics (`vio selfcheck`).
-//!
-//! Scenario files and `vio run` arrive with the harness spine.
+//! - [`spec`] — the scenario TOML schema and its mapping onto the simulator and the estimator;
+//! - [`catalog`] — the built-in scenarios (`scenarios/catalog/*.toml`, embedded);
+//! - [`run`] — simulated stream → estimator, collecting estimates, ground truth, timings, events;
+//! - [`report`] — evaluation, `report.json`, TUM files, the human summary;
+//! - [`plot`] — `trajectory.png`;
+//! - [`interim`] — minimal TUM writer and ATE/RPE, to be replaced by `metrics`/`dataset`;
+//! - [`selfcheck`] — a quick end-to-end check of the estimator's mathematics.
 
+pub mod catalog;
 pub mod dataset;
+pub mod interim;
 pub mod metrics;
+pub mod plot;
+pub mod report;
+pub mod run;
 pub mod selfcheck;
+pub mod spec;

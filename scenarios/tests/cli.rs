@@ -1,4 +1,6 @@
-//! `vio eval` end to end: evo's ATE on the fixture, exit code 2 with `file:line` on bad input.
+//! The `vio` binary: `eval` against evo's numbers on the fixtures (exit 2 with `file:line` on
+//! bad input), `list`, `run` on a short scenario (files, exit codes), and malformed scenario files
+//! (missing key, wrong type, unknown key, bad path), which must exit 2 naming the key.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -158,4 +160,220 @@ fn eval_exits_2_naming_file_and_line_on_bad_input() {
         "xyz",
     ]);
     assert_eq!(out.status.code(), Some(2));
+}
+
+/// A fresh scratch folder for one test.
+fn scratch(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("vio-cli-{}-{tag}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// The default catalog scenario's text, shortened to `duration_s`, with one loose expectation
+/// (`ate_rmse_m ≤ 0.15`).
+fn default_text(duration_s: f64) -> String {
+    let text = scenarios::catalog::get(scenarios::catalog::DEFAULT)
+        .unwrap()
+        .text;
+    assert!(text.contains("duration_s = 60.0"));
+    let head = &text[..text.find("[expectations]").unwrap()];
+    head.replace("duration_s = 60.0", &format!("duration_s = {duration_s:?}"))
+        + "[expectations]\nate_rmse_m = { max = 0.15 }\n"
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// Runs `vio run` on `text`; asserts exit code 2 and that stderr names `key` and `line`.
+fn assert_bad(tag: &str, text: &str, key: &str, expect: &[&str]) -> String {
+    let dir = scratch(tag);
+    let p = write(&dir, "bad.toml", text);
+    let out = vio(&[
+        "run",
+        p.to_str().unwrap(),
+        "--out",
+        dir.join("out").to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(2), "{tag}: stderr: {stderr}");
+    assert!(
+        stderr.contains("bad.toml"),
+        "{tag}: file not named: {stderr}"
+    );
+    assert!(
+        stderr.contains(key),
+        "{tag}: key `{key}` not named: {stderr}"
+    );
+    for e in expect {
+        assert!(stderr.contains(e), "{tag}: `{e}` missing: {stderr}");
+    }
+    assert!(
+        !dir.join("out").exists(),
+        "{tag}: wrote output on bad input"
+    );
+    let _ = std::fs::remove_dir_all(dir);
+    stderr
+}
+
+#[test]
+fn list_names_every_catalog_scenario() {
+    let out = vio(&["list"]);
+    assert_eq!(out.status.code(), Some(0));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    for name in scenarios::catalog::names() {
+        assert!(stdout.contains(name), "{name} missing from: {stdout}");
+    }
+    assert!(stdout.contains("[default]"));
+}
+
+#[test]
+fn missing_key_exits_2_naming_it() {
+    let text = default_text(2.0).replace("duration_s = 2.0\n", "");
+    assert_bad("missing", &text, "trajectory", &["duration_s", "missing"]);
+}
+
+#[test]
+fn wrong_type_exits_2_naming_the_key_and_line() {
+    let text = default_text(2.0).replace("rate_hz = 20.0", "rate_hz = \"fast\"");
+    let line = text.lines().position(|l| l.contains("\"fast\"")).unwrap() + 1;
+    let err = assert_bad("type", &text, "rig.rate_hz", &["invalid type", "f64"]);
+    assert!(
+        err.contains(&format!(":{line}:")),
+        "line {line} not named: {err}"
+    );
+}
+
+#[test]
+fn unknown_key_exits_2_naming_it() {
+    let text = default_text(2.0).replace("seed = 1", "seed = 1\nsead = 2");
+    assert_bad("unknown", &text, "sead", &["world", "unknown field"]);
+    let text = default_text(2.0).replace("[expectations]", "[expectations]\nate_m = { max = 1 }");
+    assert_bad("unknown-expectation", &text, "ate_m", &["expectations"]);
+}
+
+#[test]
+fn bad_replay_path_exits_2_naming_the_key() {
+    let text = scenarios::catalog::get("room_replay_v2_02_stereo_imu")
+        .unwrap()
+        .text
+        .replace("data/euroc_V2_02_medium_20s.txt", "data/no_such_file.txt");
+    assert_bad(
+        "path",
+        &text,
+        "trajectory.replay.file",
+        &["no_such_file.txt", "relative to the scenario file"],
+    );
+}
+
+#[test]
+fn semantic_errors_exit_2_naming_the_key() {
+    let text = default_text(2.0).replace("pixel_sigma_px = 1.0", "pixel_sigma_px = -1.0");
+    assert_bad("negative", &text, "rig.cameras[0].pixel_sigma_px", &["≥ 0"]);
+    let text = default_text(2.0).replace(
+        "distortion = [-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05]",
+        "distortion = [-0.28340811]",
+    );
+    assert_bad(
+        "distortion",
+        &text,
+        "rig.cameras[0].distortion",
+        &["4 coefficients"],
+    );
+    let text = default_text(2.0).replace("suite = \"stereo_imu\"", "suite = \"mono\"");
+    assert_bad("suite", &text, "suite", &["stereo_imu"]);
+}
+
+#[test]
+fn unknown_scenario_name_exits_2() {
+    let out = vio(&["run", "no_such_scenario"]);
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("no_such_scenario") && stderr.contains("room_figure8_stereo_imu"));
+}
+
+#[test]
+fn run_writes_the_report_files_and_exits_by_expectations() {
+    let dir = scratch("run");
+    // Passing expectations: exit 0 and every file.
+    let ok = write(&dir, "short.toml", &default_text(3.0));
+    let out_ok = dir.join("ok");
+    let out = vio(&[
+        "run",
+        ok.to_str().unwrap(),
+        "--out",
+        out_ok.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("ATE") && stdout.contains("PASS"),
+        "{stdout}"
+    );
+    for f in [
+        "estimate.tum",
+        "groundtruth.tum",
+        "report.json",
+        "trajectory.png",
+    ] {
+        assert!(out_ok.join(f).is_file(), "{f} missing");
+    }
+    let png = std::fs::read(out_ok.join("trajectory.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_ok.join("report.json")).unwrap())
+            .unwrap();
+    for k in [
+        "scenario",
+        "suite",
+        "seed",
+        "frames",
+        "duration_s",
+        "ate_rmse_m",
+        "ate_rot_rmse_deg",
+        "rpe_trans_rmse_m",
+        "resets",
+    ] {
+        assert!(json.get(k).is_some(), "report.json lacks {k}");
+    }
+    assert_eq!(json["scenario"], "short");
+    assert_eq!(json["suite"], "stereo_imu");
+    assert!(json["ate_rmse_m"].as_f64().unwrap() > 0.0);
+    for part in ["frontend", "backend", "total"] {
+        for stat in ["median", "p99", "max"] {
+            assert!(json["timing_ms"][part][stat].is_number(), "{part}.{stat}");
+        }
+    }
+    assert!(json["timing_ms"]["render"].is_null());
+    // An expectation that cannot hold: exit 1, files still written.
+    let strict =
+        default_text(3.0).replace("ate_rmse_m = { max = 0.15 }", "ate_rmse_m = { max = 1e-9 }");
+    let bad = write(&dir, "strict.toml", &strict);
+    let out_bad = dir.join("bad");
+    let out = vio(&[
+        "run",
+        bad.to_str().unwrap(),
+        "--out",
+        out_bad.to_str().unwrap(),
+        "--seed",
+        "7",
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(1), "{stdout}");
+    assert!(stdout.contains("FAIL"), "{stdout}");
+    assert!(out_bad.join("report.json").is_file());
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_bad.join("report.json")).unwrap())
+            .unwrap();
+    assert_eq!(json["seed"], 7);
+    assert_eq!(json["passed"], false);
+    let _ = std::fs::remove_dir_all(dir);
 }

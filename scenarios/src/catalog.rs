@@ -1,0 +1,74 @@
+//! The built-in scenario catalog: `scenarios/catalog/*.toml` and their data files, embedded in
+//! the binary so that `vio run NAME` works from any directory.
+
+/// A built-in scenario.
+#[derive(Clone, Copy, Debug)]
+pub struct Entry {
+    /// Name (the file stem).
+    pub name: &'static str,
+    /// The TOML text.
+    pub text: &'static str,
+}
+
+/// The scenario `vio run` runs without an argument.
+pub const DEFAULT: &str = "room_figure8_stereo_imu";
+
+macro_rules! entry {
+    ($name:literal) => {
+        Entry {
+            name: $name,
+            text: include_str!(concat!("../catalog/", $name, ".toml")),
+        }
+    };
+}
+
+const ENTRIES: &[Entry] = &[
+    entry!("room_figure8_stereo_imu"),
+    entry!("room_figure8_stereo"),
+    entry!("room_circle_stereo_imu"),
+    entry!("room_replay_v2_02_stereo_imu"),
+    entry!("room_figure8_blackout_stereo_imu"),
+];
+
+/// Data files the catalog scenarios reference, by their path relative to `catalog/`.
+const DATA: &[(&str, &str)] = &[(
+    "data/euroc_V2_02_medium_20s.txt",
+    include_str!("../catalog/data/euroc_V2_02_medium_20s.txt"),
+)];
+
+/// Every built-in scenario, the default first.
+pub fn entries() -> &'static [Entry] {
+    ENTRIES
+}
+
+/// The built-in scenario `name`.
+pub fn get(name: &str) -> Option<&'static Entry> {
+    ENTRIES.iter().find(|e| e.name == name)
+}
+
+/// The names of the built-in scenarios.
+pub fn names() -> Vec<&'static str> {
+    ENTRIES.iter().map(|e| e.name).collect()
+}
+
+/// An embedded data file by its path relative to `catalog/`.
+pub fn data(path: &str) -> Option<&'static str> {
+    let path = path.strip_prefix("./").unwrap_or(path);
+    DATA.iter().find(|(p, _)| *p == path).map(|(_, t)| *t)
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::spec::Scenario;
+
+    #[test]
+    fn every_catalog_scenario_parses_and_builds() {
+        for e in super::entries() {
+            let s = Scenario::load(e.name).unwrap_or_else(|err| panic!("{err}"));
+            s.world_config(None, Some(1.0))
+                .unwrap_or_else(|err| panic!("{err}"));
+            s.estimator_config().unwrap_or_else(|err| panic!("{err}"));
+        }
+        assert_eq!(super::entries()[0].name, super::DEFAULT);
+    }
+}

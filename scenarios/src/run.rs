@@ -1,0 +1,214 @@
+//! The runner: a scenario's simulated measurement stream → the estimator, collecting per-frame
+//! estimates, ground truth at the estimate times, timings and events.
+//!
+//! Determinism: everything but the timing fields is a function of the scenario and the seed; the
+//! wall clock is read only to fill [`FrameTiming`].
+
+use std::time::Instant;
+
+use estimator::estimator::{Estimate, Estimator, Status};
+use sim::World;
+use sim::stream::{GroundTruth, Measurement};
+
+use crate::spec::{Scenario, SpecError};
+
+/// Overrides for one run.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RunOptions {
+    /// Seed instead of the scenario's `world.seed`.
+    pub seed: Option<u64>,
+    /// Duration (s) instead of the scenario's `trajectory.duration_s`.
+    pub duration_s: Option<f64>,
+}
+
+/// Wall time spent on one frame (s). Measured for reports only.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameTiming {
+    /// Front end: turning the sensor input into the estimator's feature frame. Feature-level
+    /// scenarios hand the simulated features over as they are, so this is ~0.
+    pub frontend_s: f64,
+    /// Back end: the estimator's own measurement (`Estimate::backend_s`).
+    pub backend_s: f64,
+    /// Front end plus the whole estimator call that produced the estimate.
+    pub total_s: f64,
+}
+
+/// One processed frame.
+#[derive(Clone, Debug)]
+pub struct FrameRecord {
+    /// The estimate (its `t_ns` is in the IMU clock = true time).
+    pub estimate: Estimate,
+    /// Ground truth at the estimate's time.
+    pub truth: GroundTruth,
+    /// Timing.
+    pub timing: FrameTiming,
+}
+
+/// What happened during a run.
+#[derive(Clone, Debug, PartialEq)]
+pub enum EventKind {
+    /// The estimator's status changed.
+    StatusChange {
+        /// Before.
+        from: Status,
+        /// After.
+        to: Status,
+    },
+    /// The estimator rejected an input (the run goes on without it).
+    InputRejected(String),
+}
+
+/// A timestamped event.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Event {
+    /// Time (ns).
+    pub t_ns: i64,
+    /// What happened.
+    pub kind: EventKind,
+}
+
+/// Everything a run produced.
+#[derive(Clone, Debug)]
+pub struct RunOutput {
+    /// Scenario name.
+    pub scenario: String,
+    /// The seed used.
+    pub seed: u64,
+    /// Simulated duration (s).
+    pub duration_s: f64,
+    /// IMU samples fed.
+    pub imu_samples: usize,
+    /// Frames fed.
+    pub frames_in: usize,
+    /// Per processed frame, in order.
+    pub frames: Vec<FrameRecord>,
+    /// Events in order.
+    pub events: Vec<Event>,
+    /// Estimator resets (the estimator has no reset yet: always 0).
+    pub resets: usize,
+}
+
+/// Errors that stop a run.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The scenario does not map onto a world or an estimator.
+    #[error("{0}")]
+    Spec(#[from] SpecError),
+    /// The simulator rejected the world.
+    #[error("{file}: the simulator rejected the scenario: {message}")]
+    Sim {
+        /// The scenario file.
+        file: String,
+        /// Why.
+        message: String,
+    },
+    /// The estimator rejected its configuration.
+    #[error("{file}: the estimator rejected the scenario's configuration: {message}")]
+    Estimator {
+        /// The scenario file.
+        file: String,
+        /// Why.
+        message: String,
+    },
+    /// Ground truth was not available at an estimate's time.
+    #[error("no ground truth at t = {t_ns} ns")]
+    NoTruth {
+        /// The estimate's time.
+        t_ns: i64,
+    },
+}
+
+/// Runs `scenario`; `progress` is called with the fraction of simulated time done (0..=1).
+pub fn run(
+    scenario: &Scenario,
+    options: &RunOptions,
+    progress: &mut dyn FnMut(f64),
+) -> Result<RunOutput, RunError> {
+    let world_cfg = scenario.world_config(options.seed, options.duration_s)?;
+    let est_cfg = scenario.estimator_config()?;
+    let seed = world_cfg.seed;
+    let world = World::new(world_cfg).map_err(|e| RunError::Sim {
+        file: scenario.file_label(),
+        message: e.to_string(),
+    })?;
+    let mut estimator = Estimator::new(est_cfg).map_err(|e| RunError::Estimator {
+        file: scenario.file_label(),
+        message: e.to_string(),
+    })?;
+    let end_ns = world.end_ns();
+    let mut stream = world.stream();
+    let mut out = RunOutput {
+        scenario: scenario.name.clone(),
+        seed,
+        duration_s: end_ns as f64 * 1e-9,
+        imu_samples: 0,
+        frames_in: 0,
+        frames: Vec::new(),
+        events: Vec::new(),
+        resets: 0,
+    };
+    let mut status = estimator.status();
+    let mut last_progress = -1.0;
+    while let Some(m) = stream.next() {
+        let t_ns = m.t_ns();
+        let (result, frontend_s, call_start) = match m {
+            Measurement::Imu(s) => {
+                out.imu_samples += 1;
+                let start = Instant::now();
+                (estimator.push_imu(s), 0.0, start)
+            }
+            Measurement::Frame(f) => {
+                out.frames_in += 1;
+                // Feature-level input: the frame is already the estimator's input.
+                let start = Instant::now();
+                let frame = f;
+                let frontend_s = start.elapsed().as_secs_f64();
+                (estimator.push_frame(frame), frontend_s, start)
+            }
+        };
+        let call_s = call_start.elapsed().as_secs_f64();
+        let estimates = match result {
+            Ok(e) => e,
+            Err(e) => {
+                out.events.push(Event {
+                    t_ns,
+                    kind: EventKind::InputRejected(e.to_string()),
+                });
+                Vec::new()
+            }
+        };
+        let n = estimates.len().max(1) as f64;
+        for e in estimates {
+            if e.status != status {
+                out.events.push(Event {
+                    t_ns: e.t_ns,
+                    kind: EventKind::StatusChange {
+                        from: status,
+                        to: e.status,
+                    },
+                });
+                status = e.status;
+            }
+            let truth = stream
+                .truth(e.t_ns)
+                .ok_or(RunError::NoTruth { t_ns: e.t_ns })?;
+            let timing = FrameTiming {
+                frontend_s,
+                backend_s: e.backend_s,
+                total_s: frontend_s + call_s / n,
+            };
+            out.frames.push(FrameRecord {
+                estimate: e,
+                truth,
+                timing,
+            });
+        }
+        let frac = (t_ns as f64 / end_ns.max(1) as f64).clamp(0.0, 1.0);
+        if frac - last_progress >= 0.001 {
+            progress(frac);
+            last_progress = frac;
+        }
+    }
+    progress(1.0);
+    Ok(out)
+}

@@ -1,0 +1,59 @@
+//! Shared helpers of the scenario tests: run a catalog scenario once per test binary.
+
+#![allow(dead_code)]
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock};
+
+use scenarios::report::{self, Evaluation, Report};
+use scenarios::run::{RunOptions, RunOutput, run};
+use scenarios::spec::Scenario;
+
+/// A finished run with its evaluation and report.
+pub struct Done {
+    /// The scenario.
+    pub scenario: Scenario,
+    /// The run.
+    pub output: RunOutput,
+    /// Its evaluation.
+    pub eval: Evaluation,
+    /// Its report.
+    pub report: Report,
+}
+
+/// Runs catalog scenario `name` for `duration_s` (None: its full length); each (name, duration)
+/// runs once per test binary and is shared by the tests that ask for it.
+pub fn run_catalog(name: &str, duration_s: Option<f64>) -> Arc<Done> {
+    type Cache = Mutex<HashMap<String, Arc<OnceLock<Arc<Done>>>>>;
+    static CACHE: OnceLock<Cache> = OnceLock::new();
+    let key = format!("{name}@{duration_s:?}");
+    let cell = CACHE
+        .get_or_init(Default::default)
+        .lock()
+        .unwrap()
+        .entry(key)
+        .or_default()
+        .clone();
+    cell.get_or_init(|| {
+        let scenario = Scenario::load(name).unwrap_or_else(|e| panic!("{e}"));
+        let output = run(
+            &scenario,
+            &RunOptions {
+                seed: None,
+                duration_s,
+            },
+            &mut |_| {},
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let eval = report::evaluate(&output, scenario.spec.suite);
+        let report = report::build_report(&scenario, &output, &eval);
+        println!("{}", report::summary(&report, None));
+        Arc::new(Done {
+            scenario,
+            output,
+            eval,
+            report,
+        })
+    })
+    .clone()
+}

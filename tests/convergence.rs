@@ -1,0 +1,112 @@
+//! Convergence of the stereo+IMU estimator on catalog scenarios, against the simulator's ground
+//! truth: ATE bounds, bias convergence, and (ignored by default) the full-length scenarios'
+//! own expectations.
+//!
+//! The default test run uses the first 20 s of each scenario to keep CI fast; the full-length
+//! runs are `#[ignore]`d: `cargo test --release --test convergence -- --ignored`.
+
+mod common;
+
+use common::run_catalog;
+
+/// Shortened duration of the default test run (s).
+const SHORT_S: f64 = 20.0;
+
+/// Asserts the position ATE of a shortened stereo+IMU run and that it tracked almost throughout.
+fn assert_converges(name: &str, max_ate_m: f64) {
+    let d = run_catalog(name, Some(SHORT_S));
+    let r = &d.report;
+    assert_eq!(r.suite, "stereo_imu");
+    assert!(
+        r.tracking_fraction > 0.9,
+        "{name}: tracking only {:.1} % of frames",
+        100.0 * r.tracking_fraction
+    );
+    let ate = r.ate_rmse_m.expect("tracking frames");
+    assert!(ate < max_ate_m, "{name}: ATE {ate:.4} m ≥ {max_ate_m} m");
+    assert_eq!(r.resets, 0);
+}
+
+#[test]
+fn stereo_imu_converges_on_room_figure8() {
+    assert_converges("room_figure8_stereo_imu", 0.06);
+}
+
+#[test]
+fn stereo_imu_converges_on_room_circle() {
+    assert_converges("room_circle_stereo_imu", 0.08);
+}
+
+#[test]
+fn stereo_imu_converges_on_euroc_v2_02_replay() {
+    assert_converges("room_replay_v2_02_stereo_imu", 0.10);
+}
+
+/// Estimated biases at the end of the shortened default scenario match the simulated ones
+/// (which start at |b_g| ≈ 3.9e-3 rad/s, |b_a| ≈ 0.10 m/s² and random-walk from there): the
+/// gyroscope bias to 1e-3 rad/s and the accelerometer bias to 0.04 m/s², both well under the
+/// bias itself, so the estimator has learned them.
+#[test]
+fn biases_converge_to_the_simulated_biases() {
+    let d = run_catalog("room_figure8_stereo_imu", Some(SHORT_S));
+    let last = d
+        .output
+        .frames
+        .iter()
+        .rev()
+        .find(|f| f.estimate.status == estimator::estimator::Status::Tracking)
+        .expect("tracking frames");
+    let bg_err = (last.estimate.bg - last.truth.gyro_bias).norm();
+    let ba_err = (last.estimate.ba - last.truth.accel_bias).norm();
+    println!(
+        "|bg| {:.5} rad/s, error {bg_err:.5}; |ba| {:.4} m/s², error {ba_err:.4}",
+        last.truth.gyro_bias.norm(),
+        last.truth.accel_bias.norm()
+    );
+    assert!(bg_err < 1e-3, "gyro bias error {bg_err} rad/s");
+    assert!(ba_err < 0.04, "accel bias error {ba_err} m/s²");
+    assert!(bg_err < 0.5 * last.truth.gyro_bias.norm());
+    assert!(ba_err < 0.5 * last.truth.accel_bias.norm());
+    assert_eq!(
+        d.report.gyro_bias_error_rad_s,
+        Some(bg_err),
+        "report field matches"
+    );
+}
+
+/// Runs a catalog scenario at full length and checks its own expectations.
+fn full_length(name: &str) {
+    let d = run_catalog(name, None);
+    let failed: Vec<_> = d.report.expectations.iter().filter(|e| !e.passed).collect();
+    assert!(failed.is_empty(), "{name}: failed expectations {failed:?}");
+}
+
+#[test]
+#[ignore = "full length: ~20 s each in release"]
+fn full_room_figure8_stereo_imu() {
+    full_length("room_figure8_stereo_imu");
+}
+
+#[test]
+#[ignore = "full length"]
+fn full_room_figure8_stereo() {
+    full_length("room_figure8_stereo");
+}
+
+#[test]
+#[ignore = "full length"]
+fn full_room_circle_stereo_imu() {
+    full_length("room_circle_stereo_imu");
+}
+
+#[test]
+#[ignore = "full length"]
+fn full_room_replay_v2_02_stereo_imu() {
+    full_length("room_replay_v2_02_stereo_imu");
+}
+
+#[test]
+#[ignore = "full length"]
+fn full_room_figure8_blackout_stereo_imu() {
+    full_length("room_figure8_blackout_stereo_imu");
+}
