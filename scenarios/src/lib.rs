@@ -8,12 +8,10 @@
 //! - [`run`] — simulated stream → estimator, collecting estimates, ground truth, timings, events;
 //! - [`report`] — evaluation, `report.json`, TUM files, the human summary;
 //! - [`plot`] — `trajectory.png`;
-//! - [`interim`] — minimal TUM writer and ATE/RPE, to be replaced by `metrics`/`dataset`;
 //! - [`selfcheck`] — a quick end-to-end check of the estimator's mathematics.
 
 pub mod catalog;
 pub mod dataset;
-pub mod interim;
 pub mod metrics;
 pub mod plot;
 pub mod report;

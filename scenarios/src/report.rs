@@ -2,9 +2,29 @@
 //! trajectory plot and the human summary `vio run` prints.
 //!
 //! Evaluation uses the estimates in tracking state only (during initialization the estimate is
-//! not yet in a gravity-aligned world frame). Stereo+IMU estimates are aligned to ground truth by
-//! position + yaw (the 4 unobservable degrees of freedom); vision-only estimates by a rigid SE(3)
-//! alignment (their world frame is the first camera pose, not gravity-aligned).
+//! not yet in a gravity-aligned world frame), each paired with the ground truth at its own time,
+//! and [`crate::metrics`] (evo's definitions):
+//! - Alignment: stereo+IMU estimates are aligned to ground truth by position + yaw
+//!   ([`Alignment::PosYaw`], the 4 unobservable degrees of freedom); vision-only estimates by a
+//!   rigid SE(3) alignment ([`Alignment::Se3`]: their world frame is the first camera pose, not
+//!   gravity-aligned). No scale.
+//! - ATE ([`metrics::ate`]): RMSE of the position error (m) and of the rotation angle (deg) after
+//!   that alignment.
+//! - RPE ([`metrics::rpe`] with [`RpeOptions::meters`] of [`RPE_DELTA_M`]): translation RMSE
+//!   of relative poses over Δ = 1 m of travelled distance. Pairs come from the ground truth: its
+//!   first evaluated pose is an anchor, each later pose at which the ground-truth path since the
+//!   last anchor reaches 1 m becomes the next one, and successive anchors form the pairs (evo's
+//!   `evo_rpe --delta 1 --delta_unit m --pairs_from_reference`). A rigid alignment does not
+//!   change relative poses, so the unaligned estimate is used.
+//!
+//! Metrics that cannot be computed are `null` in the report (`n/a` in the summary): no tracking
+//! frames, too few or degenerate positions for the alignment (fewer than 2 poses or no horizontal
+//! spread for position+yaw; fewer than 3 or collinear positions for SE(3)), or, for the RPE, less
+//! than 1 m of ground-truth path.
+//!
+//! With these definitions the report's numbers equal those of
+//! `vio eval --gt groundtruth.tum --est estimate.tum --align posyaw` (`se3` for stereo-only)
+//! to round-off: the TUM files hold the exact `f64` values.
 //!
 //! Files written to the output folder:
 //! - `estimate.tum`: the tracking-state estimates `T_w_b`, unaligned, in the estimator's world;
@@ -13,6 +33,8 @@
 //! - `report.json`: the fields below ([`Report`]);
 //! - `trajectory.png`: top view of ground truth vs the aligned estimate, and the position error
 //!   over time ([`crate::plot`]).
+//!
+//! Both TUM files are written by [`crate::dataset::write_tum`].
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -21,37 +43,63 @@ use estimator::estimator::Status;
 use estimator::geometry::Pose;
 use serde::Serialize;
 
-use crate::interim::{self, Alignment};
+use crate::dataset::{self, StampedPose};
+use crate::metrics::{self, Alignment, AteResult, MetricsError, RpeOptions, RpeResult};
 use crate::plot::{self, PlotData};
 use crate::run::{EventKind, RunOutput};
 use crate::spec::{Scenario, SuiteSpec};
 
-/// Time step of the relative pose error (s).
-pub const RPE_DELTA_S: f64 = 1.0;
+/// Pair spacing of the relative pose error: metres of ground-truth path.
+pub const RPE_DELTA_M: f64 = 1.0;
 
 /// Metrics of a run against ground truth.
 #[derive(Clone, Debug)]
 pub struct Evaluation {
-    /// `position_yaw` or `se3`.
-    pub alignment_kind: &'static str,
-    /// The alignment (identity without tracking frames).
+    /// [`Alignment::PosYaw`] (stereo+IMU) or [`Alignment::Se3`] (stereo-only).
     pub alignment: Alignment,
     /// Indices (into `RunOutput::frames`) of the evaluated frames (tracking state).
     pub evaluated: Vec<usize>,
-    /// Position ATE RMSE (m).
-    pub ate_rmse_m: Option<f64>,
-    /// Rotation ATE RMSE (deg).
-    pub ate_rot_rmse_deg: Option<f64>,
-    /// Per evaluated frame: position error (m).
-    pub errors_m: Vec<f64>,
-    /// RPE translation RMSE over [`RPE_DELTA_S`] (m).
-    pub rpe_trans_rmse_m: Option<f64>,
+    /// ATE over the evaluated frames, with the alignment's transform and per-frame errors (in
+    /// `evaluated` order); why not, when it cannot be computed.
+    pub ate: Result<AteResult, MetricsError>,
+    /// RPE over [`RPE_DELTA_M`] of ground-truth path; why not, when no pair qualifies.
+    pub rpe: Result<RpeResult, MetricsError>,
     /// Fraction of processed frames in tracking state.
     pub tracking_fraction: f64,
     /// Final gyroscope bias error (rad/s), with an IMU.
     pub gyro_bias_error_rad_s: Option<f64>,
     /// Final accelerometer bias error (m/s²), with an IMU.
     pub accel_bias_error_m_s2: Option<f64>,
+}
+
+impl Evaluation {
+    /// The alignment's name in `report.json`: `position_yaw` or `se3`.
+    pub fn alignment_name(&self) -> &'static str {
+        alignment_name(self.alignment)
+    }
+
+    /// Position ATE RMSE (m).
+    pub fn ate_rmse_m(&self) -> Option<f64> {
+        self.ate.as_ref().ok().map(|a| a.translation.rmse)
+    }
+
+    /// Rotation ATE RMSE (deg).
+    pub fn ate_rot_rmse_deg(&self) -> Option<f64> {
+        self.ate.as_ref().ok().map(|a| a.rotation_deg.rmse)
+    }
+
+    /// RPE translation RMSE over [`RPE_DELTA_M`] (m).
+    pub fn rpe_trans_rmse_m(&self) -> Option<f64> {
+        self.rpe.as_ref().ok().map(|r| r.translation.rmse)
+    }
+}
+
+/// The name `report.json` and the summary use for an alignment.
+fn alignment_name(a: Alignment) -> &'static str {
+    match a {
+        Alignment::PosYaw => "position_yaw",
+        other => other.name(),
+    }
 }
 
 /// Evaluates a run (see the module documentation).
@@ -71,24 +119,12 @@ pub fn evaluate(run: &RunOutput, suite: SuiteSpec) -> Evaluation {
         .iter()
         .map(|&i| run.frames[i].truth.pose)
         .collect();
-    let pe: Vec<_> = est.iter().map(|p| p.p).collect();
-    let pg: Vec<_> = gt.iter().map(|p| p.p).collect();
-    let (alignment_kind, alignment) = match suite {
-        SuiteSpec::StereoImu => ("position_yaw", interim::align_position_yaw(&pe, &pg)),
-        SuiteSpec::Stereo => ("se3", interim::align_se3(&pe, &pg)),
+    let alignment = match suite {
+        SuiteSpec::StereoImu => Alignment::PosYaw,
+        SuiteSpec::Stereo => Alignment::Se3,
     };
-    let (ate_rmse_m, ate_rot_rmse_deg, errors_m) = if est.is_empty() {
-        (None, None, Vec::new())
-    } else {
-        let a = interim::ate(&est, &gt, &alignment);
-        (Some(a.rmse_m), Some(a.rot_rmse_deg), a.errors_m)
-    };
-    let stamped: Vec<interim::Stamped> = evaluated
-        .iter()
-        .map(|&i| (run.frames[i].estimate.t_ns, run.frames[i].estimate.T_w_b))
-        .collect();
-    let rpe_trans_rmse_m =
-        interim::rpe_trans_rmse(&stamped, &gt, (RPE_DELTA_S * 1e9).round() as i64);
+    let ate = metrics::ate(&gt, &est, alignment);
+    let rpe = metrics::rpe(&gt, &est, &RpeOptions::meters(RPE_DELTA_M));
     let last = evaluated.last().map(|&i| &run.frames[i]);
     let (gyro_bias_error_rad_s, accel_bias_error_m_s2) = match (suite, last) {
         (SuiteSpec::StereoImu, Some(f)) => (
@@ -98,14 +134,11 @@ pub fn evaluate(run: &RunOutput, suite: SuiteSpec) -> Evaluation {
         _ => (None, None),
     };
     Evaluation {
-        alignment_kind,
         alignment,
         tracking_fraction: evaluated.len() as f64 / run.frames.len().max(1) as f64,
         evaluated,
-        ate_rmse_m,
-        ate_rot_rmse_deg,
-        errors_m,
-        rpe_trans_rmse_m,
+        ate,
+        rpe,
         gyro_bias_error_rad_s,
         accel_bias_error_m_s2,
     }
@@ -214,10 +247,14 @@ pub struct Report {
     pub ate_rmse_m: Option<f64>,
     /// Rotation ATE RMSE (deg).
     pub ate_rot_rmse_deg: Option<f64>,
-    /// RPE translation RMSE (m) over `rpe_delta_s`.
+    /// RPE translation RMSE (m): relative poses over `rpe_delta_m` of ground-truth path (see
+    /// the module documentation); `null` when the path is shorter.
     pub rpe_trans_rmse_m: Option<f64>,
-    /// RPE time step (s).
-    pub rpe_delta_s: f64,
+    /// RPE pair spacing (m of ground-truth path): [`RPE_DELTA_M`].
+    pub rpe_delta_m: f64,
+    /// Always `null`: the RPE was once taken over a time step, given here; it is now over
+    /// distance (`rpe_delta_m`). The key stays so that readers of older reports find it.
+    pub rpe_delta_s: Option<f64>,
     /// Estimator resets.
     pub resets: usize,
     /// Final gyroscope bias error (rad/s).
@@ -299,11 +336,12 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
         tracking_frames: eval.evaluated.len(),
         tracking_fraction: eval.tracking_fraction,
         duration_s: run.duration_s,
-        alignment: eval.alignment_kind,
-        ate_rmse_m: eval.ate_rmse_m,
-        ate_rot_rmse_deg: eval.ate_rot_rmse_deg,
-        rpe_trans_rmse_m: eval.rpe_trans_rmse_m,
-        rpe_delta_s: RPE_DELTA_S,
+        alignment: eval.alignment_name(),
+        ate_rmse_m: eval.ate_rmse_m(),
+        ate_rot_rmse_deg: eval.ate_rot_rmse_deg(),
+        rpe_trans_rmse_m: eval.rpe_trans_rmse_m(),
+        rpe_delta_m: RPE_DELTA_M,
+        rpe_delta_s: None,
         resets: run.resets,
         gyro_bias_error_rad_s: eval.gyro_bias_error_rad_s,
         accel_bias_error_m_s2: eval.accel_bias_error_m_s2,
@@ -366,9 +404,10 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
     );
     let _ = writeln!(
         s,
-        "RPE           {} translation RMSE over {} s",
+        "RPE ({} m)     {} translation RMSE, pose pairs {} m of ground-truth path apart",
+        r.rpe_delta_m,
         opt(r.rpe_trans_rmse_m, 4, " m"),
-        r.rpe_delta_s
+        r.rpe_delta_m
     );
     if r.gyro_bias_error_rad_s.is_some() {
         let _ = writeln!(
@@ -435,20 +474,28 @@ pub fn plot_data(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> Plo
         .iter()
         .map(|f| (f.truth.pose.p.x, f.truth.pose.p.y))
         .collect();
-    let est = eval
-        .evaluated
-        .iter()
-        .map(|&i| {
-            let p = eval.alignment.apply(&run.frames[i].estimate.T_w_b).p;
-            (p.x, p.y)
-        })
-        .collect();
-    let errors = eval
-        .evaluated
-        .iter()
-        .zip(&eval.errors_m)
-        .map(|(&i, e)| (run.frames[i].estimate.t_ns as f64 * 1e-9, *e))
-        .collect();
+    // Without an alignment (too few or degenerate positions) there is no estimate to draw in the
+    // ground truth's frame, and no error.
+    let (est, errors) = match &eval.ate {
+        Ok(ate) => (
+            eval.evaluated
+                .iter()
+                .map(|&i| {
+                    let p = ate
+                        .alignment
+                        .transform_pose(&run.frames[i].estimate.T_w_b)
+                        .p;
+                    (p.x, p.y)
+                })
+                .collect(),
+            eval.evaluated
+                .iter()
+                .zip(&ate.translation_errors)
+                .map(|(&i, e)| (run.frames[i].estimate.t_ns as f64 * 1e-9, *e))
+                .collect(),
+        ),
+        Err(_) => (Vec::new(), Vec::new()),
+    };
     let tracking_from_s = eval
         .evaluated
         .first()
@@ -470,8 +517,8 @@ pub fn plot_data(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> Plo
             .into_iter()
             .map(|(k, a, b)| (k, a, b.min(run.duration_s)))
             .collect(),
-        ate_rmse_m: eval.ate_rmse_m,
-        alignment: eval.alignment_kind,
+        ate_rmse_m: eval.ate_rmse_m(),
+        alignment: eval.alignment_name(),
     }
 }
 
@@ -486,22 +533,22 @@ pub fn write_outputs(
 ) -> Result<(), String> {
     let io = |what: &str, e: std::io::Error| format!("cannot write {what}: {e}");
     std::fs::create_dir_all(dir).map_err(|e| io(&dir.display().to_string(), e))?;
-    let est: Vec<interim::Stamped> = eval
+    let est: Vec<StampedPose> = eval
         .evaluated
         .iter()
-        .map(|&i| (run.frames[i].estimate.t_ns, run.frames[i].estimate.T_w_b))
+        .map(|&i| StampedPose::new(run.frames[i].estimate.t_ns, run.frames[i].estimate.T_w_b))
         .collect();
-    let gt: Vec<interim::Stamped> = run
+    let gt: Vec<StampedPose> = run
         .frames
         .iter()
-        .map(|f| (f.estimate.t_ns, f.truth.pose))
+        .map(|f| StampedPose::new(f.estimate.t_ns, f.truth.pose))
         .collect();
+    dataset::write_tum(dir.join("estimate.tum"), &est).map_err(|e| e.to_string())?;
+    dataset::write_tum(dir.join("groundtruth.tum"), &gt).map_err(|e| e.to_string())?;
     let write = |name: &str, text: &str| {
         let p = dir.join(name);
         std::fs::write(&p, text).map_err(|e| io(&p.display().to_string(), e))
     };
-    write("estimate.tum", &interim::tum_string(&est))?;
-    write("groundtruth.tum", &interim::tum_string(&gt))?;
     let json = serde_json::to_string_pretty(report).map_err(|e| e.to_string())?;
     write("report.json", &(json + "\n"))?;
     let png = plot::trajectory_png(&plot_data(scenario, run, eval))?;

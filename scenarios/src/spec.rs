@@ -514,7 +514,7 @@ pub struct ExpectationsSpec {
     pub ate_rmse_m: Option<Bound>,
     /// Rotation ATE RMSE after alignment (deg).
     pub ate_rot_rmse_deg: Option<Bound>,
-    /// RPE translation RMSE over 1 s segments (m).
+    /// RPE translation RMSE over 1 m of ground-truth path (m; see [`crate::report`]).
     pub rpe_trans_rmse_m: Option<Bound>,
     /// Estimator resets.
     pub resets: Option<Bound>,
