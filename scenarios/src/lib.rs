@@ -8,10 +8,12 @@
 //! - [`run`] — simulated stream → estimator, collecting estimates, ground truth, timings, events;
 //! - [`report`] — evaluation, `report.json`, TUM files, the human summary;
 //! - [`plot`] — `trajectory.png`;
+//! - [`export`] — a scenario's measurements as an EuRoC ASL folder and `features.csv`;
 //! - [`selfcheck`] — a quick end-to-end check of the estimator's mathematics.
 
 pub mod catalog;
 pub mod dataset;
+pub mod export;
 pub mod metrics;
 pub mod plot;
 pub mod report;

@@ -377,3 +377,37 @@ fn run_writes_the_report_files_and_exits_by_expectations() {
     assert_eq!(json["passed"], false);
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn export_writes_an_euroc_folder_that_reads_back() {
+    let dir = scratch("export");
+    let out = vio(&["export", "--out", dir.to_str().unwrap(), "--duration", "2"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let data = scenarios::dataset::read_euroc(dir.join("mav0")).unwrap();
+    // 2 s at 200 Hz, both ends included; ground truth at every IMU sample; 20 Hz stereo.
+    assert_eq!(data.imu.len(), 401);
+    assert_eq!(data.groundtruth.len(), data.imu.len());
+    assert_eq!(data.cameras.len(), 2);
+    assert_eq!(data.cameras[0].frames.len(), 41);
+    let sensor = data.imu_sensor.as_ref().unwrap();
+    assert_eq!(sensor.noise, estimator::imu::ImuNoise::euroc());
+    let cam = data.cameras[0].sensor.as_ref().unwrap();
+    assert_eq!(cam.camera_model, "pinhole");
+    assert_eq!(cam.resolution, [752, 480]);
+    let frames = scenarios::dataset::read_features_csv(dir.join("features.csv")).unwrap();
+    assert_eq!(frames.len(), 41);
+    assert!(
+        frames
+            .iter()
+            .all(|f| f.cameras.iter().any(|c| !c.features.is_empty()))
+    );
+    // The ground truth's biases are the scenario's known, non-zero initial biases.
+    assert!(
+        data.groundtruth[0].gyro_bias.norm() > 0.0 && data.groundtruth[0].accel_bias.norm() > 0.0
+    );
+    let _ = std::fs::remove_dir_all(dir);
+}

@@ -41,6 +41,22 @@ enum Command {
     },
     /// List the built-in scenarios.
     List,
+    /// Write a scenario's simulated measurements and ground truth in the EuRoC ASL layout
+    /// (`OUT/mav0/…`) and its feature tracks as `OUT/features.csv`.
+    Export {
+        /// A catalog scenario name or a path to a scenario .toml file; default: the default
+        /// scenario.
+        scenario: Option<String>,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// Seed instead of the scenario's `world.seed`.
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Simulated duration (s) instead of the scenario's `trajectory.duration_s`.
+        #[arg(long)]
+        duration: Option<f64>,
+    },
     /// Preintegrate a synthetic IMU interval and check every factor's Jacobians.
     Selfcheck,
     /// Compare an estimated trajectory with ground truth (TUM files): ATE and RPE with evo's
@@ -205,6 +221,43 @@ fn main() -> ExitCode {
             seed,
             duration,
         } => run_command(scenario, out, seed, duration),
+        Command::Export {
+            scenario,
+            out,
+            seed,
+            duration,
+        } => {
+            let name = scenario.as_deref().unwrap_or(catalog::DEFAULT);
+            let scenario = match Scenario::load(name) {
+                Ok(s) => s,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(BAD_INPUT);
+                }
+            };
+            let options = RunOptions {
+                seed,
+                duration_s: duration,
+            };
+            match scenarios::export::export(&scenario, &options, &out) {
+                Ok(s) => {
+                    println!(
+                        "exported {}: {} IMU samples, {} frames ({} feature observations), {} ground-truth rows → {}",
+                        scenario.name,
+                        s.imu_samples,
+                        s.frames,
+                        s.observations,
+                        s.groundtruth,
+                        out.display()
+                    );
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(BAD_INPUT)
+                }
+            }
+        }
         Command::List => {
             for e in catalog::entries() {
                 match Scenario::load(e.name) {
