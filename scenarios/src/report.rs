@@ -252,9 +252,6 @@ pub struct Report {
     pub rpe_trans_rmse_m: Option<f64>,
     /// RPE pair spacing (m of ground-truth path): [`RPE_DELTA_M`].
     pub rpe_delta_m: f64,
-    /// Always `null`: the RPE was once taken over a time step, given here; it is now over
-    /// distance (`rpe_delta_m`). The key stays so that readers of older reports find it.
-    pub rpe_delta_s: Option<f64>,
     /// Estimator resets.
     pub resets: usize,
     /// Final gyroscope bias error (rad/s).
@@ -341,7 +338,6 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
         ate_rot_rmse_deg: eval.ate_rot_rmse_deg(),
         rpe_trans_rmse_m: eval.rpe_trans_rmse_m(),
         rpe_delta_m: RPE_DELTA_M,
-        rpe_delta_s: None,
         resets: run.resets,
         gyro_bias_error_rad_s: eval.gyro_bias_error_rad_s,
         accel_bias_error_m_s2: eval.accel_bias_error_m_s2,

@@ -70,8 +70,18 @@ pub fn apply_loss(
         let alpha = 1.0 - d.sqrt();
         (sqrt_rho1 / (1.0 - alpha), alpha / s)
     };
+    if residual_scaling == 1.0 && sqrt_rho1 == 1.0 && alpha_sq_norm == 0.0 {
+        // Inside the quadratic region (most residuals): nothing to change.
+        return rho[0];
+    }
     let m = residuals.len();
     for jac in jacobians.iter_mut().flatten() {
+        if alpha_sq_norm == 0.0 {
+            for v in jac.iter_mut() {
+                *v *= sqrt_rho1;
+            }
+            continue;
+        }
         let cols = jac.len() / m;
         for c in 0..cols {
             // J̃ = √ρ' (I − α r rᵀ/‖r‖²) J, column by column.

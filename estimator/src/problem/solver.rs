@@ -552,7 +552,8 @@ impl NormalEquations {
         }
         mirror_upper(&mut a, n);
         let dx = if n > 0 {
-            let am = DMatrix::from_row_slice(n, n, &a);
+            // Symmetric: the row-major buffer is also the column-major matrix.
+            let am = DMatrix::from_vec(n, n, a);
             let chol = am.cholesky()?;
             chol.solve(&DVector::from_vec(b)).as_slice().to_vec()
         } else {
