@@ -209,6 +209,16 @@ fn eval(args: &EvalArgs) -> Result<String, String> {
     Ok(out)
 }
 
+/// Writes to stdout; a closed pipe (`vio list | head`) ends the output quietly instead of
+/// panicking like `print!` does.
+fn say(text: &str) {
+    use std::io::Write;
+    let mut stdout = std::io::stdout().lock();
+    let _ = stdout
+        .write_all(text.as_bytes())
+        .and_then(|()| stdout.flush());
+}
+
 /// Exit code for bad input.
 const BAD_INPUT: u8 = 2;
 
@@ -241,15 +251,15 @@ fn main() -> ExitCode {
             };
             match scenarios::export::export(&scenario, &options, &out) {
                 Ok(s) => {
-                    println!(
-                        "exported {}: {} IMU samples, {} frames ({} feature observations), {} ground-truth rows → {}",
+                    say(&format!(
+                        "exported {}: {} IMU samples, {} frames ({} feature observations), {} ground-truth rows → {}\n",
                         scenario.name,
                         s.imu_samples,
                         s.frames,
                         s.observations,
                         s.groundtruth,
                         out.display()
-                    );
+                    ));
                     ExitCode::SUCCESS
                 }
                 Err(e) => {
@@ -267,16 +277,16 @@ fn main() -> ExitCode {
                         } else {
                             ""
                         };
-                        println!("{:<34} {}{tag}", e.name, s.spec.description);
+                        say(&format!("{:<34} {}{tag}\n", e.name, s.spec.description));
                     }
-                    Err(err) => println!("{:<34} (broken: {err})", e.name),
+                    Err(err) => say(&format!("{:<34} (broken: {err})\n", e.name)),
                 }
             }
             ExitCode::SUCCESS
         }
         Command::Selfcheck => {
             let result = scenarios::selfcheck::run();
-            print!("{}", result.report);
+            say(&result.report);
             if result.ok {
                 ExitCode::SUCCESS
             } else {
@@ -285,7 +295,7 @@ fn main() -> ExitCode {
         }
         Command::Eval(args) => match eval(&args) {
             Ok(report) => {
-                print!("{report}");
+                say(&report);
                 ExitCode::SUCCESS
             }
             Err(e) => {
@@ -352,7 +362,7 @@ fn run_command(
         eprintln!("error: {e}");
         return ExitCode::from(BAD_INPUT);
     }
-    print!("{}", report::summary(&rep, Some(&out_dir)));
+    say(&report::summary(&rep, Some(&out_dir)));
     if rep.passed {
         ExitCode::SUCCESS
     } else {
