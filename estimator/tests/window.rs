@@ -200,8 +200,9 @@ fn noise_free_window_from_a_known_start_stays_on_the_truth() {
     println!(
         "noise-free known start: worst position error {worst:.2e} m, rotation {worst_rot:.2e} deg"
     );
+    // Measured (seed 6, 6 s): 4.1e-7 m, 2.5e-5° (the midpoint rule's discretization error).
     assert!(
-        worst < 5e-3 && worst_rot < 0.1,
+        worst < 1e-5 && worst_rot < 1e-3,
         "{worst} m, {worst_rot} deg"
     );
 }
