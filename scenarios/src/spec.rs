@@ -291,6 +291,10 @@ pub struct RigSpec {
     /// Camera-IMU time offset (s): a frame taken at IMU time `t` is stamped `t − time_offset_s`.
     #[serde(default)]
     pub time_offset_s: f64,
+    /// Seed new landmarks on the scene's surfaces where a camera's view runs short of
+    /// `max_features` (default false).
+    #[serde(default)]
+    pub reseed: bool,
     /// The cameras; index = `cam_id` (0 = left).
     pub cameras: Vec<CameraSpec>,
     /// The IMU.
@@ -1264,6 +1268,7 @@ impl Scenario {
             cameras,
             rate_hz: s.rig.rate_hz,
             td_ns: (s.rig.time_offset_s * 1e9).round() as i64,
+            reseed: s.rig.reseed,
         };
         let imu_cfg = ImuConfig {
             name: "imu".into(),

@@ -21,13 +21,21 @@
 //! landmark ids, stable across cameras and time. A camera's output depends only on itself and
 //! the cameras before it, so appending a camera never changes the others.
 //!
+//! # Re-seeding
+//! Where a view runs short — fewer than `max_features` after the steps above — the camera seeds
+//! new landmarks (`RigConfig::reseed`): for each empty grid cell it casts a ray through a pixel
+//! drawn from its stream `<name>/reseed` and puts a landmark where the ray first meets a scene
+//! surface within the depth range. Seeded landmarks get ids `SEEDED_ID_BASE + (camera << 32) + k` and stay in
+//! the world; camera `c` sees those seeded by cameras `0..=c` only, so appending a camera still
+//! never changes the others.
+//!
 //! # Noise
 //! Each observation is the true distorted pixel plus isotropic Gaussian noise `pixel_sigma`
 //! drawn from the stream `<name>` in feature-id order.
 
 use crate::motion::TruthBuffer;
 use crate::rng::sensor_rng;
-use crate::scene::Scene;
+use crate::scene::{Landmark, Scene};
 use estimator::camera::CameraModel;
 use estimator::frontend::{CameraFeatures, FeatureFrame, FeatureObservation};
 use estimator::geometry::Pose;
@@ -84,6 +92,9 @@ pub struct RigConfig {
     pub rate_hz: f64,
     /// Camera-IMU time offset (ns): frames captured at `t` are stamped `t − td_ns`.
     pub td_ns: i64,
+    /// Seed new landmarks where a view runs short (see the module docs). Off by default: the
+    /// presets' landmark density already fills most views, and seeding changes the stream.
+    pub reseed: bool,
 }
 
 impl RigConfig {
@@ -93,6 +104,7 @@ impl RigConfig {
             cameras,
             rate_hz: 20.0,
             td_ns: 0,
+            reseed: false,
         }
     }
 
@@ -133,6 +145,7 @@ impl RigConfig {
 struct CamState {
     noise: ChaCha8Rng,
     select: ChaCha8Rng,
+    reseed: ChaCha8Rng,
     /// Currently tracked landmark ids, sorted.
     tracked: Vec<u64>,
     /// Frame index at which each landmark's current track started (u32::MAX: not tracked).
@@ -160,7 +173,18 @@ pub struct RigSim {
     period_ns: i64,
     next_i: u32,
     cams: Vec<CamState>,
+    /// Landmarks seeded by the cameras, with their seeder, in seeding order (internal index =
+    /// scene landmark count + position here).
+    seeded: Vec<(Landmark, usize)>,
+    /// Feature id of a seeded landmark → its internal index.
+    seeded_index: std::collections::BTreeMap<u64, usize>,
+    /// Landmarks seeded so far by each camera.
+    seeded_by: Vec<u64>,
 }
+
+/// Feature ids of seeded landmarks: `SEEDED_ID_BASE + (camera << 32) + k` for the camera's k-th
+/// seed, so a camera's ids do not depend on what other cameras seeded.
+pub const SEEDED_ID_BASE: u64 = 1 << 48;
 
 /// Grid used to spread new features over the image.
 const GRID: (usize, usize) = (8, 6);
@@ -169,12 +193,13 @@ impl RigSim {
     /// A rig observing `scene`, first frame captured at `t = 0`.
     pub fn new(cfg: RigConfig, scene: Arc<Scene>, seed: u64) -> Self {
         let n = scene.landmarks.len();
-        let cams = cfg
+        let cams: Vec<CamState> = cfg
             .cameras
             .iter()
             .map(|c| CamState {
                 noise: sensor_rng(seed, &c.name),
                 select: sensor_rng(seed, &format!("{}/select", c.name)),
+                reseed: sensor_rng(seed, &format!("{}/reseed", c.name)),
                 tracked: Vec::new(),
                 track_start: vec![u32::MAX; n],
                 rest_until: vec![0; n],
@@ -185,7 +210,40 @@ impl RigSim {
             cfg,
             scene,
             next_i: 0,
+            seeded_by: vec![0; cams.len()],
             cams,
+            seeded: Vec::new(),
+            seeded_index: std::collections::BTreeMap::new(),
+        }
+    }
+
+    /// Number of scene landmarks (seeded ids start here).
+    pub fn scene_landmark_count(&self) -> usize {
+        self.scene.landmarks.len()
+    }
+
+    /// Landmarks seeded so far, with the index of the camera that seeded each.
+    pub fn seeded_landmarks(&self) -> &[(Landmark, usize)] {
+        &self.seeded
+    }
+
+    /// Internal index (into the per-camera track arrays) of feature id `id`.
+    fn index_of(&self, id: u64) -> usize {
+        if id < SEEDED_ID_BASE {
+            id as usize
+        } else {
+            self.seeded_index[&id]
+        }
+    }
+
+    /// The landmark with feature id `id` (scene or seeded), if it exists.
+    pub fn landmark(&self, id: u64) -> Option<&Landmark> {
+        let n = self.scene.landmarks.len();
+        if id < SEEDED_ID_BASE {
+            self.scene.landmarks.get(id as usize)
+        } else {
+            let i = *self.seeded_index.get(&id)?;
+            Some(&self.seeded[i - n].0)
         }
     }
 
@@ -227,6 +285,13 @@ impl RigSim {
                 }
             }
         }
+        for (lm, seeder) in &self.seeded {
+            if *seeder <= cam
+                && let Some(p) = self.project_one(c, &t_c_w, &o, lm.id)
+            {
+                out.push(p);
+            }
+        }
         out
     }
 
@@ -238,7 +303,7 @@ impl RigSim {
         o: &Vector3<f64>,
         id: u64,
     ) -> Option<Projection> {
-        let lm = &self.scene.landmarks[id as usize];
+        let lm = self.landmark(id)?;
         if lm.normal.dot(&(o - lm.p)) <= 0.0 {
             return None;
         }
@@ -306,8 +371,8 @@ impl RigSim {
         // 1. Continue tracks that stay visible and are not too long.
         let prev = std::mem::take(&mut self.cams[ci].tracked);
         for &id in &prev {
-            let st = &mut self.cams[ci];
-            let start = st.track_start[id as usize];
+            let ix = self.index_of(id);
+            let start = self.cams[ci].track_start[ix];
             let too_long = max_len.is_some_and(|l| frame - start >= l);
             let proj = if too_long {
                 None
@@ -321,9 +386,9 @@ impl RigSim {
                     kept.push(p);
                 }
                 None => {
-                    st.track_start[id as usize] = u32::MAX;
+                    st.track_start[ix] = u32::MAX;
                     if too_long {
-                        st.rest_until[id as usize] = frame + max_len.unwrap_or(0);
+                        st.rest_until[ix] = frame + max_len.unwrap_or(0);
                     }
                 }
             }
@@ -335,26 +400,36 @@ impl RigSim {
                 if kept.len() >= c.max_features {
                     break;
                 }
+                // Seeded landmarks of later cameras do not exist for this one.
+                if self
+                    .seeded_index
+                    .get(&f.feature_id)
+                    .is_some_and(|&i| self.seeded[i - self.scene.landmarks.len()].1 > ci)
+                {
+                    continue;
+                }
+                let i = self.index_of(f.feature_id);
                 let st = &self.cams[ci];
-                let i = f.feature_id as usize;
                 if st.rest_until[i] > frame || st.track_start[i] != u32::MAX {
                     continue;
                 }
                 if let Some(p) = self.project_one(c, &t_c_w, &o, f.feature_id) {
                     occupancy[cell(&p.uv)] += 1;
-                    self.cams[ci].track_start[p.id as usize] = frame;
+                    self.cams[ci].track_start[i] = frame;
                     kept.push(p);
                 }
             }
         }
         // 3. New features, spread over the grid.
         if kept.len() < c.max_features {
-            let mut cands: Vec<Projection> = self
+            let cands: Vec<Projection> = self
                 .visible(ci, t_w_b)
                 .into_iter()
-                .filter(|p| self.cams[ci].rest_until[p.id as usize] <= frame)
-                .filter(|p| self.cams[ci].track_start[p.id as usize] == u32::MAX)
+                .filter(|p| self.cams[ci].rest_until[self.index_of(p.id)] <= frame)
+                .filter(|p| self.cams[ci].track_start[self.index_of(p.id)] == u32::MAX)
                 .collect();
+            let cand_ix: Vec<usize> = cands.iter().map(|p| self.index_of(p.id)).collect();
+            let mut cands: Vec<(Projection, usize)> = cands.into_iter().zip(cand_ix).collect();
             let st = &mut self.cams[ci];
             // Fisher-Yates with the camera's selection stream.
             for i in (1..cands.len()).rev() {
@@ -363,25 +438,73 @@ impl RigSim {
             }
             let cap = c.max_features.div_ceil(GRID.0 * GRID.1);
             let mut rest = Vec::new();
-            for p in cands {
+            for (p, ix) in cands {
                 if kept.len() >= c.max_features {
                     break;
                 }
                 let k = cell(&p.uv);
                 if occupancy[k] < cap {
                     occupancy[k] += 1;
-                    st.track_start[p.id as usize] = frame;
+                    st.track_start[ix] = frame;
                     kept.push(p);
                 } else {
-                    rest.push(p);
+                    rest.push((p, ix));
                 }
             }
-            for p in rest {
+            for (p, ix) in rest {
                 if kept.len() >= c.max_features {
                     break;
                 }
-                st.track_start[p.id as usize] = frame;
+                st.track_start[ix] = frame;
                 kept.push(p);
+            }
+        }
+        // 4. Re-seed empty grid cells when the view runs short.
+        if self.cfg.reseed && kept.len() < c.max_features {
+            let c = c.clone();
+            let (w, h) = (f64::from(c.model.width()), f64::from(c.model.height()));
+            let n_scene = self.scene.landmarks.len();
+            let cap = c.max_features.div_ceil(GRID.0 * GRID.1);
+            for k in 0..GRID.0 * GRID.1 {
+                // Up to `cap` attempts to fill each short cell (a ray may miss every surface).
+                for _ in 0..cap {
+                    if kept.len() >= c.max_features || occupancy[k] >= cap {
+                        break;
+                    }
+                    let (gx, gy) = ((k % GRID.0) as f64, (k / GRID.0) as f64);
+                    let st = &mut self.cams[ci];
+                    let px = Vector2::new(
+                        (gx + st.reseed.random::<f64>()) * w / GRID.0 as f64 - 0.5,
+                        (gy + st.reseed.random::<f64>()) * h / GRID.1 as f64 - 0.5,
+                    );
+                    let Some(bearing) = c.model.unproject(&px) else {
+                        continue;
+                    };
+                    let d = t_w_c.q * bearing;
+                    let t_max = c.max_depth / bearing.z.max(1e-3);
+                    let Some((t, si)) = self.scene.ray_cast(&o, &d, 1e-6, t_max) else {
+                        continue;
+                    };
+                    let id = SEEDED_ID_BASE + ((ci as u64) << 32) + self.seeded_by[ci];
+                    self.seeded_by[ci] += 1;
+                    let ix = n_scene + self.seeded.len();
+                    let lm = Landmark {
+                        id,
+                        p: o + d * t,
+                        normal: self.scene.surfaces[si].normal,
+                    };
+                    self.seeded.push((lm, ci));
+                    self.seeded_index.insert(id, ix);
+                    for cs in self.cams.iter_mut() {
+                        cs.track_start.push(u32::MAX);
+                        cs.rest_until.push(0);
+                    }
+                    if let Some(p) = self.project_one(&c, &t_c_w, &o, id) {
+                        occupancy[k] += 1;
+                        self.cams[ci].track_start[ix] = frame;
+                        kept.push(p);
+                    }
+                }
             }
         }
         kept.sort_by_key(|p| p.id);

@@ -332,6 +332,35 @@ impl Scene {
         }
     }
 
+    /// The nearest surface hit by the ray `o + t·d` (d unit) with `t ∈ (t_min, t_max]`, seen from
+    /// its visible side: `(t, surface index)`.
+    pub fn ray_cast(
+        &self,
+        o: &Vector3<f64>,
+        d: &Vector3<f64>,
+        t_min: f64,
+        t_max: f64,
+    ) -> Option<(f64, usize)> {
+        let mut best: Option<(f64, usize)> = None;
+        for (i, s) in self.surfaces.iter().enumerate() {
+            let denom = d.dot(&s.normal);
+            if denom >= -1e-12 {
+                continue; // parallel, or seen from behind
+            }
+            let t = (s.origin - o).dot(&s.normal) / denom;
+            if t <= t_min || t > t_max || best.is_some_and(|(bt, _)| t >= bt) {
+                continue;
+            }
+            let rel = o + d * t - s.origin;
+            let a = rel.dot(&s.u) / s.u.norm_squared();
+            let b = rel.dot(&s.v) / s.v.norm_squared();
+            if (0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b) {
+                best = Some((t, i));
+            }
+        }
+        best
+    }
+
     /// True if the segment from `from` to the landmark point `to` is blocked by a box (the last
     /// millimetre before `to` is not tested, so a box does not occlude its own visible faces).
     pub fn occluded(&self, from: &Vector3<f64>, to: &Vector3<f64>) -> bool {

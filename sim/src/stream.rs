@@ -9,6 +9,7 @@ use crate::camera::RigSim;
 use crate::faults::FaultTimeline;
 use crate::imu::{ImuBias, ImuSim};
 use crate::motion::{Kinematics, TruthBuffer};
+use crate::scene::Landmark;
 use estimator::frontend::FeatureFrame;
 use estimator::geometry::Pose;
 use estimator::imu::ImuSample;
@@ -157,6 +158,12 @@ impl Stream {
         while self.biases.len() > 2 && self.biases[1].t_ns <= keep_from {
             self.biases.pop_front();
         }
+    }
+
+    /// The landmark a camera reported as `feature_id` (a scene landmark, or one the rig seeded);
+    /// `None` for ids no camera has reported or without a rig.
+    pub fn landmark(&self, feature_id: u64) -> Option<Landmark> {
+        self.rig.as_ref()?.landmark(feature_id).copied()
     }
 
     /// Ground truth at `t_ns` (true time), generating ahead as needed. `None` before the start

@@ -169,3 +169,144 @@ fn euroc_radtan_rig_reprojects_through_the_distortion() {
     assert!(n > 101 * 2 * 100, "{n}");
     assert!((rms / (0.5 * 2f64.sqrt()) - 1.0).abs() < 0.05, "rms {rms}");
 }
+
+/// Per frame, per camera: (feature id, pixel).
+type Observed = Vec<Vec<Vec<(u64, nalgebra::Vector2<f64>)>>>;
+
+/// Runs a sparse room (0.3 landmarks/m²) with noise-free cameras; returns per frame the
+/// features of each camera and checks every observation against `Stream::landmark`.
+fn sparse_run(cams: usize, reseed: bool) -> Observed {
+    let mut rig = common::rig(cams);
+    rig.reseed = reseed;
+    for c in &mut rig.cameras {
+        c.pixel_sigma = 0.0;
+    }
+    let world = World::new(WorldConfig {
+        seed: 11,
+        duration_s: 4.0,
+        rig: Some(rig.clone()),
+        scene: sim::scene::SceneConfig {
+            landmark_density: 0.3,
+            ..Default::default()
+        },
+        ..WorldConfig::default()
+    })
+    .unwrap();
+    let scene = world.scene().clone();
+    let mut stream = world.stream();
+    let mut out = Vec::new();
+    while let Some(m) = stream.next() {
+        let Measurement::Frame(f) = m else { continue };
+        let gt = stream.truth(f.t_ns).unwrap();
+        let mut per_cam = Vec::new();
+        for cf in &f.cameras {
+            let c = &rig.cameras[cf.cam_id];
+            let t_w_c = gt.pose.compose(&c.t_b_c);
+            for o in &cf.features {
+                let lm = stream.landmark(o.feature_id).expect("reported ids resolve");
+                // Noise-free: the observation is the landmark's projection.
+                let uv = c.model.project(&t_w_c.inverse().transform(&lm.p)).unwrap();
+                assert!(
+                    (uv - o.uv).norm() < 1e-6,
+                    "id {}: {uv} vs {}",
+                    o.feature_id,
+                    o.uv
+                );
+                // The landmark lies on the first surface along the ray from the camera.
+                let d = lm.p - t_w_c.p;
+                let (t, _) = scene.ray_cast(&t_w_c.p, &d.normalize(), 1e-6, 1e3).unwrap();
+                assert!(
+                    (t - d.norm()).abs() < 1e-6,
+                    "landmark {} is not on the first surface",
+                    o.feature_id
+                );
+            }
+            per_cam.push(cf.features.iter().map(|o| (o.feature_id, o.uv)).collect());
+        }
+        out.push(per_cam);
+    }
+    out
+}
+
+#[test]
+fn sparse_views_are_reseeded_and_stay_consistent() {
+    let without = sparse_run(2, false);
+    let with = sparse_run(2, true);
+    let mean = |runs: &Observed, cam: usize| {
+        runs.iter().map(|f| f[cam].len()).sum::<usize>() as f64 / runs.len() as f64
+    };
+    let (a, b) = (mean(&without, 0), mean(&with, 0));
+    println!("mean features per frame (cam0): {a:.1} without seeding, {b:.1} with");
+    assert!(
+        a < 100.0,
+        "the sparse room should run short without seeding ({a})"
+    );
+    assert!(
+        b > 1.3 * a && b > 100.0,
+        "seeding should fill the view ({a} → {b})"
+    );
+    // Stereo association covers seeded landmarks: cam1 reports ids cam0 seeded.
+    let seeded_in_both = with
+        .iter()
+        .flat_map(|f| {
+            f[1].iter()
+                .filter(|(id, _)| f[0].iter().any(|(i, _)| i == id))
+        })
+        .count();
+    assert!(seeded_in_both > 0);
+    // Appending a camera does not change the first one, seeding included.
+    let alone = sparse_run(1, true);
+    assert_eq!(alone.len(), with.len());
+    for (x, y) in alone.iter().zip(&with) {
+        assert_eq!(x[0], y[0]);
+    }
+}
+
+#[test]
+fn machine_hall_and_outdoor_presets_give_consistent_features() {
+    for preset in [
+        sim::scene::ScenePreset::MachineHall,
+        sim::scene::ScenePreset::Outdoor,
+    ] {
+        let mut rig = common::rig(2);
+        rig.reseed = true;
+        for c in &mut rig.cameras {
+            c.pixel_sigma = 0.0;
+        }
+        let world = World::new(WorldConfig {
+            seed: 5,
+            duration_s: 3.0,
+            rig: Some(rig.clone()),
+            scene: sim::scene::SceneConfig {
+                preset,
+                ..Default::default()
+            },
+            ..WorldConfig::default()
+        })
+        .unwrap();
+        assert!(!world.scene().landmarks.is_empty());
+        let mut stream = world.stream();
+        let (mut frames, mut features) = (0usize, 0usize);
+        while let Some(m) = stream.next() {
+            let Measurement::Frame(f) = m else { continue };
+            frames += 1;
+            let gt = stream.truth(f.t_ns).unwrap();
+            for cf in &f.cameras {
+                let c = &rig.cameras[cf.cam_id];
+                let t_c_w = gt.pose.compose(&c.t_b_c).inverse();
+                for o in &cf.features {
+                    let lm = stream.landmark(o.feature_id).unwrap();
+                    let uv = c.model.project(&t_c_w.transform(&lm.p)).unwrap();
+                    assert!((uv - o.uv).norm() < 1e-6);
+                }
+                features += cf.features.len();
+            }
+        }
+        let mean = features as f64 / (2.0 * frames as f64);
+        println!("{preset:?}: {mean:.1} features per camera and frame");
+        assert!(
+            mean > 100.0,
+            "{preset:?}: only {mean:.1} features per camera and frame"
+        );
+    }
+}
