@@ -81,7 +81,7 @@ fn project(t_w_b: &Pose, t_b_c: &Pose, p_w: &Vector3<f64>) -> Option<Vector2<f64
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 256, .. ProptestConfig::default() })]
+    #![proptest_config(common::proptest_config(256, 2))]
 
     #[test]
     fn imu_factor_jacobians(

@@ -108,7 +108,7 @@ fn invariants(m: &dyn Manifold, x: &[f64], delta: &[f64]) {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 512, .. ProptestConfig::default() })]
+    #![proptest_config(common::proptest_config(512, 3))]
 
     #[test]
     fn quaternion_manifold(q in rotation(), delta in vec3(1.5)) {

@@ -380,6 +380,97 @@ pub(crate) fn linearize(
     })
 }
 
+/// Eliminates landmark blocks from the reduced system by the Schur complement, in place:
+/// `a ← a − W C⁻¹ Wᵀ` (upper block triangle; call [`mirror_upper`] after) and
+/// `rhs ← rhs + W C⁻¹ g_l`, with `C = H_ll + λ·diag(dl)` per landmark. `rhs` is the negative
+/// gradient (the Gauss-Newton right-hand side `−g`). Returns each landmark's `C⁻¹`; a landmark
+/// whose `C` is not positive definite is an error, or skipped (`None`) when `skip_singular`
+/// (marginalization: a landmark without information folds nothing in).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn eliminate_landmarks(
+    landmarks: &[LandmarkBlock],
+    lambda: f64,
+    dld: &[Vec<f64>],
+    a: &mut [f64],
+    rhs: &mut [f64],
+    n: usize,
+    skip_singular: bool,
+) -> Option<Vec<Option<Vec<f64>>>> {
+    let mut cinv_all = Vec::with_capacity(landmarks.len());
+    for (idx, l) in landmarks.iter().enumerate() {
+        let t = l.t;
+        let mut c = l.hll.clone();
+        for i in 0..t {
+            c[i * t + i] += lambda * dld.get(idx).map_or(0.0, |d| d[i]);
+        }
+        let cinv = match small_spd_inverse(&c, t).filter(|c| c.iter().all(|v| v.is_finite())) {
+            Some(ci) => ci,
+            None if skip_singular => {
+                cinv_all.push(None);
+                continue;
+            }
+            None => return None,
+        };
+        if t == 1 {
+            // Inverse depths: C is a scalar, W C⁻¹ Wᵀ an outer product per block pair.
+            let ci = cinv[0];
+            let gl = l.gl[0];
+            for (ia, (oa, ta, wa)) in l.w.iter().enumerate() {
+                for i in 0..*ta {
+                    rhs[oa + i] += wa[i] * ci * gl;
+                }
+                for (ob, tb, wb) in &l.w[ia..] {
+                    let (lo, hi, wl, wh, tl, th) = if ob >= oa {
+                        (*oa, *ob, wa, wb, *ta, *tb)
+                    } else {
+                        (*ob, *oa, wb, wa, *tb, *ta)
+                    };
+                    for i in 0..tl {
+                        let si = wl[i] * ci;
+                        let row = &mut a[(lo + i) * n + hi..(lo + i) * n + hi + th];
+                        for (hv, w) in row.iter_mut().zip(wh.iter()) {
+                            *hv -= si * w;
+                        }
+                    }
+                }
+            }
+            cinv_all.push(Some(cinv));
+            continue;
+        }
+        let wc: Vec<Vec<f64>> =
+            l.w.iter()
+                .map(|(_, ta, w)| mat_mul(w, &cinv, *ta, t, t))
+                .collect();
+        for (ia, (oa, ta, _)) in l.w.iter().enumerate() {
+            let wca = &wc[ia];
+            for i in 0..*ta {
+                let mut s = 0.0;
+                for j in 0..t {
+                    s += wca[i * t + j] * l.gl[j];
+                }
+                rhs[oa + i] += s;
+            }
+            for (ob, tb, wbm) in &l.w {
+                if ob < oa {
+                    continue;
+                }
+                for i in 0..*ta {
+                    let row = &mut a[(oa + i) * n + ob..(oa + i) * n + ob + tb];
+                    for (jb, hv) in row.iter_mut().enumerate() {
+                        let mut s = 0.0;
+                        for k in 0..t {
+                            s += wca[i * t + k] * wbm[jb * t + k];
+                        }
+                        *hv -= s;
+                    }
+                }
+            }
+        }
+        cinv_all.push(Some(cinv));
+    }
+    Some(cinv_all)
+}
+
 /// Adds a factor's directly computed normal equations (see `Factor::normal_equations`) into the
 /// reduced system; `false` if the factor does not provide them.
 fn accumulate_direct(
@@ -484,72 +575,9 @@ impl NormalEquations {
         for i in 0..n {
             a[i * n + i] += lambda * dxd[i];
         }
-        let mut cinv_all = Vec::with_capacity(self.landmarks.len());
-        for (l, dl) in self.landmarks.iter().zip(&dld) {
-            let t = l.t;
-            let mut c = l.hll.clone();
-            for i in 0..t {
-                c[i * t + i] += lambda * dl[i];
-            }
-            let cinv = small_spd_inverse(&c, t)?;
-            if t == 1 {
-                // Inverse depths: C is a scalar, W C⁻¹ Wᵀ an outer product per block pair.
-                let ci = cinv[0];
-                let gl = l.gl[0];
-                for (ia, (oa, ta, wa)) in l.w.iter().enumerate() {
-                    for i in 0..*ta {
-                        b[oa + i] += wa[i] * ci * gl;
-                    }
-                    for (ob, tb, wb) in &l.w[ia..] {
-                        let (lo, hi, wl, wh, tl, th) = if ob >= oa {
-                            (*oa, *ob, wa, wb, *ta, *tb)
-                        } else {
-                            (*ob, *oa, wb, wa, *tb, *ta)
-                        };
-                        for i in 0..tl {
-                            let si = wl[i] * ci;
-                            let row = &mut a[(lo + i) * n + hi..(lo + i) * n + hi + th];
-                            for (hv, w) in row.iter_mut().zip(wh.iter()) {
-                                *hv -= si * w;
-                            }
-                        }
-                    }
-                }
-                cinv_all.push(cinv);
-                continue;
-            }
-            // A −= W C⁻¹ Wᵀ ; b += W C⁻¹ g_l.
-            let wc: Vec<Vec<f64>> =
-                l.w.iter()
-                    .map(|(_, ta, w)| mat_mul(w, &cinv, *ta, t, t))
-                    .collect();
-            for (ia, (oa, ta, _)) in l.w.iter().enumerate() {
-                let wca = &wc[ia];
-                for i in 0..*ta {
-                    let mut s = 0.0;
-                    for j in 0..t {
-                        s += wca[i * t + j] * l.gl[j];
-                    }
-                    b[oa + i] += s;
-                }
-                for (ob, tb, wbm) in &l.w {
-                    if ob < oa {
-                        continue;
-                    }
-                    for i in 0..*ta {
-                        let row = &mut a[(oa + i) * n + ob..(oa + i) * n + ob + tb];
-                        for (jb, hv) in row.iter_mut().enumerate() {
-                            let mut s = 0.0;
-                            for k in 0..t {
-                                s += wca[i * t + k] * wbm[jb * t + k];
-                            }
-                            *hv -= s;
-                        }
-                    }
-                }
-            }
-            cinv_all.push(cinv);
-        }
+        let cinv_all =
+            eliminate_landmarks(&self.landmarks, lambda, &dld, &mut a, &mut b, n, false)?;
+        let cinv_all: Vec<Vec<f64>> = cinv_all.into_iter().map(|c| c.expect("all PD")).collect();
         mirror_upper(&mut a, n);
         let dx = if n > 0 {
             // Symmetric: the row-major buffer is also the column-major matrix.

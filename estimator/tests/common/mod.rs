@@ -8,6 +8,18 @@ use estimator::gravity_w;
 use estimator::imu::ImuSample;
 use nalgebra::{UnitQuaternion, Vector3};
 use proptest::prelude::*;
+use proptest::test_runner::RngSeed;
+
+/// Proptest settings for this crate's suites: a fixed seed (the same cases every run, so a test
+/// cannot pass or fail by chance) and no failure-persistence files.
+pub fn proptest_config(cases: u32, seed: u64) -> ProptestConfig {
+    ProptestConfig {
+        cases,
+        rng_seed: RngSeed::Fixed(seed),
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    }
+}
 
 /// A rotation angle drawn from the hard cases as well as the bulk: tiny (~1e-9), ordinary,
 /// and within 1e-6 of π.
