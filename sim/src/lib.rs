@@ -23,6 +23,7 @@ pub mod camera;
 pub mod faults;
 pub mod imu;
 pub mod motion;
+pub mod render;
 pub mod rng;
 pub mod scene;
 pub mod stream;

@@ -88,6 +88,18 @@ impl Aabb {
     }
 }
 
+/// How a surface looks to the renderer ([`crate::render`]); feature-level cameras ignore it.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum SurfaceTexture {
+    /// Rich multi-scale texture (the renderer picks one of its textured materials by the seed).
+    #[default]
+    Rich,
+    /// A texture-poor surface (a plain painted wall: faint low-frequency shading only).
+    Poor,
+    /// A uniform albedo in `[0, 1]` (test scenes, calibration walls).
+    Plain(f64),
+}
+
 /// A rectangle `origin + s·u + t·v`, `s, t ∈ [0, 1]`, visible from the side of `normal`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Surface {
@@ -99,9 +111,22 @@ pub struct Surface {
     pub v: Vector3<f64>,
     /// Unit normal on the visible side.
     pub normal: Vector3<f64>,
+    /// Appearance in rendered images.
+    pub texture: SurfaceTexture,
 }
 
 impl Surface {
+    /// A richly textured rectangle.
+    pub fn new(origin: Vector3<f64>, u: Vector3<f64>, v: Vector3<f64>, normal: Vector3<f64>) -> Self {
+        Self {
+            origin,
+            u,
+            v,
+            normal,
+            texture: SurfaceTexture::Rich,
+        }
+    }
+
     /// Area (m²).
     pub fn area(&self) -> f64 {
         self.u.cross(&self.v).norm()
@@ -117,6 +142,30 @@ pub struct Landmark {
     pub p: Vector3<f64>,
     /// Normal of the surface it lies on (visible only from this side).
     pub normal: Vector3<f64>,
+}
+
+/// A small flat disk for geometry checks in rendered images: drawn `MARKER_LIFT_M` in front of
+/// the surface it sits on, facing along `normal`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Marker {
+    /// Centre of the disk (m), on its surface.
+    pub center: Vector3<f64>,
+    /// Unit normal the disk faces.
+    pub normal: Vector3<f64>,
+    /// Radius (m).
+    pub radius: f64,
+    /// Albedo in `[0, 1]`.
+    pub albedo: f64,
+}
+
+/// How far in front of its surface a [`Marker`] is drawn (m), so the depth test keeps it.
+pub const MARKER_LIFT_M: f64 = 1e-4;
+
+impl Marker {
+    /// The centre of the disk as drawn: `center + MARKER_LIFT_M · normal`.
+    pub fn drawn_center(&self) -> Vector3<f64> {
+        self.center + self.normal * MARKER_LIFT_M
+    }
 }
 
 /// Landmarks of one surface tile, with a bounding sphere for culling.
@@ -145,6 +194,8 @@ pub struct Scene {
     pub landmarks: Vec<Landmark>,
     /// Landmark tiles (contiguous id ranges) for view culling.
     pub tiles: Vec<Tile>,
+    /// Markers drawn by the renderer (none in the presets).
+    pub markers: Vec<Marker>,
 }
 
 /// The six outward faces of a box as surfaces (normals pointing out).
@@ -160,30 +211,35 @@ fn box_faces(b: &Aabb, skip_bottom: bool) -> Vec<Surface> {
             u: ey,
             v: ez,
             normal: -Vector3::x(),
+            texture: SurfaceTexture::Rich,
         },
         Surface {
             origin: lo + ex,
             u: ey,
             v: ez,
             normal: Vector3::x(),
+            texture: SurfaceTexture::Rich,
         },
         Surface {
             origin: lo,
             u: ex,
             v: ez,
             normal: -Vector3::y(),
+            texture: SurfaceTexture::Rich,
         },
         Surface {
             origin: lo + ey,
             u: ex,
             v: ez,
             normal: Vector3::y(),
+            texture: SurfaceTexture::Rich,
         },
         Surface {
             origin: lo + ez,
             u: ex,
             v: ey,
             normal: Vector3::z(),
+            texture: SurfaceTexture::Rich,
         },
     ];
     if !skip_bottom {
@@ -192,6 +248,7 @@ fn box_faces(b: &Aabb, skip_bottom: bool) -> Vec<Surface> {
             u: ex,
             v: ey,
             normal: -Vector3::z(),
+            texture: SurfaceTexture::Rich,
         });
     }
     f
@@ -222,6 +279,8 @@ impl Scene {
                     Aabb::new(v(-4.5, -3.5, 0.0), v(-4.1, -3.1, 4.0)),
                 ];
                 let mut s = inner_faces(&room);
+                // A plain painted ceiling: the texture-poor region of this preset.
+                s[4].texture = SurfaceTexture::Poor;
                 for b in &boxes {
                     s.extend(box_faces(b, true));
                 }
@@ -238,6 +297,9 @@ impl Scene {
                     Aabb::new(v(-8.0, 3.0, -2.0), v(-6.0, 5.0, 8.0)),
                 ];
                 let mut s = inner_faces(&hall);
+                // Texture-poor: the ceiling and the far (+x) wall.
+                s[4].texture = SurfaceTexture::Poor;
+                s[1].texture = SurfaceTexture::Poor;
                 for b in &boxes {
                     s.extend(box_faces(b, true));
                 }
@@ -249,6 +311,7 @@ impl Scene {
                     u: v(200.0, 0.0, 0.0),
                     v: v(0.0, 200.0, 0.0),
                     normal: Vector3::z(),
+                    texture: SurfaceTexture::Rich,
                 };
                 let mut boxes = Vec::new();
                 for i in -3i32..=3 {
@@ -263,7 +326,10 @@ impl Scene {
                 }
                 let mut s = vec![ground];
                 for b in &boxes {
-                    s.extend(box_faces(b, true));
+                    let mut faces = box_faces(b, true);
+                    // Flat roofs are texture-poor.
+                    faces[4].texture = SurfaceTexture::Poor;
+                    s.extend(faces);
                 }
                 (s, boxes)
             }
@@ -329,6 +395,7 @@ impl Scene {
             boxes,
             landmarks,
             tiles,
+            markers: Vec::new(),
         }
     }
 

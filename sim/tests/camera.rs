@@ -80,12 +80,12 @@ fn measurements_reproject_within_noise_and_are_unoccluded() {
 #[test]
 fn a_box_between_camera_and_wall_hides_the_wall_behind_it() {
     // A wall at x = 5 facing −x, a 1 m box at x ∈ [2, 3] in front of the camera at the origin.
-    let wall = Surface {
-        origin: Vector3::new(5.0, -5.0, -5.0),
-        u: Vector3::new(0.0, 10.0, 0.0),
-        v: Vector3::new(0.0, 0.0, 10.0),
-        normal: -Vector3::x(),
-    };
+    let wall = Surface::new(
+        Vector3::new(5.0, -5.0, -5.0),
+        Vector3::new(0.0, 10.0, 0.0),
+        Vector3::new(0.0, 0.0, 10.0),
+        -Vector3::x(),
+    );
     let bx = Aabb::new(Vector3::new(2.0, -0.5, -0.5), Vector3::new(3.0, 0.5, 0.5));
     let scene = Arc::new(Scene::with_landmarks(vec![wall], vec![bx], 20.0, 1));
     let mut rig = common::rig(1);

@@ -1,0 +1,246 @@
+//! From the virtual pinhole to the real camera: the distortion remap (with vignetting), motion
+//! blur accumulation, depth remap and sensor noise — all on the CPU, in integer arithmetic
+//! where it decides output bytes.
+//!
+//! The remap table is built once per camera: every real pixel `(u, v)` is unprojected through
+//! the camera model, projected into the virtual pinhole and stored as the index of its top-left
+//! pinhole neighbour plus four bilinear weights in 1/65535 units with the vignetting factor
+//! folded in. A frame is then four byte loads and multiply-adds per pixel.
+
+use super::{GrayImage, Photometric, VirtualPinhole};
+use crate::rng::sensor_rng;
+use estimator::camera::CameraModel;
+use nalgebra::{Vector2, Vector3};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+/// One real pixel's bilinear tap into the (row-padded) 8-bit pinhole readback.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Tap {
+    /// Byte index of the top-left neighbour (`y · row + x`).
+    pub idx: u32,
+    /// Weights of (x, y), (x+1, y), (x, y+1), (x+1, y+1), summing to ≈ vignetting · 65535;
+    /// all zero for pixels that are not rendered (black).
+    pub w: [u16; 4],
+}
+
+/// One real pixel's position in the pinhole, for the depth remap.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct DepthTap {
+    /// Column of the top-left neighbour; `u16::MAX`: not rendered.
+    pub x: u16,
+    /// Row of the top-left neighbour.
+    pub y: u16,
+    /// Fractional position inside the 2×2 cell, in 1/65535.
+    pub frac: [u16; 2],
+}
+
+/// The virtual pinhole and remap tables of one camera.
+#[derive(Clone, Debug)]
+pub(crate) struct RemapTable {
+    /// The virtual pinhole.
+    pub pinhole: VirtualPinhole,
+    /// Bytes per row of the pinhole readback (padded).
+    pub row: usize,
+    /// Image taps, one per real pixel (row-major).
+    pub taps: Vec<Tap>,
+    /// Depth taps, one per real pixel.
+    pub depth_taps: Vec<DepthTap>,
+}
+
+/// Builds the virtual pinhole of `model` and its remap table.
+///
+/// The pinhole shares the camera's frame. Its focal length is the model's magnification on the
+/// optical axis times `scale` (so at scale 1 the image centre keeps its resolution; the usual
+/// lenses only compress towards the edges), capped so neither side exceeds `max_size`; it covers
+/// the bearings of all pixels that the model unprojects within `max_half_angle_deg` of the axis,
+/// plus a 2-pixel margin. Pixels outside get no tap (black).
+pub(crate) fn build(
+    model: &dyn CameraModel,
+    row_padding: impl Fn(u32) -> u32,
+    max_half_angle_deg: f64,
+    max_size: u32,
+    scale: f64,
+    vignetting: f64,
+) -> RemapTable {
+    let (w, h) = (model.width(), model.height());
+    let cos_max = max_half_angle_deg.to_radians().cos();
+    let mut tangents: Vec<Option<Vector2<f64>>> = Vec::with_capacity((w * h) as usize);
+    let (mut lo, mut hi) = (
+        Vector2::repeat(f64::INFINITY),
+        Vector2::repeat(f64::NEG_INFINITY),
+    );
+    for v in 0..h {
+        for u in 0..w {
+            let uv = Vector2::new(f64::from(u), f64::from(v));
+            let t = model
+                .unproject(&uv)
+                .filter(|b| b.z > cos_max * b.norm())
+                .map(|b| Vector2::new(b.x / b.z, b.y / b.z));
+            if let Some(t) = t {
+                lo = lo.inf(&t);
+                hi = hi.sup(&t);
+            }
+            tangents.push(t);
+        }
+    }
+    if !lo.x.is_finite() {
+        lo = Vector2::repeat(-0.5);
+        hi = Vector2::repeat(0.5);
+    }
+    let f_axis = model
+        .project_with_jacobian(&Vector3::new(0.0, 0.0, 1.0))
+        .map_or(f64::from(w.max(h)) / 2.0, |(_, j)| {
+            j[(0, 0)].abs().max(j[(1, 1)].abs())
+        });
+    let margin = 2.0;
+    let span = hi - lo;
+    let limit = f64::from(max_size) - 2.0 * margin - 1.0;
+    let f = (f_axis * scale).min(limit / span.x).min(limit / span.y);
+    let pinhole = VirtualPinhole {
+        f,
+        cx: margin - f * lo.x,
+        cy: margin - f * lo.y,
+        width: (f * span.x + 2.0 * margin).ceil() as u32 + 1,
+        height: (f * span.y + 2.0 * margin).ceil() as u32 + 1,
+    };
+    // Vignetting about the optical centre, normalized by the farthest corner.
+    let c = model
+        .project(&Vector3::new(0.0, 0.0, 1.0))
+        .unwrap_or(Vector2::new(f64::from(w) / 2.0, f64::from(h) / 2.0));
+    let r2_max = [(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)]
+        .iter()
+        .map(|&(x, y)| (f64::from(x) - c.x).powi(2) + (f64::from(y) - c.y).powi(2))
+        .fold(1.0, f64::max);
+    let row = row_padding(pinhole.width) as usize;
+    let mut taps = Vec::with_capacity(tangents.len());
+    let mut depth_taps = Vec::with_capacity(tangents.len());
+    for (k, t) in tangents.into_iter().enumerate() {
+        let Some(t) = t else {
+            taps.push(Tap { idx: 0, w: [0; 4] });
+            depth_taps.push(DepthTap {
+                x: u16::MAX,
+                y: 0,
+                frac: [0; 2],
+            });
+            continue;
+        };
+        let (x, y) = (f * t.x + pinhole.cx, f * t.y + pinhole.cy);
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (u, v) = ((k % w as usize) as f64, (k / w as usize) as f64);
+        let r2 = (u - c.x).powi(2) + (v - c.y).powi(2);
+        let gain = (1.0 - vignetting * r2 / r2_max).max(0.0) * 65535.0;
+        let q = |a: f64| (a * gain).round() as u16;
+        taps.push(Tap {
+            idx: (y0 as usize * row + x0 as usize) as u32,
+            w: [
+                q((1.0 - fx) * (1.0 - fy)),
+                q(fx * (1.0 - fy)),
+                q((1.0 - fx) * fy),
+                q(fx * fy),
+            ],
+        });
+        depth_taps.push(DepthTap {
+            x: x0 as u16,
+            y: y0 as u16,
+            frac: [(fx * 65535.0).round() as u16, (fy * 65535.0).round() as u16],
+        });
+    }
+    RemapTable {
+        pinhole,
+        row,
+        taps,
+        depth_taps,
+    }
+}
+
+/// Adds one pinhole readback (`table.row` bytes per row) through the table into `acc` (sums
+/// of grey level × weight).
+pub(crate) fn accumulate(table: &RemapTable, pinhole: &[u8], acc: &mut [u32]) {
+    let row = table.row;
+    for (a, t) in acc.iter_mut().zip(&table.taps) {
+        let i = t.idx as usize;
+        let (top, bottom) = (&pinhole[i..i + 2], &pinhole[i + row..i + row + 2]);
+        *a += u32::from(top[0]) * u32::from(t.w[0])
+            + u32::from(top[1]) * u32::from(t.w[1])
+            + u32::from(bottom[0]) * u32::from(t.w[2])
+            + u32::from(bottom[1]) * u32::from(t.w[3]);
+    }
+}
+
+/// Turns the sums of `samples` accumulated images into grey levels: without noise rounded
+/// exactly in integers; with noise, read noise and shot noise from the stream
+/// `<name>/pixels` of `seed` (ChaCha stream = `frame_index`) are added before rounding.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn finish(
+    acc: &[u32],
+    samples: u32,
+    width: u32,
+    height: u32,
+    p: &Photometric,
+    seed: u64,
+    name: &str,
+    frame_index: u64,
+) -> GrayImage {
+    let den = u64::from(samples) * 65535;
+    let noisy = p.read_noise > 0.0 || p.electrons_per_level > 0.0;
+    let data = if !noisy {
+        acc.iter()
+            .map(|&a| ((u64::from(a) * 2 + den) / (2 * den)).min(255) as u8)
+            .collect()
+    } else {
+        let mut rng: ChaCha8Rng = sensor_rng(seed, &format!("{name}/pixels"));
+        rng.set_stream(frame_index);
+        let read2 = (p.read_noise * p.read_noise) as f32;
+        let per_level = if p.electrons_per_level > 0.0 {
+            (1.0 / p.electrons_per_level) as f32
+        } else {
+            0.0
+        };
+        let scale = (1.0 / den as f64) as f32;
+        acc.iter()
+            .map(|&a| {
+                let i = a as f32 * scale;
+                let n: f32 = StandardNormal.sample(&mut rng);
+                let v = i + (read2 + i * per_level).sqrt() * n;
+                v.round().clamp(0.0, 255.0) as u8
+            })
+            .collect()
+    };
+    GrayImage {
+        width,
+        height,
+        data,
+    }
+}
+
+/// Remaps an inverse-depth pinhole image (`row` floats per row) to depth along the optical axis
+/// (m, 0 where nothing is seen). Inverse depth is affine in pinhole pixels over a plane, so
+/// bilinear interpolation is exact inside a surface; across a depth edge (neighbours more than
+/// 2 % apart, or one of them empty) the nearest neighbour is taken instead of a blend.
+pub(crate) fn depth(table: &RemapTable, inv: &[f32], row: usize) -> Vec<f32> {
+    table
+        .depth_taps
+        .iter()
+        .map(|t| {
+            if t.x == u16::MAX {
+                return 0.0;
+            }
+            let r0 = usize::from(t.y) * row + usize::from(t.x);
+            let r1 = r0 + row;
+            let q = [inv[r0], inv[r0 + 1], inv[r1], inv[r1 + 1]];
+            let (fx, fy) = (f32::from(t.frac[0]) / 65535.0, f32::from(t.frac[1]) / 65535.0);
+            let lo = q.iter().cloned().fold(f32::INFINITY, f32::min);
+            let hi = q.iter().cloned().fold(0.0, f32::max);
+            let d = if lo <= 0.0 || hi > lo * 1.02 {
+                q[usize::from(fx >= 0.5) + 2 * usize::from(fy >= 0.5)]
+            } else {
+                let top = q[0] + (q[1] - q[0]) * fx;
+                let bottom = q[2] + (q[3] - q[2]) * fx;
+                top + (bottom - top) * fy
+            };
+            if d > 0.0 { 1.0 / d } else { 0.0 }
+        })
+        .collect()
+}
