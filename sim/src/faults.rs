@@ -237,6 +237,15 @@ impl FaultTimeline {
         Some(frame)
     }
 
+    /// True if a blackout with black frames covers the capture time `t` (its frames carry black
+    /// images and no features).
+    pub fn black_frames_at(&self, t: i64) -> bool {
+        self.faults.iter().any(|f| {
+            matches!(*f, Fault::CameraBlackout { start_ns, end_ns, black_frames: true }
+                if active(t, start_ns, end_ns))
+        })
+    }
+
     /// Largest stamp shift (ns, ≥ 0) the camera faults can apply in either direction: the
     /// stream looks this far ahead when merging.
     pub fn max_camera_shift_ns(&self, period_ns: i64) -> i64 {

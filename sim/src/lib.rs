@@ -35,6 +35,7 @@ use crate::motion::{
     BodyParams, ControllerGains, Lissajous, MotionSim, RandomWaypoints, Reference, Replay,
     StaticStart, TrajectoryError, TruthBuffer,
 };
+use crate::render::{RenderConfig, RenderError, Renderer};
 use crate::scene::{Scene, SceneConfig};
 use crate::stream::Stream;
 use nalgebra::Vector3;
@@ -131,6 +132,9 @@ pub enum SimError {
     /// A configuration value is out of range.
     #[error("invalid configuration: {0}")]
     Config(String),
+    /// The renderer could not be set up.
+    #[error(transparent)]
+    Render(#[from] RenderError),
 }
 
 /// A built world: scene, reference motion and sensor configuration. Streams are generated from
@@ -252,6 +256,24 @@ impl World {
             self.end_ns,
             (c.truth_retention_s * 1e9) as i64,
         )
+    }
+}
+
+impl World {
+    /// A renderer for this world's scene and rig (textures drawn from the seed).
+    pub fn renderer(&self, config: &RenderConfig) -> Result<Renderer, SimError> {
+        let rig = self
+            .config
+            .rig
+            .as_ref()
+            .ok_or_else(|| SimError::Config("rendering needs a camera rig".into()))?;
+        Ok(Renderer::new(&self.scene, rig, config, self.config.seed)?)
+    }
+
+    /// A fresh measurement stream whose frames are preceded by their rendered images
+    /// ([`stream::Measurement::Images`]); otherwise identical to [`World::stream`].
+    pub fn rendered_stream(&self, renderer: Renderer) -> Stream {
+        self.stream().with_renderer(renderer)
     }
 }
 

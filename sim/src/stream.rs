@@ -9,6 +9,7 @@ use crate::camera::RigSim;
 use crate::faults::FaultTimeline;
 use crate::imu::{ImuBias, ImuSim};
 use crate::motion::{Kinematics, TruthBuffer};
+use crate::render::{CameraImage, GrayImage, ImageFrame, RenderError, Renderer};
 use crate::scene::Landmark;
 use estimator::frontend::FeatureFrame;
 use estimator::geometry::Pose;
@@ -23,6 +24,9 @@ pub enum Measurement {
     Imu(ImuSample),
     /// A (multi-camera) feature frame, stamped in the camera clock.
     Frame(FeatureFrame),
+    /// The rendered images of the same capture (rendered streams only): emitted just before
+    /// the feature frame with the same stamp, with the same live cameras.
+    Images(ImageFrame),
 }
 
 impl Measurement {
@@ -31,6 +35,7 @@ impl Measurement {
         match self {
             Measurement::Imu(s) => s.t_ns,
             Measurement::Frame(f) => f.t_ns,
+            Measurement::Images(f) => f.t_ns,
         }
     }
 }
@@ -69,6 +74,14 @@ pub struct Stream {
     biases: VecDeque<ImuBias>,
     /// The next frame to emit (after faults).
     frame: Option<FeatureFrame>,
+    /// The renderer of a rendered stream.
+    renderer: Option<Renderer>,
+    /// Images of the pending frame, emitted before it.
+    images: Option<ImageFrame>,
+    /// Time spent rendering the pending images (s).
+    render_s: f64,
+    /// The first rendering error; the stream ends there.
+    error: Option<RenderError>,
     imu_done: bool,
     rig_done: bool,
     last_emitted_ns: i64,
@@ -94,10 +107,36 @@ impl Stream {
             imu_queue: VecDeque::new(),
             biases: VecDeque::new(),
             frame: None,
+            renderer: None,
+            images: None,
+            render_s: 0.0,
+            error: None,
             imu_done: false,
             rig_done,
             last_emitted_ns: i64::MIN,
         }
+    }
+
+    /// Makes this a rendered stream: every delivered frame is preceded by its images.
+    pub(crate) fn with_renderer(mut self, renderer: Renderer) -> Self {
+        self.renderer = Some(renderer);
+        self
+    }
+
+    /// The renderer of a rendered stream.
+    pub fn renderer(&self) -> Option<&Renderer> {
+        self.renderer.as_ref()
+    }
+
+    /// Wall-clock time spent rendering the most recently emitted images (s; for timing
+    /// reports only, never for decisions).
+    pub fn last_render_s(&self) -> f64 {
+        self.render_s
+    }
+
+    /// The rendering error that ended the stream early, if any.
+    pub fn error(&self) -> Option<&RenderError> {
+        self.error.as_ref()
     }
 
     /// End of the scenario (ns): no sample or frame is taken after it.
@@ -135,7 +174,66 @@ impl Stream {
             let period = rig.config().period_ns();
             let (t_cap, f) = rig.next_frame(&mut self.truth);
             self.frame = self.faults.apply_frame(f, t_cap, period);
+            if let (Some(frame), Some(_)) = (&self.frame, &self.renderer) {
+                let (t_ns, frame_index) = (frame.t_ns, (t_cap / period) as u64);
+                let live: Vec<usize> = frame.cameras.iter().map(|c| c.cam_id).collect();
+                match self.render(t_cap, t_ns, frame_index, &live) {
+                    Ok(images) => self.images = Some(images),
+                    Err(e) => {
+                        self.error = Some(e);
+                        self.frame = None;
+                        self.rig_done = true;
+                        self.imu_done = true;
+                        self.imu_queue.clear();
+                    }
+                }
+            }
         }
+    }
+
+    /// Renders the cameras `live` for the capture at true time `t_cap` (black images during a
+    /// blackout with black frames).
+    fn render(
+        &mut self,
+        t_cap: i64,
+        t_ns: i64,
+        frame_index: u64,
+        live: &[usize],
+    ) -> Result<ImageFrame, RenderError> {
+        let start = std::time::Instant::now();
+        let renderer = self.renderer.as_mut().expect("rendered stream");
+        let out = if self.faults.black_frames_at(t_cap) {
+            Ok(ImageFrame {
+                t_ns,
+                cameras: live
+                    .iter()
+                    .map(|&c| {
+                        let (w, h) = renderer.image_size(c);
+                        CameraImage {
+                            cam_id: c,
+                            image: GrayImage::black(w, h),
+                            depth: None,
+                        }
+                    })
+                    .collect(),
+            })
+        } else {
+            let poses: Vec<_> = renderer
+                .exposure_offsets_ns()
+                .iter()
+                .map(|o| {
+                    let k = self
+                        .truth
+                        .kinematics(t_cap + o)
+                        .or_else(|| self.truth.kinematics(t_cap))
+                        .expect("ground truth at a capture time");
+                    k.pose
+                })
+                .collect();
+            renderer.render(t_cap, t_ns, frame_index, &poses, live)
+        };
+        self.render_s = start.elapsed().as_secs_f64();
+        out
     }
 
     fn fill_imu(&mut self) {
@@ -217,11 +315,18 @@ impl Iterator for Stream {
         self.fill_frame();
         let imu_t = self.imu_queue.front().map(|s| s.t_ns);
         let frame_t = self.frame.as_ref().map(|f| f.t_ns);
-        let out = match (imu_t, frame_t) {
+        let frame_first = match (imu_t, frame_t) {
             (None, None) => return None,
-            (Some(a), Some(b)) if b < a => Measurement::Frame(self.frame.take()?),
-            (None, Some(_)) => Measurement::Frame(self.frame.take()?),
-            _ => Measurement::Imu(self.imu_queue.pop_front()?),
+            (Some(a), Some(b)) => b < a,
+            (None, Some(_)) => true,
+            (Some(_), None) => false,
+        };
+        let out = if !frame_first {
+            Measurement::Imu(self.imu_queue.pop_front()?)
+        } else if let Some(images) = self.images.take() {
+            Measurement::Images(images)
+        } else {
+            Measurement::Frame(self.frame.take()?)
         };
         self.last_emitted_ns = self.last_emitted_ns.max(out.t_ns());
         self.trim();

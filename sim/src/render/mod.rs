@@ -302,7 +302,9 @@ const UNIFORM_STRIDE: u64 = 256;
 /// Marker disks are drawn as regular polygons with this many sides.
 const MARKER_SIDES: usize = 48;
 const PINHOLE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R8Unorm;
-const INV_DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
+/// Inverse depth travels as the bits of an f32 in a 32-bit integer target: R32Float is not
+/// renderable on downlevel (GL) adapters, R32Uint is.
+const INV_DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
 #[repr(C)]
@@ -949,6 +951,11 @@ impl Renderer {
         &self.config
     }
 
+    /// Image size `(width, height)` of camera `cam`.
+    pub fn image_size(&self, cam: usize) -> (u32, u32) {
+        (self.cameras[cam].width, self.cameras[cam].height)
+    }
+
     /// The virtual pinhole camera `cam` is rendered through before distortion.
     pub fn pinhole(&self, cam: usize) -> VirtualPinhole {
         self.cameras[cam].table.pinhole
@@ -1186,7 +1193,7 @@ fn finish_camera(
         let at = base + samples * image_bytes;
         let inv: Vec<f32> = data[at..at + drow * ph as usize]
             .chunks_exact(4)
-            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .map(|b| f32::from_bits(u32::from_le_bytes([b[0], b[1], b[2], b[3]])))
             .collect();
         DepthImage {
             width: cam.width,

@@ -49,7 +49,8 @@ fn fs_scene(i: SceneOut) -> @location(0) vec4<f32> {
     return vec4<f32>(clamp(a * i.shade * cam.gain, 0.0, 1.0), 0.0, 0.0, 1.0);
 }
 
+// Written as the f32's bits into an R32Uint target (R32Float is not renderable on GL).
 @fragment
-fn fs_inv_depth(i: SceneOut) -> @location(0) vec4<f32> {
-    return vec4<f32>(i.clip.z * cam.inv_near, 0.0, 0.0, 1.0);
+fn fs_inv_depth(i: SceneOut) -> @location(0) vec4<u32> {
+    return vec4<u32>(bitcast<u32>(i.clip.z * cam.inv_near), 0u, 0u, 1u);
 }
