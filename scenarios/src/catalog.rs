@@ -28,6 +28,7 @@ const ENTRIES: &[Entry] = &[
     entry!("room_circle_stereo_imu"),
     entry!("room_replay_v2_02_stereo_imu"),
     entry!("room_figure8_blackout_stereo_imu"),
+    entry!("room_figure8_rendered_stereo_imu"),
 ];
 
 /// Data files the catalog scenarios reference, by their path relative to `catalog/`.

@@ -4,9 +4,10 @@
 //! Writes `OUT/mav0/` in the EuRoC ASL layout (`imu0/data.csv` + `sensor.yaml` with the Kalibr
 //! noise values, `state_groundtruth_estimate0/data.csv` at every IMU sample with the true biases,
 //! `cam<i>/data.csv` + `sensor.yaml` with each camera's calibration) and `OUT/features.csv`
-//! (`t_ns,cam_id,feature_id,u,v`, distorted pixels). Feature-level scenarios have no images: the
-//! camera `data.csv` lists the frame times (`<t_ns>.png`), and `features.csv` holds what the
-//! cameras measured at those times.
+//! (`t_ns,cam_id,feature_id,u,v`, distorted pixels). Rendered scenarios (`camera.mode =
+//! "rendered"`) also write every image as `mav0/cam<i>/data/<t_ns>.png`; feature-level
+//! scenarios have no images: the camera `data.csv` lists the frame times, and `features.csv`
+//! holds what the cameras measured at those times.
 
 use std::path::Path;
 
@@ -34,6 +35,8 @@ pub struct ExportSummary {
     pub observations: usize,
     /// Ground-truth rows written.
     pub groundtruth: usize,
+    /// Rendered images written (rendered scenarios).
+    pub images: usize,
 }
 
 /// Errors from [`export`].
@@ -45,6 +48,9 @@ pub enum ExportError {
     /// A file could not be written.
     #[error(transparent)]
     Dataset(#[from] DatasetError),
+    /// An image could not be written.
+    #[error("{0}")]
+    Image(String),
 }
 
 /// Kalibr's `camera_model`, `intrinsics`, `distortion_model`, `distortion_coefficients` for a
@@ -102,7 +108,17 @@ pub fn export(
         file: scenario.file_label(),
         message: e.to_string(),
     })?;
-    let mut stream = world.stream();
+    let mut stream = match scenario.render_config().map_err(RunError::from)? {
+        None => world.stream(),
+        Some(cfg) => {
+            let r = world.renderer(&cfg).map_err(|e| RunError::Sim {
+                file: scenario.file_label(),
+                message: e.to_string(),
+            })?;
+            world.rendered_stream(r)
+        }
+    };
+    let mut images = 0;
     let mut data = EurocDataset {
         imu_sensor: Some(ImuSensor {
             comment: format!("vio simulated IMU, scenario {}", scenario.name),
@@ -144,6 +160,16 @@ pub fn export(
                     });
                 }
             }
+            Measurement::Images(frame) => {
+                for c in &frame.cameras {
+                    let dir = out.join(format!("mav0/cam{}/data", c.cam_id));
+                    std::fs::create_dir_all(&dir)
+                        .map_err(|e| ExportError::Image(format!("{}: {e}", dir.display())))?;
+                    let path = dir.join(format!("{}.png", frame.t_ns));
+                    crate::images::write_gray_png(&path, &c.image).map_err(ExportError::Image)?;
+                    images += 1;
+                }
+            }
             Measurement::Frame(f) => {
                 for cf in &f.cameras {
                     if let Some(cam) = data.cameras.get_mut(cf.cam_id) {
@@ -153,6 +179,13 @@ pub fn export(
                 frames.push(f);
             }
         }
+    }
+    if let Some(e) = stream.error() {
+        return Err(RunError::Sim {
+            file: scenario.file_label(),
+            message: e.to_string(),
+        }
+        .into());
     }
     write_euroc(out.join("mav0"), &data)?;
     write_features_csv(out.join("features.csv"), &frames)?;
@@ -165,5 +198,6 @@ pub fn export(
             .map(|c| c.features.len())
             .sum(),
         groundtruth: data.groundtruth.len(),
+        images,
     })
 }

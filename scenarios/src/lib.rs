@@ -14,6 +14,7 @@
 pub mod catalog;
 pub mod dataset;
 pub mod export;
+pub mod images;
 pub mod metrics;
 pub mod plot;
 pub mod report;

@@ -260,6 +260,10 @@ pub struct Report {
     pub accel_bias_error_m_s2: Option<f64>,
     /// Per-frame timing statistics (ms).
     pub timing_ms: TimingReport,
+    /// Camera mode: `features` or `rendered`.
+    pub camera_mode: &'static str,
+    /// The graphics adapter that rendered the images (`null` for feature-level scenarios).
+    pub renderer: Option<String>,
     /// Events.
     pub events: Vec<EventReport>,
     /// The scenario's faults.
@@ -296,7 +300,10 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
         frontend: Stats::from_seconds(frames.iter().map(|f| f.timing.frontend_s)),
         backend: Stats::from_seconds(frames.iter().map(|f| f.timing.backend_s)),
         total: Stats::from_seconds(frames.iter().map(|f| f.timing.total_s)),
-        render: None,
+        render: run
+            .renderer
+            .is_some()
+            .then(|| Stats::from_seconds(frames.iter().map(|f| f.timing.render_s))),
     };
     let events = run
         .events
@@ -342,6 +349,12 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
         gyro_bias_error_rad_s: eval.gyro_bias_error_rad_s,
         accel_bias_error_m_s2: eval.accel_bias_error_m_s2,
         timing_ms,
+        camera_mode: if run.renderer.is_some() {
+            "rendered"
+        } else {
+            "features"
+        },
+        renderer: run.renderer.clone(),
         events,
         faults,
         expectations: Vec::new(),

@@ -31,6 +31,8 @@ pub struct FrameTiming {
     pub backend_s: f64,
     /// Front end plus the whole estimator call that produced the estimate.
     pub total_s: f64,
+    /// Rendering the capture's images (rendered scenarios; 0 otherwise). Not part of `total`.
+    pub render_s: f64,
 }
 
 /// One processed frame.
@@ -86,6 +88,8 @@ pub struct RunOutput {
     pub events: Vec<Event>,
     /// Estimator resets (the estimator has no reset yet: always 0).
     pub resets: usize,
+    /// The graphics adapter of a rendered scenario (`None` for feature-level ones).
+    pub renderer: Option<String>,
 }
 
 /// Errors that stop a run.
@@ -136,7 +140,18 @@ pub fn run(
         message: e.to_string(),
     })?;
     let end_ns = world.end_ns();
-    let mut stream = world.stream();
+    let sim_error = |e: sim::SimError| RunError::Sim {
+        file: scenario.file_label(),
+        message: e.to_string(),
+    };
+    let (mut stream, renderer) = match scenario.render_config()? {
+        None => (world.stream(), None),
+        Some(cfg) => {
+            let r = world.renderer(&cfg).map_err(sim_error)?;
+            let adapter = r.adapter().to_string();
+            (world.rendered_stream(r), Some(adapter))
+        }
+    };
     let mut out = RunOutput {
         scenario: scenario.name.clone(),
         seed,
@@ -146,12 +161,18 @@ pub fn run(
         frames: Vec::new(),
         events: Vec::new(),
         resets: 0,
+        renderer,
     };
+    let mut render_s = 0.0;
     let mut status = estimator.status();
     let mut last_progress = -1.0;
     while let Some(m) = stream.next() {
         let t_ns = m.t_ns();
         let (result, frontend_s, call_start) = match m {
+            Measurement::Images(_) => {
+                render_s = stream.last_render_s();
+                continue;
+            }
             Measurement::Imu(s) => {
                 out.imu_samples += 1;
                 let start = Instant::now();
@@ -196,6 +217,7 @@ pub fn run(
                 frontend_s,
                 backend_s: e.backend_s,
                 total_s: frontend_s + call_s / n,
+                render_s,
             };
             out.frames.push(FrameRecord {
                 estimate: e,
@@ -208,6 +230,12 @@ pub fn run(
             progress(frac);
             last_progress = frac;
         }
+    }
+    if let Some(e) = stream.error() {
+        return Err(RunError::Sim {
+            file: scenario.file_label(),
+            message: e.to_string(),
+        });
     }
     progress(1.0);
     Ok(out)

@@ -70,6 +70,7 @@ use sim::camera::{CameraConfig as SimCamera, RigConfig};
 use sim::faults::Fault;
 use sim::imu::{ImuConfig, ImuWindow};
 use sim::motion::{Lissajous, RandomWaypoints, Replay};
+use sim::render::{MotionBlur, Photometric, RenderBackend, RenderConfig, RenderError};
 use sim::scene::{SceneConfig, ScenePreset};
 use sim::{StaticStartConfig, TrajectoryConfig, WorldConfig};
 
@@ -90,6 +91,10 @@ pub struct ScenarioSpec {
     pub trajectory: TrajectorySpec,
     /// Cameras and IMU.
     pub rig: RigSpec,
+    /// How cameras measure: feature-level (default) or rendered images, and the rendering
+    /// settings.
+    #[serde(default)]
+    pub camera: CameraModeSpec,
     /// Estimator settings (every key optional; defaults from `EstimatorConfig::new`).
     #[serde(default)]
     pub estimator: EstimatorSpec,
@@ -127,6 +132,112 @@ impl SuiteSpec {
             SuiteSpec::Stereo => "stereo",
         }
     }
+}
+
+/// `[camera]`: the camera measurement mode and, for rendered images, the renderer.
+///
+/// ```toml
+/// [camera]
+/// mode = "rendered"            # or "features" (default)
+/// [camera.render]              # every key optional
+/// backend = "gl"               # "gl" (Mesa llvmpipe without a GPU) or "vulkan"
+/// msaa = false                 # 4× multisampling of geometric edges
+/// motion_blur = { exposure_s = 0.005, samples = 4 }
+/// [camera.photometric]         # every key optional
+/// vignetting = 0.2
+/// read_noise = 1.0
+/// ```
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraModeSpec {
+    /// `features` (projected landmarks with pixel noise) or `rendered` (images as well).
+    #[serde(default)]
+    pub mode: CameraMode,
+    /// Renderer settings (defaults: `sim::render::RenderConfig::default()`).
+    #[serde(default)]
+    pub render: RenderSpec,
+    /// Exposure, vignetting and noise (defaults: none).
+    #[serde(default)]
+    pub photometric: PhotometricSpec,
+}
+
+/// Camera measurement mode.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum CameraMode {
+    /// Feature-level measurements only.
+    #[default]
+    Features,
+    /// Rendered images too. Until the image front end lands, the estimator still consumes the
+    /// feature-level measurements of the same captures; the images are rendered, timed
+    /// (`timing_ms.render`) and exported.
+    Rendered,
+}
+
+/// Renderer backend.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum BackendSpec {
+    /// OpenGL through EGL.
+    Gl,
+    /// Vulkan.
+    Vulkan,
+}
+
+/// `[camera.render]` (see `sim::render::RenderConfig` for each key's meaning).
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RenderSpec {
+    /// Backend (default `gl`).
+    pub backend: Option<BackendSpec>,
+    /// Adapter name substring.
+    pub adapter: Option<String>,
+    /// 4× MSAA.
+    pub msaa: Option<bool>,
+    /// Trilinear texture filtering.
+    pub trilinear: Option<bool>,
+    /// Anisotropic filtering clamp.
+    pub anisotropy: Option<u16>,
+    /// Virtual pinhole focal scale.
+    pub pinhole_scale: Option<f64>,
+    /// Texture tile size (texels).
+    pub texture_size: Option<u32>,
+    /// Texel size (m).
+    pub texel_m: Option<f64>,
+    /// Largest rendered off-axis angle (deg).
+    pub max_half_angle_deg: Option<f64>,
+    /// Render depth images too.
+    pub depth: Option<bool>,
+    /// Motion blur.
+    pub motion_blur: Option<MotionBlurSpec>,
+}
+
+/// `motion_blur = { exposure_s, samples }`.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotionBlurSpec {
+    /// Exposure (s).
+    pub exposure_s: f64,
+    /// Sub-frame renders (2..=32).
+    pub samples: u32,
+}
+
+/// `[camera.photometric]` (see `sim::render::Photometric`).
+#[derive(Clone, Copy, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PhotometricSpec {
+    /// Mean gain.
+    pub gain: Option<f64>,
+    /// Relative gain oscillation amplitude.
+    pub gain_variation: Option<f64>,
+    /// Gain oscillation period (s).
+    pub gain_period_s: Option<f64>,
+    /// Corner darkening (0..=1).
+    pub vignetting: Option<f64>,
+    /// Read noise σ (grey levels).
+    pub read_noise: Option<f64>,
+    /// Electrons per grey level (shot noise; 0 = none).
+    pub electrons_per_level: Option<f64>,
 }
 
 /// `[world]`: scene and seed.
@@ -676,6 +787,56 @@ impl Scenario {
         Ok(Self { models, ..s })
     }
 
+    /// The renderer configuration of a rendered scenario (`None` for feature-level ones).
+    pub fn render_config(&self) -> Result<Option<RenderConfig>, SpecError> {
+        let c = &self.spec.camera;
+        if c.mode == CameraMode::Features {
+            return Ok(None);
+        }
+        let (r, p) = (&c.render, &c.photometric);
+        let d = RenderConfig::default();
+        let dp = d.photometric;
+        let cfg = RenderConfig {
+            backend: match r.backend {
+                Some(BackendSpec::Vulkan) => RenderBackend::Vulkan,
+                _ => RenderBackend::Gl,
+            },
+            adapter: r.adapter.clone(),
+            msaa: r.msaa.unwrap_or(d.msaa),
+            trilinear: r.trilinear.unwrap_or(d.trilinear),
+            anisotropy: r.anisotropy.unwrap_or(d.anisotropy),
+            pinhole_scale: r.pinhole_scale.unwrap_or(d.pinhole_scale),
+            texture_size: r.texture_size.unwrap_or(d.texture_size),
+            texel_m: r.texel_m.unwrap_or(d.texel_m),
+            max_half_angle_deg: r.max_half_angle_deg.unwrap_or(d.max_half_angle_deg),
+            max_pinhole_size: d.max_pinhole_size,
+            depth: r.depth.unwrap_or(d.depth),
+            motion_blur: r.motion_blur.map(|b| MotionBlur {
+                exposure_s: b.exposure_s,
+                samples: b.samples,
+            }),
+            photometric: Photometric {
+                gain: p.gain.unwrap_or(dp.gain),
+                gain_variation: p.gain_variation.unwrap_or(dp.gain_variation),
+                gain_period_s: p.gain_period_s.unwrap_or(dp.gain_period_s),
+                vignetting: p.vignetting.unwrap_or(dp.vignetting),
+                read_noise: p.read_noise.unwrap_or(dp.read_noise),
+                electrons_per_level: p.electrons_per_level.unwrap_or(dp.electrons_per_level),
+            },
+        };
+        cfg.validate().map_err(|e| {
+            let key = match &e {
+                RenderError::Field { field, .. } if field.starts_with("photometric.") => {
+                    format!("camera.{field}")
+                }
+                RenderError::Field { field, .. } => format!("camera.render.{field}"),
+                _ => "camera".into(),
+            };
+            self.error(&key, e.to_string())
+        })?;
+        Ok(Some(cfg))
+    }
+
     /// The name errors use for the file.
     pub fn file_label(&self) -> String {
         match &self.origin {
@@ -697,6 +858,7 @@ impl Scenario {
     /// Checks everything the world and estimator configurations need, so that
     /// [`Scenario::world_config`] and [`Scenario::estimator_config`] only fail on data files.
     fn validate(&self) -> Result<(), SpecError> {
+        self.render_config()?;
         let s = &self.spec;
         let pos = |key: &str, v: f64| -> Result<(), SpecError> {
             if v.is_finite() && v > 0.0 {

@@ -117,7 +117,12 @@ pub struct Surface {
 
 impl Surface {
     /// A richly textured rectangle.
-    pub fn new(origin: Vector3<f64>, u: Vector3<f64>, v: Vector3<f64>, normal: Vector3<f64>) -> Self {
+    pub fn new(
+        origin: Vector3<f64>,
+        u: Vector3<f64>,
+        v: Vector3<f64>,
+        normal: Vector3<f64>,
+    ) -> Self {
         Self {
             origin,
             u,

@@ -7,9 +7,7 @@
 
 mod common;
 
-use estimator::camera::{
-    Camera, CameraModel, DoubleSphere, KannalaBrandt, Mei, PinholeRadtan,
-};
+use estimator::camera::{Camera, CameraModel, DoubleSphere, KannalaBrandt, Mei, PinholeRadtan};
 use estimator::geometry::Pose;
 use nalgebra::{Vector2, Vector3};
 use sim::camera::{CameraConfig, RigConfig};
@@ -91,8 +89,13 @@ fn marker_error(model: Arc<dyn CameraModel>) -> (f64, usize) {
     let mut markers = Vec::new();
     for i in 0..6 {
         for j in 0..5 {
-            let uv = Vector2::new(24.0 + (w - 48.0) * i as f64 / 5.0, 24.0 + (h - 48.0) * j as f64 / 4.0);
-            let Some(b) = model.unproject(&uv) else { continue };
+            let uv = Vector2::new(
+                24.0 + (w - 48.0) * i as f64 / 5.0,
+                24.0 + (h - 48.0) * j as f64 / 4.0,
+            );
+            let Some(b) = model.unproject(&uv) else {
+                continue;
+            };
             if b.z < 60f64.to_radians().cos() {
                 continue; // beyond what the test's wall covers well
             }
@@ -130,18 +133,26 @@ fn marker_error(model: Arc<dyn CameraModel>) -> (f64, usize) {
 #[test]
 fn markers_appear_where_every_camera_model_projects_them() {
     let models: Vec<(&str, Arc<dyn CameraModel>)> = vec![
-        ("radtan", Arc::new(Camera::PinholeRadtan(PinholeRadtan::euroc_cam0()))),
+        (
+            "radtan",
+            Arc::new(Camera::PinholeRadtan(PinholeRadtan::euroc_cam0())),
+        ),
         (
             "kannala_brandt",
             Arc::new(Camera::KannalaBrandt(
-                KannalaBrandt::new(512, 512, 190.0, 190.0, 254.93, 256.9, 0.0034, 0.0007, -0.0020, 0.0002)
-                    .unwrap(),
+                KannalaBrandt::new(
+                    512, 512, 190.0, 190.0, 254.93, 256.9, 0.0034, 0.0007, -0.0020, 0.0002,
+                )
+                .unwrap(),
             )),
         ),
         (
             "mei",
             Arc::new(Camera::Mei(
-                Mei::new(512, 512, 1.0, 380.0, 381.0, 255.5, 254.5, -0.03, 0.005, 1e-4, -2e-4).unwrap(),
+                Mei::new(
+                    512, 512, 1.0, 380.0, 381.0, 255.5, 254.5, -0.03, 0.005, 1e-4, -2e-4,
+                )
+                .unwrap(),
             )),
         ),
         (
@@ -224,7 +235,14 @@ fn stereo_disparity_matches_baseline_over_depth() {
     let rig = RigConfig::euroc_like();
     let wall_x = 3.0;
     let mut scene = Scene::with_landmarks(vec![plain_wall(wall_x, 0.8)], vec![], 0.0, 1);
-    for (y, z) in [(-0.8, -0.5), (-0.3, 0.4), (0.0, 0.0), (0.4, -0.3), (0.9, 0.5), (0.5, 0.7)] {
+    for (y, z) in [
+        (-0.8, -0.5),
+        (-0.3, 0.4),
+        (0.0, 0.0),
+        (0.4, -0.3),
+        (0.9, 0.5),
+        (0.5, 0.7),
+    ] {
         scene.markers.push(Marker {
             center: Vector3::new(wall_x, y, z),
             normal: -Vector3::x(),
@@ -259,7 +277,12 @@ use sim::scene;
 fn mean_and_std(img: &GrayImage) -> (f64, f64) {
     let n = img.data.len() as f64;
     let m = img.data.iter().map(|&x| f64::from(x)).sum::<f64>() / n;
-    let v = img.data.iter().map(|&x| (f64::from(x) - m).powi(2)).sum::<f64>() / n;
+    let v = img
+        .data
+        .iter()
+        .map(|&x| (f64::from(x) - m).powi(2))
+        .sum::<f64>()
+        / n;
     (m, v.sqrt())
 }
 
@@ -293,15 +316,26 @@ fn rendered_room_is_textured_and_identical_across_processes() {
         let (m, s) = mean_and_std(&c.image);
         // A black or uniform frame is how a silently failed render looks (e.g. a 6-layer
         // texture array taken for a cube map on GL).
-        assert!(m > 40.0 && m < 220.0 && s > 20.0, "cam{}: mean {m}, std {s}", c.cam_id);
+        assert!(
+            m > 40.0 && m < 220.0 && s > 20.0,
+            "cam{}: mean {m}, std {s}",
+            c.cam_id
+        );
     }
     // The same render in a child process (this test binary, running the ignored child test).
     let exe = std::env::current_exe().unwrap();
     let out = std::process::Command::new(exe)
-        .args(["--exact", "render_hash_child", "--ignored", "--nocapture", "--test-threads=1"])
+        .args([
+            "--exact",
+            "render_hash_child",
+            "--ignored",
+            "--nocapture",
+            "--test-threads=1",
+        ])
         .output()
         .expect("spawn the child test");
-    let text = String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    let text =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
     let child: u64 = text
         .lines()
         .find_map(|l| l.split_once("RENDER_HASH ").map(|(_, h)| h))
@@ -309,7 +343,11 @@ fn rendered_room_is_textured_and_identical_across_processes() {
         .trim()
         .parse()
         .unwrap();
-    assert_eq!(child, hash(&frame), "a second process rendered different bytes");
+    assert_eq!(
+        child,
+        hash(&frame),
+        "a second process rendered different bytes"
+    );
 }
 
 /// Prints the hash of the room frame; run by the cross-process test above.
@@ -326,7 +364,11 @@ fn vignetting_gain_and_noise_follow_the_configuration() {
     let scene = Scene::with_landmarks(vec![plain_wall(2.0, 0.5)], vec![], 0.0, 1);
     let render = |cfg: RenderConfig, t_ns: i64| {
         let mut r = Renderer::new(&scene, &rig, &cfg, 1).unwrap();
-        r.render(t_ns, t_ns, 7, &[Pose::identity()], &[0]).unwrap().cameras.remove(0).image
+        r.render(t_ns, t_ns, 7, &[Pose::identity()], &[0])
+            .unwrap()
+            .cameras
+            .remove(0)
+            .image
     };
     let clean = render(test_config(), 0);
     let mut cfg = test_config();
@@ -335,8 +377,14 @@ fn vignetting_gain_and_noise_follow_the_configuration() {
     // Corner (farthest from the optical centre) vs centre: 1 − 0.3 at the corner, 1 at centre.
     let ratio_corner = f64::from(vig.at(751, 479)) / f64::from(clean.at(751, 479));
     let ratio_centre = f64::from(vig.at(367, 248)) / f64::from(clean.at(367, 248));
-    assert!((ratio_corner - 0.7).abs() < 0.02, "corner ratio {ratio_corner}");
-    assert!((ratio_centre - 1.0).abs() < 0.01, "centre ratio {ratio_centre}");
+    assert!(
+        (ratio_corner - 0.7).abs() < 0.02,
+        "corner ratio {ratio_corner}"
+    );
+    assert!(
+        (ratio_centre - 1.0).abs() < 0.01,
+        "centre ratio {ratio_centre}"
+    );
 
     // Gain oscillation: a quarter period in, the gain is 1 + variation.
     let mut cfg = test_config();
@@ -353,7 +401,10 @@ fn vignetting_gain_and_noise_follow_the_configuration() {
     cfg.photometric.electrons_per_level = 20.0;
     let noisy = render(cfg.clone(), 0);
     let again = render(cfg, 0);
-    assert_eq!(noisy, again, "noise must repeat for the same seed and frame");
+    assert_eq!(
+        noisy, again,
+        "noise must repeat for the same seed and frame"
+    );
     let diffs: Vec<f64> = noisy
         .data
         .iter()
@@ -365,7 +416,10 @@ fn vignetting_gain_and_noise_follow_the_configuration() {
     let sd = (diffs.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / n).sqrt();
     let expected = (4.0 + m0 / 20.0 + 1.0 / 12.0).sqrt(); // + rounding
     assert!(mean.abs() < 0.05, "noise mean {mean}");
-    assert!((sd / expected - 1.0).abs() < 0.05, "noise σ {sd} vs {expected}");
+    assert!(
+        (sd / expected - 1.0).abs() < 0.05,
+        "noise σ {sd} vs {expected}"
+    );
 }
 
 #[test]
@@ -388,7 +442,10 @@ fn motion_blur_smooths_a_moving_view() {
     // A yaw rate of 2 rad/s over a 10 ms exposure sweeps ≈ 9 px.
     let yawed = |dt: f64| {
         let p = room_pose();
-        Pose::new(p.q * nalgebra::UnitQuaternion::from_euler_angles(0.0, 0.0, 2.0 * dt), p.p)
+        Pose::new(
+            p.q * nalgebra::UnitQuaternion::from_euler_angles(0.0, 0.0, 2.0 * dt),
+            p.p,
+        )
     };
     let mut sharp = Renderer::new(world.scene(), &rig, &test_config(), 1).unwrap();
     let s = render_one(&mut sharp, yawed(0.0), &[0]);
@@ -408,7 +465,10 @@ fn motion_blur_smooths_a_moving_view() {
     assert_eq!(poses.len(), 8);
     let b = blurred.render(0, 0, 0, &poses, &[0]).unwrap();
     let (gs, gb) = (grad(&s.cameras[0].image), grad(&b.cameras[0].image));
-    assert!(gb < 0.7 * gs, "horizontal gradient energy: sharp {gs}, blurred {gb}");
+    assert!(
+        gb < 0.7 * gs,
+        "horizontal gradient energy: sharp {gs}, blurred {gb}"
+    );
     // A still exposure blurs nothing: the average of identical renders is the render.
     let still = blurred.render(0, 0, 0, &vec![yawed(0.0); 8], &[0]).unwrap();
     assert_eq!(still.cameras[0].image, s.cameras[0].image);
@@ -449,7 +509,9 @@ fn rendered_stream_images_follow_the_faults() {
             }
             Measurement::Frame(f) => {
                 n_frames += 1;
-                let img = last_images.take().expect("every frame has its images first");
+                let img = last_images
+                    .take()
+                    .expect("every frame has its images first");
                 assert_eq!(img.t_ns, f.t_ns);
                 let ids: Vec<usize> = img.cameras.iter().map(|c| c.cam_id).collect();
                 let fids: Vec<usize> = f.cameras.iter().map(|c| c.cam_id).collect();
@@ -460,12 +522,19 @@ fn rendered_stream_images_follow_the_faults() {
                     let max = *c.image.data.iter().max().unwrap();
                     assert_eq!(max == 0, black, "cam{} at {t}: max level {max}", c.cam_id);
                 }
-                assert!(!(500_000_000..600_000_000).contains(&t), "frame during a blackout");
+                assert!(
+                    !(500_000_000..600_000_000).contains(&t),
+                    "frame during a blackout"
+                );
                 assert_eq!(ids.len(), if t >= 800_000_000 { 1 } else { 2 });
             }
             Measurement::Imu(_) => {}
         }
     }
     assert!(stream.error().is_none());
-    assert_eq!(n_frames, 21 - 2, "20 Hz over [0, 1] s less the two blacked-out frames");
+    assert_eq!(
+        n_frames,
+        21 - 2,
+        "20 Hz over [0, 1] s less the two blacked-out frames"
+    );
 }

@@ -191,8 +191,18 @@ pub enum RenderError {
     /// The device could not be created or lacks a capability.
     #[error("graphics device: {0}")]
     Device(String),
-    /// A configuration value is out of range (names the field).
-    #[error("render config: {0}")]
+    /// A configuration value is out of range.
+    #[error("render config: {field} = {value} is out of range: {expected}")]
+    Field {
+        /// The field (`texture_size`, `photometric.vignetting`, …).
+        field: &'static str,
+        /// The rejected value.
+        value: String,
+        /// The accepted range.
+        expected: &'static str,
+    },
+    /// A call does not fit the renderer's configuration.
+    #[error("render: {0}")]
     Config(String),
     /// wgpu reported an error while rendering or reading back.
     #[error("rendering failed: {0}")]
@@ -539,82 +549,106 @@ fn view(t: &wgpu::Texture) -> wgpu::TextureView {
     t.create_view(&wgpu::TextureViewDescriptor::default())
 }
 
-/// Checks the configuration; the message names the field.
-fn validate(config: &RenderConfig) -> Result<(), RenderError> {
-    let c = config;
-    let p = &c.photometric;
-    let blur_ok = c.motion_blur.is_none_or(|b| {
-        b.exposure_s.is_finite() && b.exposure_s > 0.0 && (2..=32).contains(&b.samples)
-    });
-    let checks: [(&str, String, bool); 12] = [
-        (
-            "texture_size",
-            c.texture_size.to_string(),
-            c.texture_size.is_power_of_two() && (16..=8192).contains(&c.texture_size),
-        ),
-        (
-            "texel_m",
-            c.texel_m.to_string(),
-            c.texel_m.is_finite() && c.texel_m > 0.0,
-        ),
-        (
-            "max_half_angle_deg",
-            c.max_half_angle_deg.to_string(),
-            c.max_half_angle_deg > 1.0 && c.max_half_angle_deg < 89.0,
-        ),
-        (
-            "max_pinhole_size",
-            c.max_pinhole_size.to_string(),
-            (64..=8192).contains(&c.max_pinhole_size),
-        ),
-        (
-            "anisotropy",
-            c.anisotropy.to_string(),
-            [1, 2, 4, 8, 16].contains(&c.anisotropy),
-        ),
-        (
-            "pinhole_scale",
-            c.pinhole_scale.to_string(),
-            c.pinhole_scale > 0.1 && c.pinhole_scale <= 4.0,
-        ),
-        ("motion_blur", format!("{:?}", c.motion_blur), blur_ok),
-        (
-            "photometric.gain",
-            p.gain.to_string(),
-            p.gain.is_finite() && p.gain >= 0.0,
-        ),
-        (
-            "photometric.gain_variation",
-            p.gain_variation.to_string(),
-            (0.0..1.0).contains(&p.gain_variation),
-        ),
-        (
-            "photometric.gain_period_s",
-            p.gain_period_s.to_string(),
-            p.gain_period_s.is_finite() && p.gain_period_s > 0.0,
-        ),
-        (
-            "photometric.vignetting",
-            p.vignetting.to_string(),
-            (0.0..=1.0).contains(&p.vignetting),
-        ),
-        (
-            "photometric.read_noise / electrons_per_level",
-            format!("{} / {}", p.read_noise, p.electrons_per_level),
-            p.read_noise.is_finite()
-                && p.read_noise >= 0.0
-                && p.electrons_per_level.is_finite()
-                && p.electrons_per_level >= 0.0,
-        ),
-    ];
-    for (name, value, ok) in checks {
-        if !ok {
-            return Err(RenderError::Config(format!(
-                "{name} = {value} is out of range (see RenderConfig's docs)"
-            )));
+impl RenderConfig {
+    /// Checks every field; the error names the offending one.
+    pub fn validate(&self) -> Result<(), RenderError> {
+        let c = self;
+        let p = &c.photometric;
+        let blur_ok = c.motion_blur.is_none_or(|b| {
+            b.exposure_s.is_finite() && b.exposure_s > 0.0 && (2..=32).contains(&b.samples)
+        });
+        let fin = |v: f64, ok: bool| v.is_finite() && ok;
+        let checks: [(&'static str, String, bool, &'static str); 13] = [
+            (
+                "texture_size",
+                c.texture_size.to_string(),
+                c.texture_size.is_power_of_two() && (16..=8192).contains(&c.texture_size),
+                "a power of two in [16, 8192]",
+            ),
+            (
+                "texel_m",
+                c.texel_m.to_string(),
+                fin(c.texel_m, c.texel_m > 0.0),
+                "> 0",
+            ),
+            (
+                "max_half_angle_deg",
+                c.max_half_angle_deg.to_string(),
+                c.max_half_angle_deg > 1.0 && c.max_half_angle_deg < 89.0,
+                "in (1, 89)",
+            ),
+            (
+                "max_pinhole_size",
+                c.max_pinhole_size.to_string(),
+                (64..=8192).contains(&c.max_pinhole_size),
+                "in [64, 8192]",
+            ),
+            (
+                "anisotropy",
+                c.anisotropy.to_string(),
+                [1, 2, 4, 8, 16].contains(&c.anisotropy),
+                "1, 2, 4, 8 or 16",
+            ),
+            (
+                "pinhole_scale",
+                c.pinhole_scale.to_string(),
+                c.pinhole_scale > 0.1 && c.pinhole_scale <= 4.0,
+                "in (0.1, 4]",
+            ),
+            (
+                "motion_blur",
+                format!("{:?}", c.motion_blur),
+                blur_ok,
+                "exposure_s > 0 and samples in 2..=32",
+            ),
+            (
+                "photometric.gain",
+                p.gain.to_string(),
+                fin(p.gain, p.gain >= 0.0),
+                ">= 0",
+            ),
+            (
+                "photometric.gain_variation",
+                p.gain_variation.to_string(),
+                (0.0..1.0).contains(&p.gain_variation),
+                "in [0, 1)",
+            ),
+            (
+                "photometric.gain_period_s",
+                p.gain_period_s.to_string(),
+                fin(p.gain_period_s, p.gain_period_s > 0.0),
+                "> 0",
+            ),
+            (
+                "photometric.vignetting",
+                p.vignetting.to_string(),
+                (0.0..=1.0).contains(&p.vignetting),
+                "in [0, 1]",
+            ),
+            (
+                "photometric.read_noise",
+                p.read_noise.to_string(),
+                fin(p.read_noise, p.read_noise >= 0.0),
+                ">= 0",
+            ),
+            (
+                "photometric.electrons_per_level",
+                p.electrons_per_level.to_string(),
+                fin(p.electrons_per_level, p.electrons_per_level >= 0.0),
+                ">= 0",
+            ),
+        ];
+        for (field, value, ok, expected) in checks {
+            if !ok {
+                return Err(RenderError::Field {
+                    field,
+                    value,
+                    expected,
+                });
+            }
         }
+        Ok(())
     }
-    Ok(())
 }
 
 impl Renderer {
@@ -626,7 +660,7 @@ impl Renderer {
         config: &RenderConfig,
         seed: u64,
     ) -> Result<Self, RenderError> {
-        validate(config)?;
+        config.validate()?;
         if rig.cameras.is_empty() {
             return Err(RenderError::Config("the rig has no camera".into()));
         }
@@ -748,9 +782,9 @@ impl Renderer {
                     ty: wgpu::BindingType::Buffer {
                         ty: wgpu::BufferBindingType::Uniform,
                         has_dynamic_offset: true,
-                        min_binding_size: wgpu::BufferSize::new(
-                            std::mem::size_of::<SceneCameraUniform>() as u64,
-                        ),
+                        min_binding_size: wgpu::BufferSize::new(std::mem::size_of::<
+                            SceneCameraUniform,
+                        >() as u64),
                     },
                     count: None,
                 },
@@ -885,17 +919,40 @@ impl Renderer {
             );
             let pin = table.pinhole;
             let size = (pin.width, pin.height);
-            let msaa_view = (msaa > 1)
-                .then(|| view(&texture_2d(&device, "pinhole msaa", size, PINHOLE_FORMAT, msaa, attach)));
+            let msaa_view = (msaa > 1).then(|| {
+                view(&texture_2d(
+                    &device,
+                    "pinhole msaa",
+                    size,
+                    PINHOLE_FORMAT,
+                    msaa,
+                    attach,
+                ))
+            });
             let pinhole = texture_2d(&device, &cam.name, size, PINHOLE_FORMAT, 1, attach | copy);
             let inv_depth = config.depth.then(|| {
-                let t = texture_2d(&device, "inverse depth", size, INV_DEPTH_FORMAT, 1, attach | copy);
+                let t = texture_2d(
+                    &device,
+                    "inverse depth",
+                    size,
+                    INV_DEPTH_FORMAT,
+                    1,
+                    attach | copy,
+                );
                 let v = view(&t);
-                let z = view(&texture_2d(&device, "zbuf 1x", size, DEPTH_FORMAT, 1, attach));
+                let z = view(&texture_2d(
+                    &device,
+                    "zbuf 1x",
+                    size,
+                    DEPTH_FORMAT,
+                    1,
+                    attach,
+                ));
                 (t, v, z)
             });
             let readback_offset = readback_size;
-            readback_size += u64::from(samples) * u64::from(padded_row(pin.width)) * u64::from(pin.height);
+            readback_size +=
+                u64::from(samples) * u64::from(padded_row(pin.width)) * u64::from(pin.height);
             if config.depth {
                 readback_size += u64::from(padded_row(4 * pin.width)) * u64::from(pin.height);
             }
@@ -907,7 +964,14 @@ impl Renderer {
                 proj: projection(&pin),
                 pinhole_view: view(&pinhole),
                 pinhole,
-                zbuf_view: view(&texture_2d(&device, "zbuf", size, DEPTH_FORMAT, msaa, attach)),
+                zbuf_view: view(&texture_2d(
+                    &device,
+                    "zbuf",
+                    size,
+                    DEPTH_FORMAT,
+                    msaa,
+                    attach,
+                )),
                 msaa_view,
                 inv_depth,
                 table,
@@ -1035,7 +1099,9 @@ impl Renderer {
         self.queue.write_buffer(&self.uniforms, 0, &bytes);
         let mut enc = self
             .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("frame"),
+            });
         for &c in live {
             let cam = &self.cameras[c];
             let (pw, ph) = (cam.table.pinhole.width, cam.table.pinhole.height);
@@ -1124,7 +1190,12 @@ impl Renderer {
                     &cam.zbuf_view,
                     &self.scene_pipeline,
                 ),
-                None => (&cam.pinhole_view, None, &cam.zbuf_view, &self.scene_pipeline),
+                None => (
+                    &cam.pinhole_view,
+                    None,
+                    &cam.zbuf_view,
+                    &self.scene_pipeline,
+                ),
             },
         };
         let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {

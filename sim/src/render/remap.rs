@@ -230,7 +230,10 @@ pub(crate) fn depth(table: &RemapTable, inv: &[f32], row: usize) -> Vec<f32> {
             let r0 = usize::from(t.y) * row + usize::from(t.x);
             let r1 = r0 + row;
             let q = [inv[r0], inv[r0 + 1], inv[r1], inv[r1 + 1]];
-            let (fx, fy) = (f32::from(t.frac[0]) / 65535.0, f32::from(t.frac[1]) / 65535.0);
+            let (fx, fy) = (
+                f32::from(t.frac[0]) / 65535.0,
+                f32::from(t.frac[1]) / 65535.0,
+            );
             let lo = q.iter().cloned().fold(f32::INFINITY, f32::min);
             let hi = q.iter().cloned().fold(0.0, f32::max);
             let d = if lo <= 0.0 || hi > lo * 1.02 {

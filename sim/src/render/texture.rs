@@ -91,7 +91,14 @@ fn log_uniform(rng: &mut ChaCha8Rng, lo: f32, hi: f32) -> f32 {
 }
 
 /// Paints a wrapped (tileable) axis-aligned rectangle of grey `g` with opacity `alpha`.
-fn splat_rect(out: &mut [f32], n: usize, (x0, y0): (usize, usize), (w, h): (usize, usize), g: f32, alpha: f32) {
+fn splat_rect(
+    out: &mut [f32],
+    n: usize,
+    (x0, y0): (usize, usize),
+    (w, h): (usize, usize),
+    g: f32,
+    alpha: f32,
+) {
     for dy in 0..h {
         let row = ((y0 + dy) % n) * n;
         for dx in 0..w {
@@ -130,8 +137,8 @@ fn base_level(material: Material, n: usize, texel_m: f64, rng: &mut ChaCha8Rng) 
     let count = |cover: f32, area_m2: f32| (cover * area / area_m2).round() as usize;
     match material {
         Material::Posters => {
-            add_fbm(&mut img, n, (tex(1.0), 2), 0.45, 0.22, rng);
-            for _ in 0..count(1.6, 0.012) {
+            add_fbm(&mut img, n, (tex(1.0), 2), 0.45, 0.3, rng);
+            for _ in 0..count(0.6, 0.012) {
                 let w = tex(log_uniform(rng, 0.015, 0.5));
                 let h = tex(log_uniform(rng, 0.015, 0.5));
                 let (x, y) = (rng.random_range(0..n), rng.random_range(0..n));
@@ -145,7 +152,10 @@ fn base_level(material: Material, n: usize, texel_m: f64, rng: &mut ChaCha8Rng) 
             add_fbm(&mut img, n, (tex(2.0), 2), 0.35, 0.25, rng);
             for _ in 0..count(1.2, 0.0012) {
                 let r = texf(log_uniform(rng, 0.006, 0.05));
-                let (x, y) = (rng.random::<f32>() * n as f32, rng.random::<f32>() * n as f32);
+                let (x, y) = (
+                    rng.random::<f32>() * n as f32,
+                    rng.random::<f32>() * n as f32,
+                );
                 let g = rng.random_range(0.1f32..0.9);
                 let a = rng.random_range(0.4f32..1.0);
                 splat_disk(&mut img, n, (x, y), r, g, a);
@@ -153,14 +163,18 @@ fn base_level(material: Material, n: usize, texel_m: f64, rng: &mut ChaCha8Rng) 
         }
         Material::Clutter => {
             add_fbm(&mut img, n, (tex(1.0), 2), 0.4, 0.2, rng);
-            for _ in 0..count(1.4, 0.004) {
+            for _ in 0..count(0.7, 0.004) {
                 let (x, y) = (rng.random_range(0..n), rng.random_range(0..n));
                 let g = rng.random_range(0.05f32..0.95);
                 let a = rng.random_range(0.5f32..1.0);
                 if rng.random::<bool>() {
                     let long = tex(log_uniform(rng, 0.05, 0.6));
                     let thin = tex(log_uniform(rng, 0.01, 0.05));
-                    let (w, h) = if rng.random::<bool>() { (long, thin) } else { (thin, long) };
+                    let (w, h) = if rng.random::<bool>() {
+                        (long, thin)
+                    } else {
+                        (thin, long)
+                    };
                     splat_rect(&mut img, n, (x, y), (w, h), g, a);
                 } else {
                     let r = texf(log_uniform(rng, 0.01, 0.12));
@@ -177,7 +191,12 @@ fn base_level(material: Material, n: usize, texel_m: f64, rng: &mut ChaCha8Rng) 
 }
 
 /// All mip levels of `material` as `u8`, level 0 first (`size` a power of two).
-pub(crate) fn generate(material: Material, size: usize, texel_m: f64, rng: &mut ChaCha8Rng) -> Vec<Vec<u8>> {
+pub(crate) fn generate(
+    material: Material,
+    size: usize,
+    texel_m: f64,
+    rng: &mut ChaCha8Rng,
+) -> Vec<Vec<u8>> {
     let mut level = base_level(material, size, texel_m, rng);
     let mut n = size;
     let to_u8 = |l: &[f32]| -> Vec<u8> {
@@ -192,7 +211,10 @@ pub(crate) fn generate(material: Material, size: usize, texel_m: f64, rng: &mut 
         for y in 0..h {
             for x in 0..h {
                 let (a, b) = (level[2 * y * n + 2 * x], level[2 * y * n + 2 * x + 1]);
-                let (c, d) = (level[(2 * y + 1) * n + 2 * x], level[(2 * y + 1) * n + 2 * x + 1]);
+                let (c, d) = (
+                    level[(2 * y + 1) * n + 2 * x],
+                    level[(2 * y + 1) * n + 2 * x + 1],
+                );
                 next[y * h + x] = 0.25 * (a + b + c + d);
             }
         }

@@ -1,0 +1,89 @@
+//! Rendered scenarios: rendering adds images without changing any other measurement (the
+//! estimate is byte-identical to the feature-level run), reports its adapter and timing, exports
+//! images in the EuRoC layout, and rejects bad render settings naming the key.
+//!
+//! Needs Mesa's llvmpipe (`bash .ci/install-deps`).
+
+use scenarios::report;
+use scenarios::run::{RunOptions, run};
+use scenarios::spec::{Origin, Scenario};
+
+fn estimate_bytes(name: &str, seconds: f64) -> (Vec<u8>, report::Report) {
+    let scenario = Scenario::load(name).unwrap();
+    let options = RunOptions {
+        seed: None,
+        duration_s: Some(seconds),
+    };
+    let output = run(&scenario, &options, &mut |_| {}).unwrap();
+    let eval = report::evaluate(&output, scenario.spec.suite);
+    let rep = report::build_report(&scenario, &output, &eval);
+    let dir = std::env::temp_dir().join(format!("vio-rendered-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    report::write_outputs(&dir, &scenario, &output, &eval, &rep).unwrap();
+    let bytes = std::fs::read(dir.join("estimate.tum")).unwrap();
+    let json = std::fs::read_to_string(dir.join("report.json")).unwrap();
+    assert!(
+        json.contains("\"camera_mode\""),
+        "report.json lacks camera_mode"
+    );
+    (bytes, rep)
+}
+
+#[test]
+fn rendering_changes_no_measurement_and_reports_its_adapter_and_timing() {
+    let (plain, plain_rep) = estimate_bytes("room_figure8_stereo_imu", 3.0);
+    let (rendered, rep) = estimate_bytes("room_figure8_rendered_stereo_imu", 3.0);
+    assert!(plain.len() > 500);
+    assert!(plain == rendered, "rendering changed the estimate");
+    assert_eq!(plain_rep.camera_mode, "features");
+    assert!(plain_rep.timing_ms.render.is_none());
+    assert_eq!(rep.camera_mode, "rendered");
+    let adapter = rep.renderer.as_deref().expect("adapter recorded");
+    assert!(!adapter.is_empty());
+    let render = rep.timing_ms.render.expect("render timing");
+    assert!(render.median > 0.0 && render.max >= render.median);
+}
+
+#[test]
+fn export_writes_rendered_images_in_the_euroc_layout() {
+    let scenario = Scenario::load("room_figure8_rendered_stereo_imu").unwrap();
+    let dir = std::env::temp_dir().join(format!("vio-rendered-export-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let options = RunOptions {
+        seed: None,
+        duration_s: Some(0.2),
+    };
+    let s = scenarios::export::export(&scenario, &options, &dir).unwrap();
+    assert_eq!(s.frames, 5);
+    assert_eq!(s.images, 10);
+    for cam in 0..2 {
+        let csv = std::fs::read_to_string(dir.join(format!("mav0/cam{cam}/data.csv"))).unwrap();
+        let names: Vec<&str> = csv
+            .lines()
+            .filter(|l| !l.starts_with('#'))
+            .map(|l| l.split(',').nth(1).unwrap().trim())
+            .collect();
+        assert_eq!(names.len(), 5);
+        for n in names {
+            let img = image::open(dir.join(format!("mav0/cam{cam}/data/{n}"))).unwrap();
+            assert_eq!((img.width(), img.height()), (752, 480));
+        }
+    }
+}
+
+#[test]
+fn bad_render_settings_name_the_key_and_line() {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenarios/catalog/room_figure8_rendered_stereo_imu.toml"
+    ))
+    .unwrap()
+    .replace("vignetting = 0.25", "vignetting = 1.5");
+    let err = Scenario::parse("bad", Origin::File("bad.toml".into()), &text).unwrap_err();
+    let msg = err.to_string();
+    assert!(msg.contains("camera.photometric.vignetting"), "{msg}");
+    assert!(err.line.is_some(), "{msg}");
+    let text = text.replace("mode = \"rendered\"", "mode = \"painted\"");
+    let err = Scenario::parse("bad", Origin::File("bad.toml".into()), &text).unwrap_err();
+    assert!(err.to_string().contains("camera.mode"), "{err}");
+}
