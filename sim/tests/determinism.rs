@@ -24,6 +24,7 @@ fn bits(world: &World) -> Vec<u64> {
                     }
                 }
             }
+            Measurement::Images(_) => panic!("images in a feature-level stream"),
         }
     }
     out
@@ -62,6 +63,7 @@ fn adding_a_sensor_leaves_the_others_unchanged() {
             match m {
                 Measurement::Imu(s) => imu.push(s),
                 Measurement::Frame(f) => cam0.push((f.t_ns, f.cameras[0].clone())),
+                Measurement::Images(_) => panic!("images in a feature-level stream"),
             }
         }
         (imu, cam0)

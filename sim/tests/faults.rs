@@ -27,6 +27,7 @@ fn run(faults: Vec<Fault>) -> (Vec<ImuSample>, Vec<FeatureFrame>) {
         match m {
             Measurement::Imu(s) => imu.push(s),
             Measurement::Frame(f) => frames.push(f),
+            Measurement::Images(_) => panic!("images in a feature-level stream"),
         }
     }
     (imu, frames)

@@ -501,7 +501,7 @@ fn rendered_stream_images_follow_the_faults() {
     let mut stream = world.rendered_stream(renderer);
     let mut last_images: Option<ImageFrame> = None;
     let mut n_frames = 0;
-    while let Some(m) = stream.next() {
+    for m in stream.by_ref() {
         match m {
             Measurement::Images(img) => {
                 assert!(last_images.is_none(), "two image sets before one frame");
