@@ -22,12 +22,12 @@ fn render_pair(c: &mut Criterion) {
     let poses: Vec<Pose> = (0..40)
         .map(|i| stream.truth(2_000_000_000 + i * 50_000_000).unwrap().pose)
         .collect();
-    let variants: [(&str, RenderConfig); 5] = [
+    let variants: [(&str, RenderConfig); 6] = [
         ("stereo_pair_default", RenderConfig::default()),
         (
-            "stereo_pair_pinhole_scale_0.85",
+            "stereo_pair_pinhole_scale_1",
             RenderConfig {
-                pinhole_scale: 0.85,
+                pinhole_scale: 1.0,
                 ..RenderConfig::default()
             },
         ),
@@ -45,6 +45,13 @@ fn render_pair(c: &mut Criterion) {
                     exposure_s: 0.005,
                     samples: 4,
                 }),
+                ..RenderConfig::default()
+            },
+        ),
+        (
+            "stereo_pair_trilinear",
+            RenderConfig {
+                trilinear: true,
                 ..RenderConfig::default()
             },
         ),

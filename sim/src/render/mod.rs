@@ -132,6 +132,8 @@ pub struct RenderConfig {
     pub anisotropy: u16,
     /// Virtual pinhole focal length relative to the camera's on-axis magnification (1 keeps the
     /// image centre's resolution; smaller renders fewer pixels and blurs the centre slightly).
+    /// Default 0.9: on the EuRoC radtan pair it renders 19 % fewer pixels than 1.0 for 2.7 %
+    /// less mean gradient magnitude in the final images (measured over 10 room poses).
     pub pinhole_scale: f64,
     /// Texture tile size (texels, a power of two).
     pub texture_size: u32,
@@ -152,7 +154,7 @@ pub struct RenderConfig {
 }
 
 impl Default for RenderConfig {
-    /// GL backend, mip-mapped textures (nearest level, no MSAA), pinhole scale 1, 2048²
+    /// GL backend, mip-mapped textures (nearest level, no MSAA), pinhole scale 0.9, 2048²
     /// textures at 4 mm per texel, 75° half-angle, no depth, no blur, no photometric effects.
     fn default() -> Self {
         Self {
@@ -161,7 +163,7 @@ impl Default for RenderConfig {
             msaa: false,
             trilinear: false,
             anisotropy: 1,
-            pinhole_scale: 1.0,
+            pinhole_scale: 0.9,
             texture_size: 2048,
             texel_m: 0.004,
             max_half_angle_deg: 75.0,
