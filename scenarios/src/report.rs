@@ -438,6 +438,13 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
         t.total.max,
         t.frontend.median
     );
+    if let (Some(rt), Some(adapter)) = (&t.render, &r.renderer) {
+        let _ = writeln!(
+            s,
+            "rendering     per frame median / p99 / max: {:.2} / {:.2} / {:.2} ms on {adapter}",
+            rt.median, rt.p99, rt.max
+        );
+    }
     let _ = writeln!(s, "resets        {}", r.resets);
     if r.expectations.is_empty() {
         let _ = writeln!(s, "expectations  none");
