@@ -538,3 +538,22 @@ fn rendered_stream_images_follow_the_faults() {
         "20 Hz over [0, 1] s less the two blacked-out frames"
     );
 }
+
+#[test]
+fn a_missing_adapter_is_a_clear_error_with_the_install_hint() {
+    let rig = one_camera_rig(euroc_model());
+    let scene = Scene::with_landmarks(vec![plain_wall(2.0, 0.5)], vec![], 0.0, 1);
+    let cfg = RenderConfig {
+        adapter: Some("no such adapter".into()),
+        ..test_config()
+    };
+    let msg = Renderer::new(&scene, &rig, &cfg, 1).unwrap_err().to_string();
+    assert!(msg.contains("no Gl graphics adapter found matching"), "{msg}");
+    assert!(msg.contains("apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri"), "{msg}");
+    let bad = RenderConfig {
+        texture_size: 1000,
+        ..test_config()
+    };
+    let msg = Renderer::new(&scene, &rig, &bad, 1).unwrap_err().to_string();
+    assert!(msg.contains("texture_size = 1000"), "{msg}");
+}
