@@ -254,13 +254,9 @@ fn main() -> ExitCode {
             seed,
             duration,
         } => {
-            let name = scenario.as_deref().unwrap_or(catalog::DEFAULT);
-            let scenario = match Scenario::load(name) {
+            let scenario = match load_scenario(scenario.as_deref()) {
                 Ok(s) => s,
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    return ExitCode::from(BAD_INPUT);
-                }
+                Err(code) => return code,
             };
             let options = RunOptions {
                 seed,
@@ -329,19 +325,24 @@ fn main() -> ExitCode {
     }
 }
 
+/// Loads a catalog scenario or file (default: the default scenario); bad input prints the
+/// error and becomes exit code 2.
+fn load_scenario(name: Option<&str>) -> Result<Scenario, ExitCode> {
+    Scenario::load(name.unwrap_or(catalog::DEFAULT)).map_err(|e| {
+        eprintln!("error: {e}");
+        ExitCode::from(BAD_INPUT)
+    })
+}
+
 fn render_command(
     scenario: Option<String>,
     at: f64,
     out: &std::path::Path,
     seed: Option<u64>,
 ) -> ExitCode {
-    let name = scenario.as_deref().unwrap_or(catalog::DEFAULT);
-    let scenario = match Scenario::load(name) {
+    let scenario = match load_scenario(scenario.as_deref()) {
         Ok(s) => s,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::from(BAD_INPUT);
-        }
+        Err(code) => return code,
     };
     let r = match scenarios::images::render_at(&scenario, at, seed) {
         Ok(r) => r,
@@ -395,13 +396,9 @@ fn run_command(
     seed: Option<u64>,
     duration: Option<f64>,
 ) -> ExitCode {
-    let name = scenario.as_deref().unwrap_or(catalog::DEFAULT);
-    let scenario = match Scenario::load(name) {
+    let scenario = match load_scenario(scenario.as_deref()) {
         Ok(s) => s,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::from(BAD_INPUT);
-        }
+        Err(code) => return code,
     };
     if let Some(d) = duration
         && !(d.is_finite() && d > 0.0)
