@@ -417,17 +417,34 @@ fn render_writes_a_stereo_pair_with_depth_and_rejects_a_time_outside_the_run() {
     let dir = std::env::temp_dir().join(format!("vio-cli-render-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let d = dir.to_str().unwrap();
-    let out = vio(&["render", "room_figure8_rendered_stereo_imu", "--at", "3.5", "--out", d]);
+    let out = vio(&[
+        "render",
+        "room_figure8_rendered_stereo_imu",
+        "--at",
+        "3.5",
+        "--out",
+        d,
+    ]);
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    assert!(stdout.contains("rendered room_figure8_rendered_stereo_imu at t = 3.5 s on "), "{stdout}");
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("rendered room_figure8_rendered_stereo_imu at t = 3.5 s on "),
+        "{stdout}"
+    );
     for f in ["cam0.png", "cam1.png", "cam0_depth.png", "cam1_depth.png"] {
         let img = image::open(dir.join(f)).unwrap();
         assert_eq!((img.width(), img.height()), (752, 480), "{f}");
     }
     let depth = image::open(dir.join("cam0_depth.png")).unwrap().to_luma16();
     let mm = depth.get_pixel(376, 240).0[0];
-    assert!((300..9000).contains(&mm), "depth at the centre {mm} mm: inside the room");
+    assert!(
+        (300..9000).contains(&mm),
+        "depth at the centre {mm} mm: inside the room"
+    );
     let pair = image::open(dir.join("stereo.png")).unwrap();
     assert_eq!((pair.width(), pair.height()), (752 * 2 + 8, 480));
 

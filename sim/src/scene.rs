@@ -201,6 +201,9 @@ pub struct Scene {
     pub tiles: Vec<Tile>,
     /// Markers drawn by the renderer (none in the presets).
     pub markers: Vec<Marker>,
+    /// Grey level in [0, 1] the renderer shows where no surface is (the sky outdoors; indoor
+    /// presets are closed).
+    pub background: f64,
 }
 
 /// The six outward faces of a box as surfaces (normals pointing out).
@@ -339,7 +342,11 @@ impl Scene {
                 (s, boxes)
             }
         };
-        Self::with_landmarks(surfaces, boxes, cfg.landmark_density, seed)
+        let mut scene = Self::with_landmarks(surfaces, boxes, cfg.landmark_density, seed);
+        if cfg.preset == ScenePreset::Outdoor {
+            scene.background = 0.85; // an overcast sky
+        }
+        scene
     }
 
     /// Scatters landmarks on `surfaces` (density per m², stream `scene` of `seed`), tiled in
@@ -401,6 +408,7 @@ impl Scene {
             landmarks,
             tiles,
             markers: Vec::new(),
+            background: 0.0,
         }
     }
 

@@ -547,13 +547,97 @@ fn a_missing_adapter_is_a_clear_error_with_the_install_hint() {
         adapter: Some("no such adapter".into()),
         ..test_config()
     };
-    let msg = Renderer::new(&scene, &rig, &cfg, 1).unwrap_err().to_string();
-    assert!(msg.contains("no Gl graphics adapter found matching"), "{msg}");
-    assert!(msg.contains("apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri"), "{msg}");
+    let msg = Renderer::new(&scene, &rig, &cfg, 1)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        msg.contains("no Gl graphics adapter found matching"),
+        "{msg}"
+    );
+    assert!(
+        msg.contains("apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri"),
+        "{msg}"
+    );
     let bad = RenderConfig {
         texture_size: 1000,
         ..test_config()
     };
-    let msg = Renderer::new(&scene, &rig, &bad, 1).unwrap_err().to_string();
+    let msg = Renderer::new(&scene, &rig, &bad, 1)
+        .unwrap_err()
+        .to_string();
     assert!(msg.contains("texture_size = 1000"), "{msg}");
+}
+
+#[test]
+fn every_preset_renders_textured_and_its_landmarks_lie_on_the_rendered_surfaces() {
+    use sim::camera::RigSim;
+    use sim::scene::{SceneConfig, ScenePreset};
+    // (preset, body pose inside it looking along body +x)
+    let level = |yaw: f64, p: Vector3<f64>| {
+        Pose::new(
+            nalgebra::UnitQuaternion::from_euler_angles(0.0, 0.0, yaw),
+            p,
+        )
+    };
+    let cases = [
+        (ScenePreset::Room, level(-0.6, Vector3::new(0.5, 1.0, 1.2))),
+        (
+            ScenePreset::MachineHall,
+            level(0.3, Vector3::new(2.0, 3.0, 2.0)),
+        ),
+        (
+            ScenePreset::Outdoor,
+            level(0.2, Vector3::new(0.0, 0.0, 1.5)),
+        ),
+    ];
+    let rig = RigConfig::euroc_like();
+    let cfg = RenderConfig {
+        depth: true,
+        ..test_config()
+    };
+    for (preset, pose) in cases {
+        let scene = Arc::new(Scene::build(
+            &SceneConfig {
+                preset,
+                landmark_density: 2.0,
+            },
+            1,
+        ));
+        let mut r = Renderer::new(&scene, &rig, &cfg, 1).unwrap();
+        let frame = render_one(&mut r, pose, &[0]);
+        let cam = &frame.cameras[0];
+        let (m, s) = mean_and_std(&cam.image);
+        assert!(m > 30.0 && s > 10.0, "{preset:?}: mean {m}, std {s}");
+        // The landmarks the feature-level camera reports sit on the rendered surfaces: the
+        // depth image at their pixel (nearest) equals their depth, away from depth edges.
+        let sim = RigSim::new(rig.clone(), scene.clone(), 1);
+        let depth = cam.depth.as_ref().unwrap();
+        let (mut n, mut ok) = (0, 0);
+        for p in sim.visible(0, &pose) {
+            let (u, v) = (p.uv.x.round() as i64, p.uv.y.round() as i64);
+            if u < 2 || v < 2 || u > 749 || v > 477 {
+                continue;
+            }
+            let at = |du: i64, dv: i64| {
+                f64::from(depth.data[((v + dv) * i64::from(depth.width) + u + du) as usize])
+            };
+            let z = at(0, 0);
+            let flat = [(-2, 0), (2, 0), (0, -2), (0, 2)]
+                .iter()
+                .all(|&(du, dv)| (at(du, dv) - z).abs() < 0.05 * z);
+            if !flat {
+                continue;
+            }
+            n += 1;
+            // Half a pixel of depth slope on a slanted surface: a few percent at most.
+            if (z - p.depth).abs() < 0.03 * p.depth {
+                ok += 1;
+            }
+        }
+        eprintln!(
+            "{preset:?}: mean {m:.0}, std {s:.0}; {ok}/{n} landmarks on the rendered surface"
+        );
+        assert!(n >= 20, "{preset:?}: only {n} landmarks checked");
+        assert_eq!(ok, n, "{preset:?}: landmarks off the rendered surfaces");
+    }
 }

@@ -373,6 +373,8 @@ pub struct Renderer {
     cameras: Vec<CameraTargets>,
     readback: wgpu::Buffer,
     samples: u32,
+    /// The scene's background grey level.
+    background: f64,
 }
 
 impl std::fmt::Debug for Renderer {
@@ -1004,6 +1006,7 @@ impl Renderer {
             cameras,
             readback,
             samples,
+            background: scene.background,
         })
     }
 
@@ -1110,7 +1113,7 @@ impl Renderer {
             let image_bytes = u64::from(padded_row(pw)) * u64::from(ph);
             for k in 0..k_n {
                 let offset = ((c * k_n + k) as u64 * UNIFORM_STRIDE) as u32;
-                self.scene_pass(&mut enc, cam, offset, false);
+                self.scene_pass(&mut enc, cam, offset, Some(f64::from(gain)));
                 copy_out(
                     &mut enc,
                     &cam.pinhole,
@@ -1122,7 +1125,7 @@ impl Renderer {
             }
             if let Some((tex, _, _)) = &cam.inv_depth {
                 let offset = ((c * k_n + k_n / 2) as u64 * UNIFORM_STRIDE) as u32;
-                self.scene_pass(&mut enc, cam, offset, true);
+                self.scene_pass(&mut enc, cam, offset, None);
                 let at = cam.readback_offset + k_n as u64 * image_bytes;
                 copy_out(&mut enc, tex, &self.readback, at, (pw, ph), 4);
             }
@@ -1181,8 +1184,11 @@ impl Renderer {
         enc: &mut wgpu::CommandEncoder,
         cam: &CameraTargets,
         offset: u32,
-        depth: bool,
+        gain: Option<f64>,
     ) {
+        // `None`: the inverse-depth pass (cleared to 0 = nothing seen).
+        let depth = gain.is_none();
+        let clear = (self.background * gain.unwrap_or(0.0)).clamp(0.0, 1.0);
         let (target, resolve, zbuf, pipeline) = match (&cam.inv_depth, &self.inv_depth_pipeline) {
             (Some((_, inv, z)), Some(p)) if depth => (inv, None, z, p),
             _ => match &cam.msaa_view {
@@ -1207,7 +1213,12 @@ impl Renderer {
                 depth_slice: None,
                 resolve_target: resolve,
                 ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    load: wgpu::LoadOp::Clear(wgpu::Color {
+                        r: clear,
+                        g: 0.0,
+                        b: 0.0,
+                        a: 1.0,
+                    }),
                     store: if resolve.is_some() {
                         wgpu::StoreOp::Discard
                     } else {
