@@ -25,6 +25,8 @@ pub enum BlockKind {
 #[derive(Clone, Debug)]
 pub(crate) struct Block {
     pub offset: usize,
+    /// `manifold.ambient_size()`, cached (read for every residual evaluation).
+    pub ambient: usize,
     pub manifold: Arc<dyn Manifold>,
     pub kind: BlockKind,
     pub constant: bool,
@@ -98,6 +100,7 @@ impl Problem {
         let id = BlockId(self.blocks.len());
         self.blocks.push(Block {
             offset: self.values.len(),
+            ambient: manifold.ambient_size(),
             manifold,
             kind,
             constant: false,
@@ -166,7 +169,7 @@ impl Problem {
     /// Current values of a block.
     pub fn values(&self, id: BlockId) -> &[f64] {
         let b = &self.blocks[id.0];
-        &self.values[b.offset..b.offset + b.manifold.ambient_size()]
+        &self.values[b.offset..b.offset + b.ambient]
     }
 
     /// Overwrites the values of a block.
@@ -219,7 +222,7 @@ impl Problem {
         let res = &self.residuals[id];
         let slice = |b: &BlockId| {
             let blk = &self.blocks[b.0];
-            &values[blk.offset..blk.offset + blk.manifold.ambient_size()]
+            &values[blk.offset..blk.offset + blk.ambient]
         };
         // Most factors touch few blocks: avoid an allocation for them.
         let mut small: [&[f64]; 8] = [&[]; 8];

@@ -58,6 +58,10 @@ pub fn apply_loss(
 ) -> f64 {
     let s: f64 = residuals.iter().map(|r| r * r).sum();
     let rho = loss.evaluate(s);
+    if rho[1] == 1.0 && rho[2] == 0.0 {
+        // Inside the quadratic region (most residuals): nothing to change.
+        return rho[0];
+    }
     let sqrt_rho1 = rho[1].max(0.0).sqrt();
     // α solves ½α² − α − (ρ''/ρ') s = 0 (smaller root). Like Ceres, the curvature correction is
     // applied only where ρ'' > 0: for the usual robust losses (ρ'' ≤ 0) it could make the
