@@ -240,20 +240,23 @@ impl Factor for PriorFactor {
             let Some(m) = m else { continue };
             let (t, off) = (self.tangents[k], self.offsets[k]);
             // g_k ← M_kᵀ u_k
-            let uk: Vec<f64> = g[off..off + t].to_vec();
+            let mut seg = [0.0; MAX_TANGENT];
+            seg[..t].copy_from_slice(&g[off..off + t]);
             for c in 0..t {
-                g[off + c] = (0..t).map(|r| m[r * t + c] * uk[r]).sum();
+                g[off + c] = (0..t).map(|r| m[r * t + c] * seg[r]).sum();
             }
             // Columns of block k: H[:, k] ← H[:, k] M_k.
             for row in 0..n {
-                let seg: Vec<f64> = h[row * n + off..row * n + off + t].to_vec();
+                seg[..t].copy_from_slice(&h[row * n + off..row * n + off + t]);
                 for c in 0..t {
                     h[row * n + off + c] = (0..t).map(|r| seg[r] * m[r * t + c]).sum();
                 }
             }
             // Rows of block k: H[k, :] ← M_kᵀ H[k, :].
             for col in 0..n {
-                let seg: Vec<f64> = (0..t).map(|r| h[(off + r) * n + col]).collect();
+                for r in 0..t {
+                    seg[r] = h[(off + r) * n + col];
+                }
                 for c in 0..t {
                     h[(off + c) * n + col] = (0..t).map(|r| m[r * t + c] * seg[r]).sum();
                 }

@@ -32,11 +32,53 @@ pub(crate) struct Block {
     pub constant: bool,
 }
 
+/// The blocks of one residual, stored inline for the usual few (no allocation per residual).
+#[derive(Clone, Debug)]
+pub(crate) enum BlockList {
+    Inline([BlockId; INLINE_BLOCKS], u8),
+    Heap(Vec<BlockId>),
+}
+
+const INLINE_BLOCKS: usize = 6;
+
+impl BlockList {
+    fn new(blocks: &[BlockId]) -> Self {
+        if blocks.len() <= INLINE_BLOCKS {
+            let mut a = [BlockId(0); INLINE_BLOCKS];
+            a[..blocks.len()].copy_from_slice(blocks);
+            Self::Inline(a, blocks.len() as u8)
+        } else {
+            Self::Heap(blocks.to_vec())
+        }
+    }
+}
+
+impl std::ops::Deref for BlockList {
+    type Target = [BlockId];
+    #[inline]
+    fn deref(&self) -> &[BlockId] {
+        match self {
+            Self::Inline(a, n) => &a[..*n as usize],
+            Self::Heap(v) => v,
+        }
+    }
+}
+
+impl<'a> IntoIterator for &'a BlockList {
+    type Item = &'a BlockId;
+    type IntoIter = std::slice::Iter<'a, BlockId>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.iter()
+    }
+}
+
 #[derive(Clone)]
 pub(crate) struct Residual {
     pub factor: Arc<dyn Factor>,
     pub loss: Option<Arc<dyn LossFunction>>,
-    pub blocks: Vec<BlockId>,
+    /// `loss.quadratic_up_to()`, cached: below it the loss is skipped.
+    pub quadratic_up_to: f64,
+    pub blocks: BlockList,
 }
 
 /// Errors building a [`Problem`].
@@ -158,10 +200,12 @@ impl Problem {
         if landmarks > 1 {
             return Err(ProblemError::TwoLandmarks);
         }
+        let quadratic_up_to = loss.as_ref().map_or(-1.0, |l| l.quadratic_up_to());
         self.residuals.push(Residual {
             factor,
             loss,
-            blocks: blocks.to_vec(),
+            quadratic_up_to,
+            blocks: BlockList::new(blocks),
         });
         Ok(ResidualId(self.residuals.len() - 1))
     }
@@ -246,6 +290,11 @@ impl Problem {
         }
         match &res.loss {
             Some(loss) => {
+                let s: f64 = r.iter().map(|v| v * v).sum();
+                if s <= res.quadratic_up_to {
+                    // ρ(s) = s, ρ' = 1, ρ'' = 0: `apply_loss` would change nothing.
+                    return Some(s);
+                }
                 let mut empty: [Option<&mut [f64]>; 0] = [];
                 let js = if has_j {
                     jacobians.unwrap()

@@ -4,6 +4,13 @@
 pub trait LossFunction: Send + Sync + std::fmt::Debug {
     /// Returns `[ρ(s), ρ'(s), ρ''(s)]`.
     fn evaluate(&self, s: f64) -> [f64; 3];
+
+    /// The largest `s` for which `evaluate(s)` is exactly `[s, 1, 0]` (the loss is the plain
+    /// square there and changes nothing), or a negative number if there is no such region.
+    /// The problem skips the loss for residuals inside it. Default: none.
+    fn quadratic_up_to(&self) -> f64 {
+        -1.0
+    }
 }
 
 /// Huber loss with threshold `delta` on the residual norm: quadratic inside, linear outside.
@@ -14,6 +21,9 @@ pub struct HuberLoss {
 }
 
 impl LossFunction for HuberLoss {
+    fn quadratic_up_to(&self) -> f64 {
+        self.delta * self.delta
+    }
     fn evaluate(&self, s: f64) -> [f64; 3] {
         let b = self.delta * self.delta;
         if s <= b {

@@ -259,6 +259,20 @@ fn add_jtj(
         // Reprojection residuals: two rows, summed in one pass over the block.
         let (a0, a1) = (&ja[..ta], &ja[ta..2 * ta]);
         let (b0, b1) = (&jb[..tb], &jb[tb..2 * tb]);
+        if ta == 6 && tb == 6 {
+            // Pose × pose: fixed sizes, unrolled.
+            let (a0, a1): (&[f64; 6], &[f64; 6]) = (a0.try_into().unwrap(), a1.try_into().unwrap());
+            let (b0, b1): (&[f64; 6], &[f64; 6]) = (b0.try_into().unwrap(), b1.try_into().unwrap());
+            for i in 0..6 {
+                let (x0, x1) = (a0[i], a1[i]);
+                let s = (oa + i) * n + ob;
+                let row: &mut [f64; 6] = (&mut h[s..s + 6]).try_into().unwrap();
+                for j in 0..6 {
+                    row[j] += x0 * b0[j] + x1 * b1[j];
+                }
+            }
+            return;
+        }
         for i in 0..ta {
             let (x0, x1) = (a0[i], a1[i]);
             let row = &mut h[(oa + i) * n + ob..(oa + i) * n + ob + tb];
@@ -305,51 +319,41 @@ impl NormalEquations {
                 &all
             }
         };
-        // Landmark of each residual (its position among the residual's blocks).
-        let mut per_landmark: Vec<Vec<usize>> = vec![Vec::new(); nl];
+        // Group the residuals by landmark (a stable counting sort: id order within a group).
+        let mut lm_of = Vec::with_capacity(ids.len());
+        let mut gstart = vec![0usize; nl + 1];
         let mut state_ids = Vec::new();
         for &ri in ids {
-            let res = &problem.residuals[ri];
-            match res
+            let l = problem.residuals[ri]
                 .blocks
                 .iter()
-                .find(|b| layout.landmark_slot[b.0] != NONE)
-            {
-                Some(b) => per_landmark[layout.landmark_slot[b.0]].push(ri),
-                None => state_ids.push(ri),
+                .map(|b| layout.landmark_slot[b.0])
+                .find(|&l| l != NONE)
+                .unwrap_or(NONE);
+            lm_of.push(l);
+            if l == NONE {
+                state_ids.push(ri);
+            } else {
+                gstart[l + 1] += 1;
             }
         }
-        // Couplings: the distinct state blocks each landmark's residuals touch, by offset.
-        let mut cstart = Vec::with_capacity(nl + 1);
-        let mut couplings: Vec<Coupling> = Vec::new();
-        let mut wlen = 0;
-        for (l, &b) in layout.landmarks.iter().enumerate() {
-            let tl = problem.blocks[b].manifold.tangent_size();
-            cstart.push(couplings.len());
-            let first = couplings.len();
-            for &ri in &per_landmark[l] {
-                for bb in &problem.residuals[ri].blocks {
-                    let o = layout.state_offset[bb.0];
-                    if o != NONE && !couplings[first..].iter().any(|c| c.offset == o) {
-                        couplings.push(Coupling {
-                            offset: o,
-                            t: problem.blocks[bb.0].manifold.tangent_size(),
-                            pos: 0,
-                        });
-                    }
-                }
-            }
-            couplings[first..].sort_by_key(|c| c.offset);
-            for c in &mut couplings[first..] {
-                c.pos = wlen;
-                wlen += c.t * tl;
+        for l in 0..nl {
+            gstart[l + 1] += gstart[l];
+        }
+        let mut grouped = vec![0usize; gstart[nl]];
+        let mut fill = gstart.clone();
+        for (&ri, &l) in ids.iter().zip(&lm_of) {
+            if l != NONE {
+                grouped[fill[l]] = ri;
+                fill[l] += 1;
             }
         }
-        cstart.push(couplings.len());
-        let mut slots = Vec::new();
+        let mut slots = Vec::with_capacity(ids.len() * 6);
         let mut max_m = 0;
         let mut max_j = 0;
-        let mut plan = |ri: usize, l: usize| -> ResidualPlan {
+        // `coupling_of[offset]`: index of the current landmark's coupling with that state block.
+        let mut coupling_of = vec![NONE; layout.n];
+        let mut plan = |ri: usize, l: usize, coupling_of: &[usize]| -> ResidualPlan {
             let res = &problem.residuals[ri];
             let m = res.factor.residual_dim();
             let tangents = res.factor.parameter_tangent_sizes();
@@ -365,9 +369,7 @@ impl NormalEquations {
                 }
                 let active = offset != NONE || is_lm;
                 let coupling = if offset != NONE && l != NONE {
-                    (cstart[l]..cstart[l + 1])
-                        .find(|&c| couplings[c].offset == offset)
-                        .expect("planned above")
+                    coupling_of[offset]
                 } else {
                     NONE
                 };
@@ -393,13 +395,48 @@ impl NormalEquations {
                 direct: res.loss.is_none() && landmark == NONE,
             }
         };
-        let state_res: Vec<ResidualPlan> = state_ids.iter().map(|&ri| plan(ri, NONE)).collect();
-        let mut lm_res = Vec::new();
-        for (l, ris) in per_landmark.iter().enumerate() {
-            for &ri in ris {
-                lm_res.push(plan(ri, l));
+        let state_res: Vec<ResidualPlan> = state_ids
+            .iter()
+            .map(|&ri| plan(ri, NONE, &coupling_of))
+            .collect();
+        // Couplings: the distinct state blocks each landmark's residuals touch, by offset.
+        let mut cstart = Vec::with_capacity(nl + 1);
+        let mut couplings: Vec<Coupling> = Vec::new();
+        let mut lm_res = Vec::with_capacity(grouped.len());
+        let mut wlen = 0;
+        for (l, &b) in layout.landmarks.iter().enumerate() {
+            let tl = problem.blocks[b].manifold.tangent_size();
+            cstart.push(couplings.len());
+            let first = couplings.len();
+            let group = &grouped[gstart[l]..gstart[l + 1]];
+            for &ri in group {
+                for bb in &problem.residuals[ri].blocks {
+                    let o = layout.state_offset[bb.0];
+                    if o != NONE && coupling_of[o] != l {
+                        coupling_of[o] = l;
+                        couplings.push(Coupling {
+                            offset: o,
+                            t: problem.blocks[bb.0].manifold.tangent_size(),
+                            pos: 0,
+                        });
+                    }
+                }
+            }
+            couplings[first..].sort_by_key(|c| c.offset);
+            for (k, c) in couplings[first..].iter_mut().enumerate() {
+                c.pos = wlen;
+                wlen += c.t * tl;
+                coupling_of[c.offset] = first + k;
+            }
+            for &ri in group {
+                lm_res.push(plan(ri, l, &coupling_of));
+            }
+            // Reset the marks (a coupling index may equal a later landmark's index).
+            for c in &couplings[first..] {
+                coupling_of[c.offset] = NONE;
             }
         }
+        cstart.push(couplings.len());
         let lt: Vec<usize> = layout
             .landmarks
             .iter()
@@ -768,7 +805,31 @@ impl NormalEquations {
                             *hv -= si * w;
                         }
                     }
+                    if ca.t == 6 {
+                        // Pose blocks (the usual case): fixed sizes, unrolled.
+                        let wa: &[f64; 6] = wa.try_into().unwrap();
+                        let mut sa = [0.0; 6];
+                        for i in 0..6 {
+                            sa[i] = wa[i] * ci;
+                        }
+                        for cb in &cs[ia + 1..] {
+                            if cb.t != 6 {
+                                continue;
+                            }
+                            let wb: &[f64; 6] = self.w[cb.pos..cb.pos + 6].try_into().unwrap();
+                            for i in 0..6 {
+                                let s = (ca.offset + i) * n + cb.offset;
+                                let row: &mut [f64; 6] = (&mut a[s..s + 6]).try_into().unwrap();
+                                for j in 0..6 {
+                                    row[j] -= sa[i] * wb[j];
+                                }
+                            }
+                        }
+                    }
                     for cb in &cs[ia + 1..] {
+                        if ca.t == 6 && cb.t == 6 {
+                            continue;
+                        }
                         let wb = &self.w[cb.pos..cb.pos + cb.t];
                         for (i, wi) in wa.iter().enumerate() {
                             let si = wi * ci;
