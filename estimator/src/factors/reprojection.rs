@@ -69,6 +69,15 @@ impl CoreOut<'_> {
     }
 }
 
+/// Rotation matrices of the chain's poses computed by the caller (`None`: compute here).
+#[derive(Clone, Copy, Default)]
+struct Rotations<'a> {
+    pose_i: Option<&'a Matrix3<f64>>,
+    pose_j: Option<&'a Matrix3<f64>>,
+    ex_a: Option<&'a Matrix3<f64>>,
+    ex_b: Option<&'a Matrix3<f64>>,
+}
+
 /// `u ⋅ [p]×` for each row `u` of `m`: row-wise `u × p`.
 #[inline(always)]
 fn rows_times_skew(m: &Matrix2x3<f64>, p: &Vector3<f64>) -> Matrix2x3<f64> {
@@ -112,16 +121,22 @@ fn reproject_core(
     shared_ex: bool,
     inv_depth: f64,
     td: f64,
+    rotations: Rotations,
     residual: &mut [f64],
     out: &mut CoreOut,
 ) -> bool {
     let ray_i = obs_i.at_td(td);
     let ray_j = obs_j.at_td(td);
     let p_ca = ray_i / inv_depth;
-    let ra = rot(&ex_a.q);
-    let ri = rot(&pose_i.q);
-    let rj = rot(&pose_j.q);
-    let rb = if shared_ex { ra } else { rot(&ex_b.q) };
+    let given = |m: Option<&Matrix3<f64>>, pose: &Pose| m.copied().unwrap_or_else(|| rot(&pose.q));
+    let ra = given(rotations.ex_a, ex_a);
+    let ri = given(rotations.pose_i, pose_i);
+    let rj = given(rotations.pose_j, pose_j);
+    let rb = if shared_ex {
+        ra
+    } else {
+        given(rotations.ex_b, ex_b)
+    };
     let p_bi = ra * p_ca + ex_a.p;
     let p_w = ri * p_bi + pose_i.p;
     let p_bj = rj.tr_mul(&(p_w - pose_j.p));
@@ -180,6 +195,9 @@ fn reproject_core(
     true
 }
 
+/// The rotation of the identity pose (exactly what `rot` gives for it).
+const IDENTITY: Matrix3<f64> = Matrix3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
+
 #[inline]
 fn rot(q: &UnitQuaternion<f64>) -> Matrix3<f64> {
     q.to_rotation_matrix().into_inner()
@@ -227,6 +245,15 @@ impl Factor for ProjectionTwoFrameOneCam {
         &self,
         params: &[&[f64]],
         residuals: &mut [f64],
+        jacobians: Option<&mut [Option<&mut [f64]>]>,
+    ) -> bool {
+        self.evaluate_with_rotations(params, &[None; 5], residuals, jacobians)
+    }
+    fn evaluate_with_rotations(
+        &self,
+        params: &[&[f64]],
+        rotations: &[Option<&Matrix3<f64>>],
+        residuals: &mut [f64],
         mut jacobians: Option<&mut [Option<&mut [f64]>]>,
     ) -> bool {
         let ex = Pose::from_slice(params[2]);
@@ -250,6 +277,12 @@ impl Factor for ProjectionTwoFrameOneCam {
             true,
             params[3][0],
             params[4][0],
+            Rotations {
+                pose_i: rotations[0],
+                pose_j: rotations[1],
+                ex_a: rotations[2],
+                ex_b: rotations[2],
+            },
             residuals,
             &mut out,
         )
@@ -284,6 +317,15 @@ impl Factor for ProjectionTwoFrameTwoCam {
         &self,
         params: &[&[f64]],
         residuals: &mut [f64],
+        jacobians: Option<&mut [Option<&mut [f64]>]>,
+    ) -> bool {
+        self.evaluate_with_rotations(params, &[None; 6], residuals, jacobians)
+    }
+    fn evaluate_with_rotations(
+        &self,
+        params: &[&[f64]],
+        rotations: &[Option<&Matrix3<f64>>],
+        residuals: &mut [f64],
         mut jacobians: Option<&mut [Option<&mut [f64]>]>,
     ) -> bool {
         let [pose_i, pose_j, ex_a, ex_b, inv_depth, td] = split::<6>(&mut jacobians);
@@ -307,6 +349,12 @@ impl Factor for ProjectionTwoFrameTwoCam {
             false,
             params[4][0],
             params[5][0],
+            Rotations {
+                pose_i: rotations[0],
+                pose_j: rotations[1],
+                ex_a: rotations[2],
+                ex_b: rotations[3],
+            },
             residuals,
             &mut out,
         )
@@ -341,6 +389,15 @@ impl Factor for ProjectionOneFrameTwoCam {
         &self,
         params: &[&[f64]],
         residuals: &mut [f64],
+        jacobians: Option<&mut [Option<&mut [f64]>]>,
+    ) -> bool {
+        self.evaluate_with_rotations(params, &[None; 4], residuals, jacobians)
+    }
+    fn evaluate_with_rotations(
+        &self,
+        params: &[&[f64]],
+        rotations: &[Option<&Matrix3<f64>>],
+        residuals: &mut [f64],
         mut jacobians: Option<&mut [Option<&mut [f64]>]>,
     ) -> bool {
         let [ex_a, ex_b, inv_depth, td] = split::<4>(&mut jacobians);
@@ -363,8 +420,94 @@ impl Factor for ProjectionOneFrameTwoCam {
             false,
             params[2][0],
             params[3][0],
+            Rotations {
+                pose_i: Some(&IDENTITY),
+                pose_j: Some(&IDENTITY),
+                ex_a: rotations[0],
+                ex_b: rotations[1],
+            },
             residuals,
             &mut out,
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::problem::rotation_matrix;
+
+    /// Precomputed rotation matrices give bit-identical residuals and Jacobians.
+    #[test]
+    fn evaluate_with_rotations_equals_evaluate() {
+        let pose = |a: f64| {
+            let p = Pose::new(
+                UnitQuaternion::from_euler_angles(0.3 * a, -0.2 * a, 0.7 * a),
+                Vector3::new(a, -0.5 * a, 0.2),
+            );
+            p.to_array().to_vec()
+        };
+        let obs = |x: f64, y: f64| FeatureMeasurement {
+            point: Vector2::new(x, y),
+            velocity: Vector2::new(0.1, -0.2),
+            td: 0.001,
+        };
+        let (pi, pj, ea, eb) = (pose(0.1), pose(0.4), pose(0.01), pose(-0.02));
+        let (obs_i, obs_j) = (obs(0.1, -0.05), obs(0.12, -0.03));
+        let factors: Vec<(Box<dyn Factor>, Vec<Vec<f64>>)> = vec![
+            (
+                Box::new(ProjectionTwoFrameOneCam {
+                    obs_i,
+                    obs_j,
+                    weight: 300.0,
+                }),
+                vec![pi.clone(), pj.clone(), ea.clone(), vec![0.4], vec![0.002]],
+            ),
+            (
+                Box::new(ProjectionTwoFrameTwoCam {
+                    obs_i,
+                    obs_j,
+                    weight: 300.0,
+                }),
+                vec![pi, pj, ea.clone(), eb.clone(), vec![0.4], vec![0.002]],
+            ),
+            (
+                Box::new(ProjectionOneFrameTwoCam {
+                    obs_a: obs_i,
+                    obs_b: obs_j,
+                    weight: 300.0,
+                }),
+                vec![ea, eb, vec![0.4], vec![0.002]],
+            ),
+        ];
+        for (f, params) in &factors {
+            let views: Vec<&[f64]> = params.iter().map(|p| p.as_slice()).collect();
+            let rots: Vec<Option<nalgebra::Matrix3<f64>>> = params
+                .iter()
+                .map(|p| (p.len() == 7).then(|| rotation_matrix(&p[3..7])))
+                .collect();
+            let rot_refs: Vec<Option<&nalgebra::Matrix3<f64>>> =
+                rots.iter().map(|r| r.as_ref()).collect();
+            let run = |with: bool| {
+                let mut r = [0.0; 2];
+                let mut store: Vec<Vec<f64>> = f
+                    .parameter_tangent_sizes()
+                    .iter()
+                    .map(|t| vec![0.0; 2 * t])
+                    .collect();
+                let mut js: Vec<Option<&mut [f64]>> =
+                    store.iter_mut().map(|j| Some(j.as_mut_slice())).collect();
+                let ok = if with {
+                    f.evaluate_with_rotations(&views, &rot_refs, &mut r, Some(&mut js))
+                } else {
+                    f.evaluate(&views, &mut r, Some(&mut js))
+                };
+                assert!(ok);
+                let mut bits: Vec<u64> = r.iter().map(|v| v.to_bits()).collect();
+                bits.extend(store.iter().flatten().map(|v| v.to_bits()));
+                bits
+            };
+            assert_eq!(run(true), run(false));
+        }
     }
 }

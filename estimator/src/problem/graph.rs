@@ -2,7 +2,9 @@
 
 use std::sync::Arc;
 
-use super::{Factor, LossFunction, Manifold, apply_loss};
+use nalgebra::Matrix3;
+
+use super::{Factor, LossFunction, Manifold, apply_loss, rotation_matrix};
 
 /// Handle of a parameter block in a [`Problem`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -27,6 +29,8 @@ pub(crate) struct Block {
     pub offset: usize,
     /// `manifold.ambient_size()`, cached (read for every residual evaluation).
     pub ambient: usize,
+    /// `manifold.rotation_offset()`, cached.
+    pub rotation: Option<usize>,
     pub manifold: Arc<dyn Manifold>,
     pub kind: BlockKind,
     pub constant: bool,
@@ -143,6 +147,7 @@ impl Problem {
         self.blocks.push(Block {
             offset: self.values.len(),
             ambient: manifold.ambient_size(),
+            rotation: manifold.rotation_offset(),
             manifold,
             kind,
             constant: false,
@@ -253,12 +258,26 @@ impl Problem {
         &self.residuals[id.0].factor
     }
 
+    /// Fills `out[b]` with the rotation matrix of every block `b` that carries a rotation (see
+    /// `Manifold::rotation_offset`) at `values`; other entries are left as they are.
+    pub(crate) fn fill_rotations(&self, values: &[f64], out: &mut Vec<Matrix3<f64>>) {
+        out.resize(self.blocks.len(), Matrix3::identity());
+        for (b, blk) in self.blocks.iter().enumerate() {
+            if let Some(o) = blk.rotation {
+                let q = blk.offset + o;
+                out[b] = rotation_matrix(&values[q..q + 4]);
+            }
+        }
+    }
+
     /// Evaluates residual `id` at `values` (a full value vector), optionally with loss, into
-    /// `r`; Jacobians where requested. Returns the robustified `ρ(‖r‖²)` or `None` if the factor
-    /// cannot be evaluated.
-    pub(crate) fn evaluate_residual(
+    /// `r`; Jacobians where requested. `rotations`, if given, holds [`Self::fill_rotations`]
+    /// for `values`. Returns the robustified `ρ(‖r‖²)` or `None` if the factor cannot be
+    /// evaluated.
+    pub(crate) fn evaluate_residual_with(
         &self,
         values: &[f64],
+        rotations: Option<&[Matrix3<f64>]>,
         id: usize,
         r: &mut [f64],
         jacobians: Option<&mut [Option<&mut [f64]>]>,
@@ -282,7 +301,24 @@ impl Problem {
         };
         let has_j = jacobians.is_some();
         let mut jacobians = jacobians;
-        if !res.factor.evaluate(params, r, jacobians.as_deref_mut()) {
+        let ok = match rotations {
+            Some(rot) if res.blocks.len() <= INLINE_BLOCKS => {
+                let mut rots: [Option<&Matrix3<f64>>; INLINE_BLOCKS] = [None; INLINE_BLOCKS];
+                for (k, b) in res.blocks.iter().enumerate() {
+                    if self.blocks[b.0].rotation.is_some() {
+                        rots[k] = Some(&rot[b.0]);
+                    }
+                }
+                res.factor.evaluate_with_rotations(
+                    params,
+                    &rots[..res.blocks.len()],
+                    r,
+                    jacobians.as_deref_mut(),
+                )
+            }
+            _ => res.factor.evaluate(params, r, jacobians.as_deref_mut()),
+        };
+        if !ok {
             return None;
         }
         if r.iter().any(|v| !v.is_finite()) {
@@ -305,6 +341,17 @@ impl Problem {
             }
             None => Some(r.iter().map(|v| v * v).sum()),
         }
+    }
+
+    /// [`Self::evaluate_residual_with`] without precomputed rotations.
+    pub(crate) fn evaluate_residual(
+        &self,
+        values: &[f64],
+        id: usize,
+        r: &mut [f64],
+        jacobians: Option<&mut [Option<&mut [f64]>]>,
+    ) -> Option<f64> {
+        self.evaluate_residual_with(values, None, id, r, jacobians)
     }
 
     /// Total cost `½ Σ ρ(‖r‖²)` at the current values; `None` if a factor fails to evaluate.

@@ -232,6 +232,8 @@ pub(crate) struct NormalEquations {
     /// Residuals with a variable landmark, grouped by landmark, in id order within a group.
     lm_res: Vec<ResidualPlan>,
     slots: Vec<Slot>,
+    /// Rotation matrices of the blocks at the values being evaluated (`Problem::fill_rotations`).
+    rot: Vec<nalgebra::Matrix3<f64>>,
     /// Scratch: residual, Jacobians, a factor's direct normal equations.
     r: Vec<f64>,
     jac: Vec<f64>,
@@ -465,6 +467,7 @@ impl NormalEquations {
             state_res,
             lm_res,
             slots,
+            rot: Vec::new(),
             r: vec![0.0; max_m],
             jac: vec![0.0; max_j],
             direct_h: Vec::new(),
@@ -488,6 +491,7 @@ impl NormalEquations {
         self.gl.fill(0.0);
         self.w.fill(0.0);
         let mut total = 0.0;
+        problem.fill_rotations(&problem.values, &mut self.rot);
         let plans = std::mem::take(&mut self.state_res);
         let mut ok = true;
         for p in &plans {
@@ -532,7 +536,8 @@ impl NormalEquations {
         values: &[f64],
         p: &ResidualPlan,
     ) -> Option<f64> {
-        problem.evaluate_residual(values, p.ri, &mut self.r[..p.m], None)
+        // `self.rot` holds the rotations at `values` (filled by the caller).
+        problem.evaluate_residual_with(values, Some(&self.rot), p.ri, &mut self.r[..p.m], None)
     }
 
     /// Total cost `½ Σ ρ(‖r‖²)` of the planned residuals at `values`, summed in the order of
@@ -540,6 +545,7 @@ impl NormalEquations {
     /// residual cannot be evaluated.
     pub fn cost_at(&mut self, problem: &Problem, values: &[f64]) -> Option<f64> {
         let mut total = 0.0;
+        problem.fill_rotations(values, &mut self.rot);
         let (state_res, lm_res) = (
             std::mem::take(&mut self.state_res),
             std::mem::take(&mut self.lm_res),
@@ -582,7 +588,13 @@ impl NormalEquations {
                     rest = tail;
                 }
             }
-            rho = problem.evaluate_residual(&problem.values, p.ri, &mut self.r[..m], Some(js))?;
+            rho = problem.evaluate_residual_with(
+                &problem.values,
+                Some(&self.rot),
+                p.ri,
+                &mut self.r[..m],
+                Some(js),
+            )?;
         }
         let r = &self.r[..m];
         let jac = &self.jac[..p.jlen];
