@@ -454,7 +454,8 @@ mod tests {
         };
         let (pi, pj, ea, eb) = (pose(0.1), pose(0.4), pose(0.01), pose(-0.02));
         let (obs_i, obs_j) = (obs(0.1, -0.05), obs(0.12, -0.03));
-        let factors: Vec<(Box<dyn Factor>, Vec<Vec<f64>>)> = vec![
+        type Case = (Box<dyn Factor>, Vec<Vec<f64>>);
+        let factors: Vec<Case> = vec![
             (
                 Box::new(ProjectionTwoFrameOneCam {
                     obs_i,
