@@ -243,7 +243,7 @@ pub(crate) struct NormalEquations {
 
 /// `H[a, b] += Jaᵀ Jb` on a row-major `n × n` buffer (only the block with the smaller offset
 /// first is written; [`mirror_upper`] completes the matrix).
-#[inline]
+#[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn add_jtj(
     h: &mut [f64],
@@ -632,7 +632,20 @@ impl NormalEquations {
                     *g += x0 * r0 + x1 * r1;
                 }
                 // Diagonal block: upper triangle only (`mirror_upper` fills the rest).
-                for i in 0..ta {
+                if ta == 6 {
+                    // Pose blocks: fixed sizes, unrolled.
+                    let (b0, b1): (&[f64; 6], &[f64; 6]) =
+                        (a0.try_into().unwrap(), a1.try_into().unwrap());
+                    for i in 0..6 {
+                        let (x0, x1) = (b0[i], b1[i]);
+                        let s0 = (oa + i) * n + oa;
+                        let row: &mut [f64; 6] = (&mut self.hxx[s0..s0 + 6]).try_into().unwrap();
+                        for j in i..6 {
+                            row[j] += x0 * b0[j] + x1 * b1[j];
+                        }
+                    }
+                }
+                for i in 0..if ta == 6 { 0 } else { ta } {
                     let (x0, x1) = (a0[i], a1[i]);
                     let s0 = (oa + i) * n + oa;
                     let row = &mut self.hxx[s0 + i..s0 + ta];
