@@ -19,7 +19,7 @@ use std::sync::Arc;
 use nalgebra::{DMatrix, SymmetricEigen};
 
 use super::graph::{BlockId, BlockKind, Problem, ResidualId};
-use super::solver::{Layout, linearize, mirror_upper};
+use super::solver::{Layout, SchurScratch, linearize, mirror_upper};
 use crate::factors::{PriorError, PriorFactor};
 use crate::problem::Manifold;
 
@@ -130,7 +130,16 @@ pub fn marginalize(
     let mut neg_g: Vec<f64> = eqs.gx.iter().map(|v| -v).collect();
     let mut cinv = vec![0.0; eqs.hll.len()];
     let mut valid = vec![false; eqs.num_landmarks()];
-    eqs.eliminate(0.0, 0.0, &mut h, &mut neg_g, &mut cinv, &mut valid, true);
+    eqs.eliminate(
+        0.0,
+        0.0,
+        &mut h,
+        &mut neg_g,
+        &mut cinv,
+        &mut valid,
+        true,
+        &mut SchurScratch::default(),
+    );
     let g: Vec<f64> = neg_g.iter().map(|v| -v).collect();
     mirror_upper(&mut h, n);
 

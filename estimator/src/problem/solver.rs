@@ -9,8 +9,9 @@ use std::time::{Duration, Instant};
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt;
+use faer::linalg::matmul::matmul;
 use faer::reborrow::{Reborrow, ReborrowMut};
-use faer::{MatMut, Par};
+use faer::{Accum, MatMut, MatRef, Par};
 use nalgebra::{DMatrix, DVector};
 
 use super::graph::{BlockKind, Problem};
@@ -197,6 +198,8 @@ pub(crate) struct Coupling {
     pub t: usize,
     /// Position of the `t × t_l` row-major block in [`NormalEquations::w`].
     pub pos: usize,
+    /// Offset of the state block among the coupled coordinates (see `NormalEquations::zblocks`).
+    pub z: usize,
 }
 
 /// Normal equations `H δ = −g` at a linearization point, landmarks kept apart, together with
@@ -227,6 +230,14 @@ pub(crate) struct NormalEquations {
     pub couplings: Vec<Coupling>,
     /// Values of the coupling blocks.
     pub w: Vec<f64>,
+    /// The state blocks coupled to any landmark: (offset, tangent size, compact offset), by
+    /// offset; `zdim` compact coordinates in all.
+    zblocks: Vec<(usize, usize, usize)>,
+    zdim: usize,
+    /// Whether inverse-depth landmarks are eliminated by one dense product over the coupled
+    /// coordinates (small windows) rather than block pair by block pair (large, sparse
+    /// problems such as a batch solve).
+    dense_schur: bool,
     /// Residuals without a variable landmark, in id order.
     state_res: Vec<ResidualPlan>,
     /// Residuals with a variable landmark, grouped by landmark, in id order within a group.
@@ -420,6 +431,7 @@ impl NormalEquations {
                             offset: o,
                             t: problem.blocks[bb.0].manifold.tangent_size(),
                             pos: 0,
+                            z: 0,
                         });
                     }
                 }
@@ -439,6 +451,36 @@ impl NormalEquations {
             }
         }
         cstart.push(couplings.len());
+        // The state blocks any landmark couples to, by offset, and their compact offsets.
+        let mut zblocks: Vec<(usize, usize, usize)> = Vec::new();
+        for c in &couplings {
+            if coupling_of[c.offset] == NONE {
+                coupling_of[c.offset] = 0;
+                zblocks.push((c.offset, c.t, 0));
+            }
+        }
+        zblocks.sort_unstable();
+        let mut zdim = 0;
+        for zb in &mut zblocks {
+            zb.2 = zdim;
+            coupling_of[zb.0] = zdim;
+            zdim += zb.1;
+        }
+        for c in &mut couplings {
+            c.z = coupling_of[c.offset];
+        }
+        // Dense when its multiply-adds are within a small factor of the sparse updates' (the
+        // dense product runs many times faster per multiply-add).
+        let sparse_work: usize = (0..nl)
+            .map(|l| {
+                let k: usize = couplings[cstart[l]..cstart[l + 1]]
+                    .iter()
+                    .map(|c| c.t)
+                    .sum();
+                k * k
+            })
+            .sum();
+        let dense_schur = zdim * zdim * nl <= 8 * sparse_work;
         let lt: Vec<usize> = layout
             .landmarks
             .iter()
@@ -464,6 +506,9 @@ impl NormalEquations {
             cstart,
             couplings,
             w: vec![0.0; wlen],
+            zblocks,
+            zdim,
+            dense_schur,
             state_res,
             lm_res,
             slots,
@@ -794,14 +839,57 @@ impl NormalEquations {
         cinv: &mut [f64],
         valid: &mut [bool],
         skip_singular: bool,
+        z: &mut SchurScratch,
     ) -> bool {
         let n = self.n;
         let mut wc: Vec<f64> = Vec::new();
+        let (zd, nl) = (self.zdim, self.lt.len());
+        if self.dense_schur {
+            z.z1.clear();
+            z.z1.resize(zd * nl, 0.0);
+            z.z2.clear();
+            z.z2.resize(zd * nl, 0.0);
+        }
+        let mut dense = false;
         for l in 0..self.lt.len() {
             let t = self.lt[l];
             let (ho, go) = (self.lhoff[l], self.loff[l]);
             let cs = &self.couplings[self.cstart[l]..self.cstart[l + 1]];
             let gl = &self.gl[go..go + t];
+            if t == 1 && self.dense_schur {
+                // Inverse depths: C is a scalar; its W C⁻¹ Wᵀ goes in as column l of Z₁ (W)
+                // and Z₂ (W C⁻¹), multiplied out below.
+                let h = self.hll[ho];
+                let c = h + lambda * h.max(min_diag);
+                let ci = 1.0 / c;
+                if !(c > 0.0 && ci.is_finite()) {
+                    valid[l] = false;
+                    if skip_singular {
+                        continue;
+                    }
+                    return false;
+                }
+                cinv[ho] = ci;
+                valid[l] = true;
+                let gs = ci * gl[0];
+                let zd = self.zdim;
+                let (col1, col2) = (
+                    &mut z.z1[l * zd..(l + 1) * zd],
+                    &mut z.z2[l * zd..(l + 1) * zd],
+                );
+                for ca in cs {
+                    let wa = &self.w[ca.pos..ca.pos + ca.t];
+                    for (r, w) in rhs[ca.offset..ca.offset + ca.t].iter_mut().zip(wa) {
+                        *r += w * gs;
+                    }
+                    col1[ca.z..ca.z + ca.t].copy_from_slice(wa);
+                    for (o, w) in col2[ca.z..ca.z + ca.t].iter_mut().zip(wa) {
+                        *o = w * ci;
+                    }
+                }
+                dense = true;
+                continue;
+            }
             if t == 1 {
                 // Inverse depths: C is a scalar, W C⁻¹ Wᵀ an outer product per block pair.
                 let h = self.hll[ho];
@@ -913,8 +1001,42 @@ impl NormalEquations {
                 }
             }
         }
+        if dense {
+            // Σ_l w_l c_l⁻¹ w_lᵀ over the coupled coordinates as one product Z₂ Z₁ᵀ (dense, but
+            // only over the coordinates landmarks couple to), subtracted from the upper
+            // triangle of `a`.
+            z.s.clear();
+            z.s.resize(zd * zd, 0.0);
+            matmul(
+                MatMut::from_column_major_slice_mut(&mut z.s, zd, zd),
+                Accum::Replace,
+                MatRef::from_column_major_slice(&z.z2, zd, nl),
+                MatRef::from_column_major_slice(&z.z1, zd, nl).transpose(),
+                1.0,
+                Par::Seq,
+            );
+            for (bi, &(oi, ti, zi)) in self.zblocks.iter().enumerate() {
+                for &(oj, tj, zj) in &self.zblocks[bi..] {
+                    for i in 0..ti {
+                        let row = (oi + i) * n + oj;
+                        let j0 = if oj == oi { i } else { 0 };
+                        for j in j0..tj {
+                            a[row + j] -= z.s[(zi + i) + (zj + j) * zd];
+                        }
+                    }
+                }
+            }
+        }
         true
     }
+}
+
+/// Scratch of [`NormalEquations::eliminate`], reused across calls.
+#[derive(Default)]
+pub(crate) struct SchurScratch {
+    z1: Vec<f64>,
+    z2: Vec<f64>,
+    s: Vec<f64>,
 }
 
 /// Inverts a small symmetric positive-definite matrix (row-major); `None` if not PD.
@@ -961,6 +1083,7 @@ pub(crate) struct ReducedSystem {
     cinv: Vec<f64>,
     valid: Vec<bool>,
     scratch: Option<(usize, MemBuffer)>,
+    schur: SchurScratch,
 }
 
 /// Solves `A x = b` in place for a symmetric positive-definite row-major `n × n` matrix by
@@ -1028,6 +1151,7 @@ impl NormalEquations {
             &mut sys.cinv,
             &mut sys.valid,
             false,
+            &mut sys.schur,
         ) {
             return None;
         }
