@@ -1,9 +1,14 @@
 //! Levenberg–Marquardt and Powell's dogleg on the manifold, with landmark blocks eliminated by
-//! the Schur complement and the reduced system solved by dense Cholesky.
+//! the Schur complement and the reduced system solved by dense Cholesky (faer's LLT).
 //!
-//! Everything is deterministic: blocks are visited in id order, no threads, and stopping is
-//! decided by iteration count, cost change, gradient and step size — never by wall-clock time.
-//! Timing is measured for reports only.
+//! A solve plans its normal equations once (`NormalEquations::new`: residuals grouped by
+//! landmark, the landmark–state coupling blocks `H_xl` laid out in one buffer) and every
+//! linearization refills the same buffers. Rotation matrices of pose blocks are computed once
+//! per evaluation pass and handed to the factors (`Factor::evaluate_with_rotations`).
+//!
+//! Everything is deterministic: blocks are visited in id order, no threads (faer runs with
+//! `Par::Seq`), and stopping is decided by iteration count, cost change, gradient and step size
+//! — never by wall-clock time. Timing is measured for reports only.
 
 use std::time::{Duration, Instant};
 
@@ -689,13 +694,14 @@ impl NormalEquations {
                             row[j] += x0 * b0[j] + x1 * b1[j];
                         }
                     }
-                }
-                for i in 0..if ta == 6 { 0 } else { ta } {
-                    let (x0, x1) = (a0[i], a1[i]);
-                    let s0 = (oa + i) * n + oa;
-                    let row = &mut self.hxx[s0 + i..s0 + ta];
-                    for ((hv, y0), y1) in row.iter_mut().zip(&a0[i..]).zip(&a1[i..]) {
-                        *hv += x0 * y0 + x1 * y1;
+                } else {
+                    for i in 0..ta {
+                        let (x0, x1) = (a0[i], a1[i]);
+                        let s0 = (oa + i) * n + oa;
+                        let row = &mut self.hxx[s0 + i..s0 + ta];
+                        for ((hv, y0), y1) in row.iter_mut().zip(&a0[i..]).zip(&a1[i..]) {
+                            *hv += x0 * y0 + x1 * y1;
+                        }
                     }
                 }
                 for sb in &slots[a + 1..] {
