@@ -127,15 +127,38 @@ fn reproject_core(
 ) -> bool {
     let ray_i = obs_i.at_td(td);
     let ray_j = obs_j.at_td(td);
-    let p_ca = ray_i / inv_depth;
-    let given = |m: Option<&Matrix3<f64>>, pose: &Pose| m.copied().unwrap_or_else(|| rot(&pose.q));
-    let ra = given(rotations.ex_a, ex_a);
-    let ri = given(rotations.pose_i, pose_i);
-    let rj = given(rotations.pose_j, pose_j);
-    let rb = if shared_ex {
-        ra
-    } else {
-        given(rotations.ex_b, ex_b)
+    let depth = 1.0 / inv_depth;
+    let p_ca = ray_i * depth;
+    // The caller's matrices where given (no copy), else computed here.
+    let (own_a, own_i, own_j, own_b);
+    let ra: &Matrix3<f64> = match rotations.ex_a {
+        Some(m) => m,
+        None => {
+            own_a = rot(&ex_a.q);
+            &own_a
+        }
+    };
+    let ri: &Matrix3<f64> = match rotations.pose_i {
+        Some(m) => m,
+        None => {
+            own_i = rot(&pose_i.q);
+            &own_i
+        }
+    };
+    let rj: &Matrix3<f64> = match rotations.pose_j {
+        Some(m) => m,
+        None => {
+            own_j = rot(&pose_j.q);
+            &own_j
+        }
+    };
+    let rb: &Matrix3<f64> = match (shared_ex, rotations.ex_b) {
+        (true, _) => ra,
+        (false, Some(m)) => m,
+        (false, None) => {
+            own_b = rot(&ex_b.q);
+            &own_b
+        }
     };
     let p_bi = ra * p_ca + ex_a.p;
     let p_w = ri * p_bi + pose_i.p;
@@ -182,13 +205,13 @@ fn reproject_core(
         write_pose(o, &(d_bi - d_bj), &(ex_a_rot + ex_b_rot));
     }
     if let Some(o) = out.inv_depth.as_deref_mut() {
-        let j = d_ca * (-ray_i / (inv_depth * inv_depth));
+        let j = d_ca * (-ray_i * (depth * depth));
         o[0] = j.x;
         o[1] = j.y;
     }
     if let Some(o) = out.td.as_deref_mut() {
         let vel_i = Vector3::new(obs_i.velocity.x, obs_i.velocity.y, 0.0);
-        let j = d_ca * (-vel_i / inv_depth) + weight * obs_j.velocity;
+        let j = d_ca * (-vel_i * depth) + weight * obs_j.velocity;
         o[0] = j.x;
         o[1] = j.y;
     }
