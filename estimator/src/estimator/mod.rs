@@ -728,6 +728,18 @@ impl Estimator {
             self.focal[0] / self.config.cameras[0].pixel_sigma,
             self.focal[1] / self.config.cameras[1].pixel_sigma,
         ];
+        // Pose block of each window frame, by seq (frames are in seq order).
+        let pose_ids: Vec<(u64, BlockId)> = self
+            .frames
+            .iter()
+            .filter_map(|f| built.block(BlockRef::Pose(f.seq)).map(|b| (f.seq, b)))
+            .collect();
+        let pose_block = |seq: u64| {
+            pose_ids
+                .binary_search_by_key(&seq, |(s, _)| *s)
+                .ok()
+                .map(|i| pose_ids[i].1)
+        };
         for (id, track) in &self.features.tracks {
             let Some(inv_depth) = track.inv_depth else {
                 continue;
@@ -739,7 +751,7 @@ impl Estimator {
             let Some(obs_i) = anchor.meas[0] else {
                 continue;
             };
-            let Some(pose_i) = built.block(BlockRef::Pose(anchor.seq)) else {
+            let Some(pose_i) = pose_block(anchor.seq) else {
                 continue;
             };
             let lm = built
@@ -761,7 +773,7 @@ impl Estimator {
                 built.visual.push((r, *id));
             }
             for o in &track.obs[1..] {
-                let Some(pose_j) = built.block(BlockRef::Pose(o.seq)) else {
+                let Some(pose_j) = pose_block(o.seq) else {
                     continue;
                 };
                 if let Some(obs_j) = o.meas[0] {
@@ -954,22 +966,20 @@ impl Estimator {
             {
                 residuals.push(r);
             }
+            // Landmarks anchored in the oldest frame (sorted ids: membership by binary search).
+            let mut anchored: Vec<u64> = Vec::new();
             for (id, lm) in &built.landmarks {
                 if self.features.tracks[id].obs[0].seq == oldest {
                     remove.push(*lm);
+                    anchored.push(*id);
                 }
             }
-            let anchored: Vec<u64> = built
-                .landmarks
-                .iter()
-                .filter(|(_, lm)| remove.contains(lm))
-                .map(|(id, _)| *id)
-                .collect();
+            anchored.sort_unstable();
             residuals.extend(
                 built
                     .visual
                     .iter()
-                    .filter(|(_, id)| anchored.contains(id))
+                    .filter(|(_, id)| anchored.binary_search(id).is_ok())
                     .map(|(r, _)| *r),
             );
             residuals.sort();

@@ -235,30 +235,116 @@ impl Factor for PriorFactor {
         let u: Vec<f64> = self.gradient.iter().zip(&hd).map(|(a, b)| a + b).collect();
         h[..n * n].copy_from_slice(&self.hessian);
         g[..n].copy_from_slice(&u);
-        // Apply M on both sides, block by block (only non-identity blocks cost anything).
+        // Apply M on both sides, block by block (only non-identity blocks cost anything, and
+        // only their trailing non-identity part: a pose's M is the identity on translation).
         for (k, m) in mj.iter().enumerate() {
             let Some(m) = m else { continue };
             let (t, off) = (self.tangents[k], self.offsets[k]);
+            let e = |i: usize, j: usize| if i == j { 1.0 } else { 0.0 };
+            // Leading rows and columns of M that are those of the identity.
+            let lo = (0..t)
+                .find(|&i| (0..t).any(|j| m[i * t + j] != e(i, j) || m[j * t + i] != e(j, i)))
+                .unwrap_or(t);
+            let (t0, tt) = (off + lo, t - lo);
+            let mm = |r: usize, c: usize| m[(lo + r) * t + lo + c];
             // g_k ← M_kᵀ u_k
-            let uk: Vec<f64> = g[off..off + t].to_vec();
-            for c in 0..t {
-                g[off + c] = (0..t).map(|r| m[r * t + c] * uk[r]).sum();
+            let mut seg = [0.0; MAX_TANGENT];
+            seg[..tt].copy_from_slice(&g[t0..t0 + tt]);
+            for c in 0..tt {
+                g[t0 + c] = (0..tt).map(|r| mm(r, c) * seg[r]).sum();
             }
             // Columns of block k: H[:, k] ← H[:, k] M_k.
             for row in 0..n {
-                let seg: Vec<f64> = h[row * n + off..row * n + off + t].to_vec();
-                for c in 0..t {
-                    h[row * n + off + c] = (0..t).map(|r| seg[r] * m[r * t + c]).sum();
+                seg[..tt].copy_from_slice(&h[row * n + t0..row * n + t0 + tt]);
+                for c in 0..tt {
+                    h[row * n + t0 + c] = (0..tt).map(|r| seg[r] * mm(r, c)).sum();
                 }
             }
             // Rows of block k: H[k, :] ← M_kᵀ H[k, :].
             for col in 0..n {
-                let seg: Vec<f64> = (0..t).map(|r| h[(off + r) * n + col]).collect();
-                for c in 0..t {
-                    h[(off + c) * n + col] = (0..t).map(|r| m[r * t + c] * seg[r]).sum();
+                for r in 0..tt {
+                    seg[r] = h[(t0 + r) * n + col];
+                }
+                for c in 0..tt {
+                    h[(t0 + c) * n + col] = (0..tt).map(|r| mm(r, c) * seg[r]).sum();
                 }
             }
         }
         cost.is_finite().then_some(cost)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::problem::{Euclidean, PoseManifold};
+
+    /// `normal_equations` equals `JᵀJ`, `Jᵀr`, `‖r‖²` formed from `evaluate` away from the
+    /// linearization point (rotation blocks with a non-identity minus-Jacobian included).
+    #[test]
+    fn normal_equations_match_evaluate() {
+        let manifolds: Vec<Arc<dyn Manifold>> = vec![
+            Arc::new(PoseManifold),
+            Arc::new(Euclidean::new(3)),
+            Arc::new(PoseManifold),
+        ];
+        let x0 = vec![
+            vec![0.1, -0.2, 0.3, 0.0, 0.0, 0.0, 1.0],
+            vec![1.0, 2.0, 3.0],
+            vec![0.5, 0.4, -0.1, 0.1, -0.2, 0.3, 0.927_361_849_549_570_4],
+        ];
+        let (m, n) = (10, 15);
+        let jac: Vec<f64> = (0..m * n)
+            .map(|i| ((i * 37 % 23) as f64 - 11.0) / 7.0)
+            .collect();
+        let r0: Vec<f64> = (0..m).map(|i| 0.1 * i as f64 - 0.3).collect();
+        let prior = PriorFactor::new(manifolds.clone(), x0.clone(), jac, r0).unwrap();
+        // A point away from x0.
+        let mut x = x0.clone();
+        let steps = [
+            vec![0.01, 0.02, -0.03, 0.2, -0.1, 0.15],
+            vec![0.1, -0.1, 0.2],
+            vec![-0.02, 0.0, 0.01, -0.3, 0.05, 0.1],
+        ];
+        for k in 0..3 {
+            manifolds[k].plus(&x0[k], &steps[k], &mut x[k]);
+        }
+        let params: Vec<&[f64]> = x.iter().map(|v| v.as_slice()).collect();
+        let mut r = vec![0.0; m];
+        let mut blocks: Vec<Vec<f64>> = [6, 3, 6].iter().map(|t| vec![0.0; m * t]).collect();
+        {
+            let mut js: Vec<Option<&mut [f64]>> =
+                blocks.iter_mut().map(|b| Some(b.as_mut_slice())).collect();
+            assert!(prior.evaluate(&params, &mut r, Some(&mut js)));
+        }
+        // Full J (m × n) from the blocks.
+        let mut full = vec![0.0; m * n];
+        let mut off = 0;
+        for (b, t) in blocks.iter().zip([6, 3, 6]) {
+            for row in 0..m {
+                for c in 0..t {
+                    full[row * n + off + c] = b[row * t + c];
+                }
+            }
+            off += t;
+        }
+        let (mut h, mut g) = (vec![0.0; n * n], vec![0.0; n]);
+        let cost = prior.normal_equations(&params, &mut h, &mut g).unwrap();
+        let r_sq: f64 = r.iter().map(|v| v * v).sum();
+        assert!(
+            (cost - r_sq).abs() < 1e-10 * r_sq.max(1.0),
+            "{cost} vs {r_sq}"
+        );
+        for i in 0..n {
+            let gi: f64 = (0..m).map(|k| full[k * n + i] * r[k]).sum();
+            assert!((g[i] - gi).abs() < 1e-10 * gi.abs().max(1.0), "g[{i}]");
+            for j in 0..n {
+                let hij: f64 = (0..m).map(|k| full[k * n + i] * full[k * n + j]).sum();
+                assert!(
+                    (h[i * n + j] - hij).abs() < 1e-10 * hij.abs().max(1.0),
+                    "h[{i},{j}]"
+                );
+            }
+        }
     }
 }

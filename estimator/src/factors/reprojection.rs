@@ -10,10 +10,10 @@
 //! timestamps it with the current estimate `td_meas`; when the estimate moves to `td`, the feature
 //! is shifted along its image velocity: `z(td) = z − (td − td_meas) · velocity` (Qin & Shen 2018).
 
-use nalgebra::{Matrix2x3, Matrix3, SMatrix, UnitQuaternion, Vector2, Vector3};
+use nalgebra::{Matrix2x3, Matrix3, UnitQuaternion, Vector2, Vector3};
 
-use crate::geometry::{Pose, skew};
-use crate::problem::{Factor, write_row_major};
+use crate::geometry::Pose;
+use crate::problem::Factor;
 
 /// One observation of a feature as the reprojection factors consume it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -44,31 +44,70 @@ impl FeatureMeasurement {
     }
 }
 
-/// Which derivatives the core should produce.
-#[derive(Clone, Copy, Default)]
-struct Wanted {
-    pose_i: bool,
-    pose_j: bool,
-    ex_a: bool,
-    ex_b: bool,
-    inv_depth: bool,
-    td: bool,
+/// Where the core writes each role's Jacobian (row-major `2 × t`); `None` = not wanted.
+#[derive(Default)]
+struct CoreOut<'a> {
+    pose_i: Option<&'a mut [f64]>,
+    pose_j: Option<&'a mut [f64]>,
+    ex_a: Option<&'a mut [f64]>,
+    ex_b: Option<&'a mut [f64]>,
+    /// One extrinsic block for both cameras (the same-camera factor): `∂/∂ex_a + ∂/∂ex_b`.
+    ex_shared: Option<&'a mut [f64]>,
+    inv_depth: Option<&'a mut [f64]>,
+    td: Option<&'a mut [f64]>,
 }
 
-/// Jacobians of the (whitened) 2-D residual with respect to each role.
-#[derive(Default)]
-struct CoreJacobians {
-    pose_i: SMatrix<f64, 2, 6>,
-    pose_j: SMatrix<f64, 2, 6>,
-    ex_a: SMatrix<f64, 2, 6>,
-    ex_b: SMatrix<f64, 2, 6>,
-    inv_depth: SMatrix<f64, 2, 1>,
-    td: SMatrix<f64, 2, 1>,
+impl CoreOut<'_> {
+    fn any(&self) -> bool {
+        self.pose_i.is_some()
+            || self.pose_j.is_some()
+            || self.ex_a.is_some()
+            || self.ex_b.is_some()
+            || self.ex_shared.is_some()
+            || self.inv_depth.is_some()
+            || self.td.is_some()
+    }
+}
+
+/// Rotation matrices of the chain's poses computed by the caller (`None`: compute here).
+#[derive(Clone, Copy, Default)]
+struct Rotations<'a> {
+    pose_i: Option<&'a Matrix3<f64>>,
+    pose_j: Option<&'a Matrix3<f64>>,
+    ex_a: Option<&'a Matrix3<f64>>,
+    ex_b: Option<&'a Matrix3<f64>>,
+}
+
+/// `u ⋅ [p]×` for each row `u` of `m`: row-wise `u × p`.
+#[inline(always)]
+fn rows_times_skew(m: &Matrix2x3<f64>, p: &Vector3<f64>) -> Matrix2x3<f64> {
+    let mut out = Matrix2x3::zeros();
+    for r in 0..2 {
+        let (u0, u1, u2) = (m[(r, 0)], m[(r, 1)], m[(r, 2)]);
+        out[(r, 0)] = u1 * p.z - u2 * p.y;
+        out[(r, 1)] = u2 * p.x - u0 * p.z;
+        out[(r, 2)] = u0 * p.y - u1 * p.x;
+    }
+    out
+}
+
+/// Writes a pose Jacobian `[T | R]` (two 2×3 halves, translation then rotation) row-major.
+#[inline(always)]
+fn write_pose(out: &mut [f64], t: &Matrix2x3<f64>, r: &Matrix2x3<f64>) {
+    for row in 0..2 {
+        for c in 0..3 {
+            out[row * 6 + c] = t[(row, c)];
+            out[row * 6 + 3 + c] = r[(row, c)];
+        }
+    }
 }
 
 /// The general chain: anchor camera `a` of body frame `i` → world → body frame `j` → camera `b`.
 /// The three public factors are this chain with blocks shared (one camera) or poses fixed to the
-/// identity (one frame).
+/// identity (one frame). `shared_ex`: `ex_a` and `ex_b` are the same block.
+///
+/// The Jacobians are products of the 2×3 projection derivative with rotations, evaluated left to
+/// right (row vectors times 3×3 matrices), so no 3×3 × 3×3 product is formed.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn reproject_core(
@@ -79,101 +118,127 @@ fn reproject_core(
     pose_j: &Pose,
     ex_a: &Pose,
     ex_b: &Pose,
+    shared_ex: bool,
     inv_depth: f64,
     td: f64,
+    rotations: Rotations,
     residual: &mut [f64],
-    wanted: Wanted,
-    jac: &mut CoreJacobians,
+    out: &mut CoreOut,
 ) -> bool {
     let ray_i = obs_i.at_td(td);
     let ray_j = obs_j.at_td(td);
-    let p_ca = ray_i / inv_depth;
-    let ra = rot(&ex_a.q);
-    let ri = rot(&pose_i.q);
-    let rj_t = rot(&pose_j.q).transpose();
-    let rb_t = rot(&ex_b.q).transpose();
+    let depth = 1.0 / inv_depth;
+    let p_ca = ray_i * depth;
+    // The caller's matrices where given (no copy), else computed here.
+    let (own_a, own_i, own_j, own_b);
+    let ra: &Matrix3<f64> = match rotations.ex_a {
+        Some(m) => m,
+        None => {
+            own_a = rot(&ex_a.q);
+            &own_a
+        }
+    };
+    let ri: &Matrix3<f64> = match rotations.pose_i {
+        Some(m) => m,
+        None => {
+            own_i = rot(&pose_i.q);
+            &own_i
+        }
+    };
+    let rj: &Matrix3<f64> = match rotations.pose_j {
+        Some(m) => m,
+        None => {
+            own_j = rot(&pose_j.q);
+            &own_j
+        }
+    };
+    let rb: &Matrix3<f64> = match (shared_ex, rotations.ex_b) {
+        (true, _) => ra,
+        (false, Some(m)) => m,
+        (false, None) => {
+            own_b = rot(&ex_b.q);
+            &own_b
+        }
+    };
     let p_bi = ra * p_ca + ex_a.p;
     let p_w = ri * p_bi + pose_i.p;
-    let p_bj = rj_t * (p_w - pose_j.p);
-    let p_cb = rb_t * (p_bj - ex_b.p);
+    let p_bj = rj.tr_mul(&(p_w - pose_j.p));
+    let p_cb = rb.tr_mul(&(p_bj - ex_b.p));
     if !(p_cb.z.abs() > 1e-9 && inv_depth.is_finite()) {
         return false;
     }
     let inv_z = 1.0 / p_cb.z;
     residual[0] = weight * (p_cb.x * inv_z - ray_j.x);
     residual[1] = weight * (p_cb.y * inv_z - ray_j.y);
-
-    let any = wanted.pose_i || wanted.pose_j || wanted.ex_a || wanted.ex_b;
-    if !(any || wanted.inv_depth || wanted.td) {
+    if !out.any() {
         return true;
     }
     let wz = weight * inv_z;
     let reduce = Matrix2x3::new(wz, 0.0, -wz * p_cb.x * inv_z, 0.0, wz, -wz * p_cb.y * inv_z);
-    // d P_cb / d P_w and d P_cb / d P_ca.
-    let a: Matrix3<f64> = rb_t * rj_t;
-    let a_ri = a * ri;
-    let a_ri_ra = a_ri * ra;
-    let red_a = reduce * a;
-    if wanted.pose_i {
-        jac.pose_i.fixed_view_mut::<2, 3>(0, 0).copy_from(&red_a);
-        jac.pose_i
-            .fixed_view_mut::<2, 3>(0, 3)
-            .copy_from(&(-(reduce * a_ri) * skew(&p_bi)));
+    // ∂r/∂P for the point in each frame along the chain.
+    let d_bj = reduce * rb.transpose();
+    let d_w = d_bj * rj.transpose();
+    let d_bi = d_w * ri;
+    if let Some(o) = out.pose_i.as_deref_mut() {
+        write_pose(o, &d_w, &-rows_times_skew(&d_bi, &p_bi));
     }
-    if wanted.pose_j {
-        jac.pose_j.fixed_view_mut::<2, 3>(0, 0).copy_from(&-red_a);
-        jac.pose_j
-            .fixed_view_mut::<2, 3>(0, 3)
-            .copy_from(&(reduce * rb_t * skew(&p_bj)));
+    if let Some(o) = out.pose_j.as_deref_mut() {
+        write_pose(o, &-d_w, &rows_times_skew(&d_bj, &p_bj));
     }
-    if wanted.ex_a {
-        let red_a_ri = reduce * a_ri;
-        jac.ex_a.fixed_view_mut::<2, 3>(0, 0).copy_from(&red_a_ri);
-        jac.ex_a
-            .fixed_view_mut::<2, 3>(0, 3)
-            .copy_from(&(-(reduce * a_ri_ra) * skew(&p_ca)));
+    let need_ca = out.ex_a.is_some()
+        || out.ex_shared.is_some()
+        || out.inv_depth.is_some()
+        || out.td.is_some();
+    if !need_ca && out.ex_b.is_none() {
+        return true;
     }
-    if wanted.ex_b {
-        jac.ex_b
-            .fixed_view_mut::<2, 3>(0, 0)
-            .copy_from(&(-reduce * rb_t));
-        jac.ex_b
-            .fixed_view_mut::<2, 3>(0, 3)
-            .copy_from(&(reduce * skew(&p_cb)));
+    let d_ca = d_bi * ra;
+    let ex_a_rot = -rows_times_skew(&d_ca, &p_ca);
+    let ex_b_rot = rows_times_skew(&reduce, &p_cb);
+    if let Some(o) = out.ex_a.as_deref_mut() {
+        write_pose(o, &d_bi, &ex_a_rot);
     }
-    if wanted.inv_depth || wanted.td {
-        let red_chain = reduce * a_ri_ra;
-        if wanted.inv_depth {
-            jac.inv_depth = red_chain * (-ray_i / (inv_depth * inv_depth));
-        }
-        if wanted.td {
-            let vel_i = Vector3::new(obs_i.velocity.x, obs_i.velocity.y, 0.0);
-            jac.td = red_chain * (-vel_i / inv_depth) + weight * obs_j.velocity;
-        }
+    if let Some(o) = out.ex_b.as_deref_mut() {
+        write_pose(o, &-d_bj, &ex_b_rot);
+    }
+    if let Some(o) = out.ex_shared.as_deref_mut() {
+        write_pose(o, &(d_bi - d_bj), &(ex_a_rot + ex_b_rot));
+    }
+    if let Some(o) = out.inv_depth.as_deref_mut() {
+        let j = d_ca * (-ray_i * (depth * depth));
+        o[0] = j.x;
+        o[1] = j.y;
+    }
+    if let Some(o) = out.td.as_deref_mut() {
+        let vel_i = Vector3::new(obs_i.velocity.x, obs_i.velocity.y, 0.0);
+        let j = d_ca * (-vel_i * depth) + weight * obs_j.velocity;
+        o[0] = j.x;
+        o[1] = j.y;
     }
     true
 }
+
+/// The rotation of the identity pose (exactly what `rot` gives for it).
+const IDENTITY: Matrix3<f64> = Matrix3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
 
 #[inline]
 fn rot(q: &UnitQuaternion<f64>) -> Matrix3<f64> {
     q.to_rotation_matrix().into_inner()
 }
 
+/// Borrows each requested Jacobian buffer separately (the buffers stay in the caller's list, so a
+/// robust loss applied after `evaluate` still sees them).
 #[inline]
-fn put<const C: usize>(
-    jacobians: &mut Option<&mut [Option<&mut [f64]>]>,
-    k: usize,
-    m: &SMatrix<f64, 2, C>,
-) {
-    if let Some(js) = jacobians.as_deref_mut()
-        && let Some(out) = js[k].as_deref_mut()
-    {
-        write_row_major(m, out);
+fn split<'a, const N: usize>(
+    jacobians: &'a mut Option<&mut [Option<&mut [f64]>]>,
+) -> [Option<&'a mut [f64]>; N] {
+    let mut out: [Option<&'a mut [f64]>; N] = [const { None }; N];
+    if let Some(js) = jacobians.as_deref_mut() {
+        for (o, j) in out.iter_mut().zip(js.iter_mut()) {
+            *o = j.as_deref_mut();
+        }
     }
-}
-
-fn wants(jacobians: &Option<&mut [Option<&mut [f64]>]>, k: usize) -> bool {
-    jacobians.as_ref().is_some_and(|j| j[k].is_some())
+    out
 }
 
 /// A feature anchored in frame `i` and observed in frame `j` by the same camera.
@@ -203,19 +268,28 @@ impl Factor for ProjectionTwoFrameOneCam {
         &self,
         params: &[&[f64]],
         residuals: &mut [f64],
+        jacobians: Option<&mut [Option<&mut [f64]>]>,
+    ) -> bool {
+        self.evaluate_with_rotations(params, &[None; 5], residuals, jacobians)
+    }
+    fn evaluate_with_rotations(
+        &self,
+        params: &[&[f64]],
+        rotations: &[Option<&Matrix3<f64>>],
+        residuals: &mut [f64],
         mut jacobians: Option<&mut [Option<&mut [f64]>]>,
     ) -> bool {
         let ex = Pose::from_slice(params[2]);
-        let wanted = Wanted {
-            pose_i: wants(&jacobians, 0),
-            pose_j: wants(&jacobians, 1),
-            ex_a: wants(&jacobians, 2),
-            ex_b: wants(&jacobians, 2),
-            inv_depth: wants(&jacobians, 3),
-            td: wants(&jacobians, 4),
+        let [pose_i, pose_j, ex_shared, inv_depth, td] = split::<5>(&mut jacobians);
+        let mut out = CoreOut {
+            pose_i,
+            pose_j,
+            ex_shared,
+            inv_depth,
+            td,
+            ..CoreOut::default()
         };
-        let mut jac = CoreJacobians::default();
-        let ok = reproject_core(
+        reproject_core(
             &self.obs_i,
             &self.obs_j,
             self.weight,
@@ -223,20 +297,18 @@ impl Factor for ProjectionTwoFrameOneCam {
             &Pose::from_slice(params[1]),
             &ex,
             &ex,
+            true,
             params[3][0],
             params[4][0],
+            Rotations {
+                pose_i: rotations[0],
+                pose_j: rotations[1],
+                ex_a: rotations[2],
+                ex_b: rotations[2],
+            },
             residuals,
-            wanted,
-            &mut jac,
-        );
-        if ok && jacobians.is_some() {
-            put(&mut jacobians, 0, &jac.pose_i);
-            put(&mut jacobians, 1, &jac.pose_j);
-            put(&mut jacobians, 2, &(jac.ex_a + jac.ex_b));
-            put(&mut jacobians, 3, &jac.inv_depth);
-            put(&mut jacobians, 4, &jac.td);
-        }
-        ok
+            &mut out,
+        )
     }
 }
 
@@ -268,18 +340,28 @@ impl Factor for ProjectionTwoFrameTwoCam {
         &self,
         params: &[&[f64]],
         residuals: &mut [f64],
+        jacobians: Option<&mut [Option<&mut [f64]>]>,
+    ) -> bool {
+        self.evaluate_with_rotations(params, &[None; 6], residuals, jacobians)
+    }
+    fn evaluate_with_rotations(
+        &self,
+        params: &[&[f64]],
+        rotations: &[Option<&Matrix3<f64>>],
+        residuals: &mut [f64],
         mut jacobians: Option<&mut [Option<&mut [f64]>]>,
     ) -> bool {
-        let wanted = Wanted {
-            pose_i: wants(&jacobians, 0),
-            pose_j: wants(&jacobians, 1),
-            ex_a: wants(&jacobians, 2),
-            ex_b: wants(&jacobians, 3),
-            inv_depth: wants(&jacobians, 4),
-            td: wants(&jacobians, 5),
+        let [pose_i, pose_j, ex_a, ex_b, inv_depth, td] = split::<6>(&mut jacobians);
+        let mut out = CoreOut {
+            pose_i,
+            pose_j,
+            ex_a,
+            ex_b,
+            inv_depth,
+            td,
+            ..CoreOut::default()
         };
-        let mut jac = CoreJacobians::default();
-        let ok = reproject_core(
+        reproject_core(
             &self.obs_i,
             &self.obs_j,
             self.weight,
@@ -287,21 +369,18 @@ impl Factor for ProjectionTwoFrameTwoCam {
             &Pose::from_slice(params[1]),
             &Pose::from_slice(params[2]),
             &Pose::from_slice(params[3]),
+            false,
             params[4][0],
             params[5][0],
+            Rotations {
+                pose_i: rotations[0],
+                pose_j: rotations[1],
+                ex_a: rotations[2],
+                ex_b: rotations[3],
+            },
             residuals,
-            wanted,
-            &mut jac,
-        );
-        if ok && jacobians.is_some() {
-            put(&mut jacobians, 0, &jac.pose_i);
-            put(&mut jacobians, 1, &jac.pose_j);
-            put(&mut jacobians, 2, &jac.ex_a);
-            put(&mut jacobians, 3, &jac.ex_b);
-            put(&mut jacobians, 4, &jac.inv_depth);
-            put(&mut jacobians, 5, &jac.td);
-        }
-        ok
+            &mut out,
+        )
     }
 }
 
@@ -333,18 +412,27 @@ impl Factor for ProjectionOneFrameTwoCam {
         &self,
         params: &[&[f64]],
         residuals: &mut [f64],
+        jacobians: Option<&mut [Option<&mut [f64]>]>,
+    ) -> bool {
+        self.evaluate_with_rotations(params, &[None; 4], residuals, jacobians)
+    }
+    fn evaluate_with_rotations(
+        &self,
+        params: &[&[f64]],
+        rotations: &[Option<&Matrix3<f64>>],
+        residuals: &mut [f64],
         mut jacobians: Option<&mut [Option<&mut [f64]>]>,
     ) -> bool {
-        let wanted = Wanted {
-            ex_a: wants(&jacobians, 0),
-            ex_b: wants(&jacobians, 1),
-            inv_depth: wants(&jacobians, 2),
-            td: wants(&jacobians, 3),
-            ..Wanted::default()
+        let [ex_a, ex_b, inv_depth, td] = split::<4>(&mut jacobians);
+        let mut out = CoreOut {
+            ex_a,
+            ex_b,
+            inv_depth,
+            td,
+            ..CoreOut::default()
         };
-        let mut jac = CoreJacobians::default();
         let id = Pose::identity();
-        let ok = reproject_core(
+        reproject_core(
             &self.obs_a,
             &self.obs_b,
             self.weight,
@@ -352,18 +440,98 @@ impl Factor for ProjectionOneFrameTwoCam {
             &id,
             &Pose::from_slice(params[0]),
             &Pose::from_slice(params[1]),
+            false,
             params[2][0],
             params[3][0],
+            Rotations {
+                pose_i: Some(&IDENTITY),
+                pose_j: Some(&IDENTITY),
+                ex_a: rotations[0],
+                ex_b: rotations[1],
+            },
             residuals,
-            wanted,
-            &mut jac,
-        );
-        if ok && jacobians.is_some() {
-            put(&mut jacobians, 0, &jac.ex_a);
-            put(&mut jacobians, 1, &jac.ex_b);
-            put(&mut jacobians, 2, &jac.inv_depth);
-            put(&mut jacobians, 3, &jac.td);
+            &mut out,
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::problem::rotation_matrix;
+
+    /// Precomputed rotation matrices give bit-identical residuals and Jacobians.
+    #[test]
+    fn evaluate_with_rotations_equals_evaluate() {
+        let pose = |a: f64| {
+            let p = Pose::new(
+                UnitQuaternion::from_euler_angles(0.3 * a, -0.2 * a, 0.7 * a),
+                Vector3::new(a, -0.5 * a, 0.2),
+            );
+            p.to_array().to_vec()
+        };
+        let obs = |x: f64, y: f64| FeatureMeasurement {
+            point: Vector2::new(x, y),
+            velocity: Vector2::new(0.1, -0.2),
+            td: 0.001,
+        };
+        let (pi, pj, ea, eb) = (pose(0.1), pose(0.4), pose(0.01), pose(-0.02));
+        let (obs_i, obs_j) = (obs(0.1, -0.05), obs(0.12, -0.03));
+        type Case = (Box<dyn Factor>, Vec<Vec<f64>>);
+        let factors: Vec<Case> = vec![
+            (
+                Box::new(ProjectionTwoFrameOneCam {
+                    obs_i,
+                    obs_j,
+                    weight: 300.0,
+                }),
+                vec![pi.clone(), pj.clone(), ea.clone(), vec![0.4], vec![0.002]],
+            ),
+            (
+                Box::new(ProjectionTwoFrameTwoCam {
+                    obs_i,
+                    obs_j,
+                    weight: 300.0,
+                }),
+                vec![pi, pj, ea.clone(), eb.clone(), vec![0.4], vec![0.002]],
+            ),
+            (
+                Box::new(ProjectionOneFrameTwoCam {
+                    obs_a: obs_i,
+                    obs_b: obs_j,
+                    weight: 300.0,
+                }),
+                vec![ea, eb, vec![0.4], vec![0.002]],
+            ),
+        ];
+        for (f, params) in &factors {
+            let views: Vec<&[f64]> = params.iter().map(|p| p.as_slice()).collect();
+            let rots: Vec<Option<nalgebra::Matrix3<f64>>> = params
+                .iter()
+                .map(|p| (p.len() == 7).then(|| rotation_matrix(&p[3..7])))
+                .collect();
+            let rot_refs: Vec<Option<&nalgebra::Matrix3<f64>>> =
+                rots.iter().map(|r| r.as_ref()).collect();
+            let run = |with: bool| {
+                let mut r = [0.0; 2];
+                let mut store: Vec<Vec<f64>> = f
+                    .parameter_tangent_sizes()
+                    .iter()
+                    .map(|t| vec![0.0; 2 * t])
+                    .collect();
+                let mut js: Vec<Option<&mut [f64]>> =
+                    store.iter_mut().map(|j| Some(j.as_mut_slice())).collect();
+                let ok = if with {
+                    f.evaluate_with_rotations(&views, &rot_refs, &mut r, Some(&mut js))
+                } else {
+                    f.evaluate(&views, &mut r, Some(&mut js))
+                };
+                assert!(ok);
+                let mut bits: Vec<u64> = r.iter().map(|v| v.to_bits()).collect();
+                bits.extend(store.iter().flatten().map(|v| v.to_bits()));
+                bits
+            };
+            assert_eq!(run(true), run(false));
         }
-        ok
     }
 }

@@ -23,6 +23,24 @@ pub trait Factor: Send + Sync {
         jacobians: Option<&mut [Option<&mut [f64]>]>,
     ) -> bool;
 
+    /// [`Factor::evaluate`] with the rotation matrices of the factor's blocks computed by the
+    /// caller: `rotations[k]` is `R(q)` of block k's quaternion (see
+    /// [`crate::problem::Manifold::rotation_offset`]), converted by
+    /// [`rotation_matrix`], or `None` for blocks without a rotation. Must give exactly the
+    /// results of `evaluate`; factors that need those matrices override it to skip the
+    /// conversions (the solver converts each block once per pass instead of once per factor).
+    /// Default: `evaluate`.
+    fn evaluate_with_rotations(
+        &self,
+        params: &[&[f64]],
+        rotations: &[Option<&nalgebra::Matrix3<f64>>],
+        residuals: &mut [f64],
+        jacobians: Option<&mut [Option<&mut [f64]>]>,
+    ) -> bool {
+        let _ = rotations;
+        self.evaluate(params, residuals, jacobians)
+    }
+
     /// Optionally, the factor's Gauss-Newton contribution computed directly: `h = JᵀJ`
     /// (row-major, `T × T` with `T` the sum of the tangent sizes, blocks in parameter order),
     /// `g = Jᵀr`, returning `‖r‖²`. Factors with many residual rows over many blocks (the
@@ -44,4 +62,13 @@ pub fn write_row_major<const R: usize, const C: usize>(
             out[r * C + c] = m[(r, c)];
         }
     }
+}
+
+/// The rotation matrix of a unit quaternion stored `[qx, qy, qz, qw]` (the conversion every
+/// rotation-matrix user shares, so that precomputed and recomputed matrices agree bit for bit).
+#[inline]
+pub fn rotation_matrix(q_xyzw: &[f64]) -> nalgebra::Matrix3<f64> {
+    crate::geometry::quat_from_xyzw(q_xyzw)
+        .to_rotation_matrix()
+        .into_inner()
 }

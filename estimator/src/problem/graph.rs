@@ -2,7 +2,9 @@
 
 use std::sync::Arc;
 
-use super::{Factor, LossFunction, Manifold, apply_loss};
+use nalgebra::Matrix3;
+
+use super::{Factor, LossFunction, Manifold, apply_loss, rotation_matrix};
 
 /// Handle of a parameter block in a [`Problem`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -25,16 +27,62 @@ pub enum BlockKind {
 #[derive(Clone, Debug)]
 pub(crate) struct Block {
     pub offset: usize,
+    /// `manifold.ambient_size()`, cached (read for every residual evaluation).
+    pub ambient: usize,
+    /// `manifold.rotation_offset()`, cached.
+    pub rotation: Option<usize>,
     pub manifold: Arc<dyn Manifold>,
     pub kind: BlockKind,
     pub constant: bool,
+}
+
+/// The blocks of one residual, stored inline for the usual few (no allocation per residual).
+#[derive(Clone, Debug)]
+pub(crate) enum BlockList {
+    Inline([BlockId; INLINE_BLOCKS], u8),
+    Heap(Vec<BlockId>),
+}
+
+const INLINE_BLOCKS: usize = 6;
+
+impl BlockList {
+    fn new(blocks: &[BlockId]) -> Self {
+        if blocks.len() <= INLINE_BLOCKS {
+            let mut a = [BlockId(0); INLINE_BLOCKS];
+            a[..blocks.len()].copy_from_slice(blocks);
+            Self::Inline(a, blocks.len() as u8)
+        } else {
+            Self::Heap(blocks.to_vec())
+        }
+    }
+}
+
+impl std::ops::Deref for BlockList {
+    type Target = [BlockId];
+    #[inline]
+    fn deref(&self) -> &[BlockId] {
+        match self {
+            Self::Inline(a, n) => &a[..*n as usize],
+            Self::Heap(v) => v,
+        }
+    }
+}
+
+impl<'a> IntoIterator for &'a BlockList {
+    type Item = &'a BlockId;
+    type IntoIter = std::slice::Iter<'a, BlockId>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.iter()
+    }
 }
 
 #[derive(Clone)]
 pub(crate) struct Residual {
     pub factor: Arc<dyn Factor>,
     pub loss: Option<Arc<dyn LossFunction>>,
-    pub blocks: Vec<BlockId>,
+    /// `loss.quadratic_up_to()`, cached: below it the loss is skipped.
+    pub quadratic_up_to: f64,
+    pub blocks: BlockList,
 }
 
 /// Errors building a [`Problem`].
@@ -98,6 +146,8 @@ impl Problem {
         let id = BlockId(self.blocks.len());
         self.blocks.push(Block {
             offset: self.values.len(),
+            ambient: manifold.ambient_size(),
+            rotation: manifold.rotation_offset(),
             manifold,
             kind,
             constant: false,
@@ -155,10 +205,12 @@ impl Problem {
         if landmarks > 1 {
             return Err(ProblemError::TwoLandmarks);
         }
+        let quadratic_up_to = loss.as_ref().map_or(-1.0, |l| l.quadratic_up_to());
         self.residuals.push(Residual {
             factor,
             loss,
-            blocks: blocks.to_vec(),
+            quadratic_up_to,
+            blocks: BlockList::new(blocks),
         });
         Ok(ResidualId(self.residuals.len() - 1))
     }
@@ -166,7 +218,7 @@ impl Problem {
     /// Current values of a block.
     pub fn values(&self, id: BlockId) -> &[f64] {
         let b = &self.blocks[id.0];
-        &self.values[b.offset..b.offset + b.manifold.ambient_size()]
+        &self.values[b.offset..b.offset + b.ambient]
     }
 
     /// Overwrites the values of a block.
@@ -206,12 +258,26 @@ impl Problem {
         &self.residuals[id.0].factor
     }
 
+    /// Fills `out[b]` with the rotation matrix of every block `b` that carries a rotation (see
+    /// `Manifold::rotation_offset`) at `values`; other entries are left as they are.
+    pub(crate) fn fill_rotations(&self, values: &[f64], out: &mut Vec<Matrix3<f64>>) {
+        out.resize(self.blocks.len(), Matrix3::identity());
+        for (b, blk) in self.blocks.iter().enumerate() {
+            if let Some(o) = blk.rotation {
+                let q = blk.offset + o;
+                out[b] = rotation_matrix(&values[q..q + 4]);
+            }
+        }
+    }
+
     /// Evaluates residual `id` at `values` (a full value vector), optionally with loss, into
-    /// `r`; Jacobians where requested. Returns the robustified `ρ(‖r‖²)` or `None` if the factor
-    /// cannot be evaluated.
-    pub(crate) fn evaluate_residual(
+    /// `r`; Jacobians where requested. `rotations`, if given, holds [`Self::fill_rotations`]
+    /// for `values`. Returns the robustified `ρ(‖r‖²)` or `None` if the factor cannot be
+    /// evaluated.
+    pub(crate) fn evaluate_residual_with(
         &self,
         values: &[f64],
+        rotations: Option<&[Matrix3<f64>]>,
         id: usize,
         r: &mut [f64],
         jacobians: Option<&mut [Option<&mut [f64]>]>,
@@ -219,7 +285,7 @@ impl Problem {
         let res = &self.residuals[id];
         let slice = |b: &BlockId| {
             let blk = &self.blocks[b.0];
-            &values[blk.offset..blk.offset + blk.manifold.ambient_size()]
+            &values[blk.offset..blk.offset + blk.ambient]
         };
         // Most factors touch few blocks: avoid an allocation for them.
         let mut small: [&[f64]; 8] = [&[]; 8];
@@ -235,7 +301,24 @@ impl Problem {
         };
         let has_j = jacobians.is_some();
         let mut jacobians = jacobians;
-        if !res.factor.evaluate(params, r, jacobians.as_deref_mut()) {
+        let ok = match rotations {
+            Some(rot) if res.blocks.len() <= INLINE_BLOCKS => {
+                let mut rots: [Option<&Matrix3<f64>>; INLINE_BLOCKS] = [None; INLINE_BLOCKS];
+                for (k, b) in res.blocks.iter().enumerate() {
+                    if self.blocks[b.0].rotation.is_some() {
+                        rots[k] = Some(&rot[b.0]);
+                    }
+                }
+                res.factor.evaluate_with_rotations(
+                    params,
+                    &rots[..res.blocks.len()],
+                    r,
+                    jacobians.as_deref_mut(),
+                )
+            }
+            _ => res.factor.evaluate(params, r, jacobians.as_deref_mut()),
+        };
+        if !ok {
             return None;
         }
         if r.iter().any(|v| !v.is_finite()) {
@@ -243,6 +326,11 @@ impl Problem {
         }
         match &res.loss {
             Some(loss) => {
+                let s: f64 = r.iter().map(|v| v * v).sum();
+                if s <= res.quadratic_up_to {
+                    // ρ(s) = s, ρ' = 1, ρ'' = 0: `apply_loss` would change nothing.
+                    return Some(s);
+                }
                 let mut empty: [Option<&mut [f64]>; 0] = [];
                 let js = if has_j {
                     jacobians.unwrap()
@@ -253,6 +341,17 @@ impl Problem {
             }
             None => Some(r.iter().map(|v| v * v).sum()),
         }
+    }
+
+    /// [`Self::evaluate_residual_with`] without precomputed rotations.
+    pub(crate) fn evaluate_residual(
+        &self,
+        values: &[f64],
+        id: usize,
+        r: &mut [f64],
+        jacobians: Option<&mut [Option<&mut [f64]>]>,
+    ) -> Option<f64> {
+        self.evaluate_residual_with(values, None, id, r, jacobians)
     }
 
     /// Total cost `½ Σ ρ(‖r‖²)` at the current values; `None` if a factor fails to evaluate.

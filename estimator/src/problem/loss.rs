@@ -4,6 +4,13 @@
 pub trait LossFunction: Send + Sync + std::fmt::Debug {
     /// Returns `[ρ(s), ρ'(s), ρ''(s)]`.
     fn evaluate(&self, s: f64) -> [f64; 3];
+
+    /// The largest `s` for which `evaluate(s)` is exactly `[s, 1, 0]` (the loss is the plain
+    /// square there and changes nothing), or a negative number if there is no such region.
+    /// The problem skips the loss for residuals inside it. Default: none.
+    fn quadratic_up_to(&self) -> f64 {
+        -1.0
+    }
 }
 
 /// Huber loss with threshold `delta` on the residual norm: quadratic inside, linear outside.
@@ -14,6 +21,9 @@ pub struct HuberLoss {
 }
 
 impl LossFunction for HuberLoss {
+    fn quadratic_up_to(&self) -> f64 {
+        self.delta * self.delta
+    }
     fn evaluate(&self, s: f64) -> [f64; 3] {
         let b = self.delta * self.delta;
         if s <= b {
@@ -58,6 +68,10 @@ pub fn apply_loss(
 ) -> f64 {
     let s: f64 = residuals.iter().map(|r| r * r).sum();
     let rho = loss.evaluate(s);
+    if rho[1] == 1.0 && rho[2] == 0.0 {
+        // Inside the quadratic region (most residuals): nothing to change.
+        return rho[0];
+    }
     let sqrt_rho1 = rho[1].max(0.0).sqrt();
     // α solves ½α² − α − (ρ''/ρ') s = 0 (smaller root). Like Ceres, the curvature correction is
     // applied only where ρ'' > 0: for the usual robust losses (ρ'' ≤ 0) it could make the

@@ -21,6 +21,12 @@ pub trait Manifold: Send + Sync + std::fmt::Debug {
     fn plus_jacobian(&self, x: &[f64], out: &mut [f64]);
     /// `∂((y ⊞ δ) ⊟ x)/∂δ` at `δ = 0`: tangent × tangent, row-major. Identity when `y = x`.
     fn minus_jacobian(&self, y: &[f64], x: &[f64], out: &mut [f64]);
+    /// Where a unit quaternion `[qx, qy, qz, qw]` sits in the stored values, if the block
+    /// carries a rotation (the solver then converts it to a matrix once per evaluation pass
+    /// for [`crate::problem::Factor::evaluate_with_rotations`]). Default: none.
+    fn rotation_offset(&self) -> Option<usize> {
+        None
+    }
 }
 
 fn write_identity(n: usize, out: &mut [f64]) {
@@ -98,6 +104,9 @@ fn quat_minus_jacobian_into(q1: &[f64], q0: &[f64], out: &mut [f64], cols: usize
 }
 
 impl Manifold for QuaternionManifold {
+    fn rotation_offset(&self) -> Option<usize> {
+        Some(0)
+    }
     fn ambient_size(&self) -> usize {
         4
     }
@@ -131,6 +140,9 @@ impl Manifold for QuaternionManifold {
 pub struct PoseManifold;
 
 impl Manifold for PoseManifold {
+    fn rotation_offset(&self) -> Option<usize> {
+        Some(3)
+    }
     fn ambient_size(&self) -> usize {
         7
     }

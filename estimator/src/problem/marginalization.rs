@@ -19,7 +19,7 @@ use std::sync::Arc;
 use nalgebra::{DMatrix, SymmetricEigen};
 
 use super::graph::{BlockId, BlockKind, Problem, ResidualId};
-use super::solver::{Layout, eliminate_landmarks, linearize, mirror_upper};
+use super::solver::{Layout, SchurScratch, linearize, mirror_upper};
 use crate::factors::{PriorError, PriorFactor};
 use crate::problem::Manifold;
 
@@ -128,8 +128,18 @@ pub fn marginalize(
     // 2. Landmark Schur complement (no damping), on the right-hand side −g.
     let mut h = eqs.hxx.clone();
     let mut neg_g: Vec<f64> = eqs.gx.iter().map(|v| -v).collect();
-    eliminate_landmarks(&eqs.landmarks, 0.0, &[], &mut h, &mut neg_g, n, true)
-        .ok_or(MarginalizationError::Evaluation)?;
+    let mut cinv = vec![0.0; eqs.hll.len()];
+    let mut valid = vec![false; eqs.num_landmarks()];
+    eqs.eliminate(
+        0.0,
+        0.0,
+        &mut h,
+        &mut neg_g,
+        &mut cinv,
+        &mut valid,
+        true,
+        &mut SchurScratch::default(),
+    );
     let g: Vec<f64> = neg_g.iter().map(|v| -v).collect();
     mirror_upper(&mut h, n);
 

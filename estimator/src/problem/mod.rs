@@ -9,7 +9,7 @@ mod manifold;
 pub mod marginalization;
 pub mod solver;
 
-pub use factor::{Factor, write_row_major};
+pub use factor::{Factor, rotation_matrix, write_row_major};
 pub use gradient_check::{CheckError, CheckOptions, check_factor_jacobians};
 pub use graph::{BlockId, BlockKind, Problem, ProblemError, ResidualId};
 pub use loss::{CauchyLoss, HuberLoss, LossFunction, apply_loss};
