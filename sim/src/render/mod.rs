@@ -1257,21 +1257,28 @@ fn finish_camera(
     let row = padded_row(pw) as usize;
     let image_bytes = row * ph as usize;
     let base = cam.readback_offset as usize;
-    let mut acc = vec![0u32; (cam.width * cam.height) as usize];
-    for k in 0..samples {
-        let at = base + k * image_bytes;
-        remap::accumulate(&cam.table, &data[at..at + image_bytes], &mut acc);
-    }
-    let image = remap::finish(
-        &acc,
-        samples as u32,
-        cam.width,
-        cam.height,
-        &config.photometric,
-        seed,
-        &cam.name,
-        frame_index,
-    );
+    let p = &config.photometric;
+    let image = if samples == 1 && !remap::noisy(p) {
+        // The common case in one pass: no sum buffer.
+        GrayImage {
+            width: cam.width,
+            height: cam.height,
+            data: remap::remap_u8(&cam.table, &data[base..base + image_bytes]),
+        }
+    } else {
+        let mut acc = vec![0u32; (cam.width * cam.height) as usize];
+        for k in 0..samples {
+            let at = base + k * image_bytes;
+            remap::accumulate(&cam.table, &data[at..at + image_bytes], &mut acc);
+        }
+        remap::finish(
+            &acc,
+            samples as u32,
+            (cam.width, cam.height),
+            p,
+            (seed, &cam.name, frame_index),
+        )
+    };
     let depth = cam.inv_depth.as_ref().map(|_| {
         let drow = padded_row(4 * pw) as usize;
         let at = base + samples * image_bytes;

@@ -3,9 +3,10 @@
 //! where it decides output bytes.
 //!
 //! The remap table is built once per camera: every real pixel `(u, v)` is unprojected through
-//! the camera model, projected into the virtual pinhole and stored as the index of its top-left
-//! pinhole neighbour plus four bilinear weights in 1/65535 units with the vignetting factor
-//! folded in. A frame is then four byte loads and multiply-adds per pixel.
+//! the camera model, projected into the virtual pinhole and stored in 8 bytes: the index of its
+//! top-left pinhole neighbour, the sub-pixel position in 1/256 px (a GPU's bilinear precision)
+//! and the vignetting factor in 1/65536. A frame is then four byte loads and a few integer
+//! multiply-adds per pixel, streaming a table small enough to stay cheap.
 
 use super::{GrayImage, Photometric, VirtualPinhole};
 use crate::rng::sensor_rng;
@@ -19,9 +20,12 @@ use rand_distr::{Distribution, StandardNormal};
 pub(crate) struct Tap {
     /// Byte index of the top-left neighbour (`y · row + x`).
     pub idx: u32,
-    /// Weights of (x, y), (x+1, y), (x, y+1), (x+1, y+1), summing to ≈ vignetting · 65535;
-    /// all zero for pixels that are not rendered (black).
-    pub w: [u16; 4],
+    /// Sub-pixel x position inside the 2×2 cell (1/256 px).
+    pub fx: u8,
+    /// Sub-pixel y position (1/256 px).
+    pub fy: u8,
+    /// Vignetting factor in 1/65536; 0 for pixels that are not rendered (black).
+    pub gain: u16,
 }
 
 /// One real pixel's position in the pinhole, for the depth remap.
@@ -117,7 +121,12 @@ pub(crate) fn build(
     let mut depth_taps = Vec::with_capacity(tangents.len());
     for (k, t) in tangents.into_iter().enumerate() {
         let Some(t) = t else {
-            taps.push(Tap { idx: 0, w: [0; 4] });
+            taps.push(Tap {
+                idx: 0,
+                fx: 0,
+                fy: 0,
+                gain: 0,
+            });
             depth_taps.push(DepthTap {
                 x: u16::MAX,
                 y: 0,
@@ -130,16 +139,21 @@ pub(crate) fn build(
         let (fx, fy) = (x - x0, y - y0);
         let (u, v) = ((k % w as usize) as f64, (k / w as usize) as f64);
         let r2 = (u - c.x).powi(2) + (v - c.y).powi(2);
-        let gain = (1.0 - vignetting * r2 / r2_max).max(0.0) * 65535.0;
-        let q = |a: f64| (a * gain).round() as u16;
+        let gain = ((1.0 - vignetting * r2 / r2_max).max(0.0) * 65536.0).round();
+        // 1/256-px positions; a position that rounds up to the next pixel moves there.
+        let (mut qx, mut qy) = ((fx * 256.0).round() as usize, (fy * 256.0).round() as usize);
+        let (mut ix, mut iy) = (x0 as usize, y0 as usize);
+        if qx == 256 {
+            (ix, qx) = (ix + 1, 0);
+        }
+        if qy == 256 {
+            (iy, qy) = (iy + 1, 0);
+        }
         taps.push(Tap {
-            idx: (y0 as usize * row + x0 as usize) as u32,
-            w: [
-                q((1.0 - fx) * (1.0 - fy)),
-                q(fx * (1.0 - fy)),
-                q((1.0 - fx) * fy),
-                q(fx * fy),
-            ],
+            idx: (iy * row + ix) as u32,
+            fx: qx as u8,
+            fy: qy as u8,
+            gain: gain.min(65535.0) as u16,
         });
         depth_taps.push(DepthTap {
             x: x0 as u16,
@@ -155,37 +169,55 @@ pub(crate) fn build(
     }
 }
 
+/// The tap's value: bilinear grey level × vignetting, in 1/65536 grey levels.
+#[inline(always)]
+fn tap_value(t: &Tap, pinhole: &[u8], row: usize) -> u32 {
+    let i = t.idx as usize;
+    let (top, bottom) = (&pinhole[i..i + 2], &pinhole[i + row..i + row + 2]);
+    let (fx, fy) = (u32::from(t.fx), u32::from(t.fy));
+    let upper = u32::from(top[0]) * (256 - fx) + u32::from(top[1]) * fx;
+    let lower = u32::from(bottom[0]) * (256 - fx) + u32::from(bottom[1]) * fx;
+    let v = upper * (256 - fy) + lower * fy; // grey level × 2^16, < 2^24
+    ((u64::from(v) * u64::from(t.gain)) >> 16) as u32
+}
+
+/// One pinhole readback remapped straight to grey levels (one exposure sample, no noise):
+/// the same rounding as [`finish`] of a single accumulated image.
+pub(crate) fn remap_u8(table: &RemapTable, pinhole: &[u8]) -> Vec<u8> {
+    let row = table.row;
+    table
+        .taps
+        .iter()
+        .map(|t| ((tap_value(t, pinhole, row) + (1 << 15)) >> 16).min(255) as u8)
+        .collect()
+}
+
+/// True if `p` adds any sensor noise.
+pub(crate) fn noisy(p: &Photometric) -> bool {
+    p.read_noise > 0.0 || p.electrons_per_level > 0.0
+}
+
 /// Adds one pinhole readback (`table.row` bytes per row) through the table into `acc` (sums
-/// of grey level × weight).
+/// of grey levels in 1/65536; up to 255 samples fit a u32).
 pub(crate) fn accumulate(table: &RemapTable, pinhole: &[u8], acc: &mut [u32]) {
     let row = table.row;
     for (a, t) in acc.iter_mut().zip(&table.taps) {
-        let i = t.idx as usize;
-        let (top, bottom) = (&pinhole[i..i + 2], &pinhole[i + row..i + row + 2]);
-        *a += u32::from(top[0]) * u32::from(t.w[0])
-            + u32::from(top[1]) * u32::from(t.w[1])
-            + u32::from(bottom[0]) * u32::from(t.w[2])
-            + u32::from(bottom[1]) * u32::from(t.w[3]);
+        *a += tap_value(t, pinhole, row);
     }
 }
 
 /// Turns the sums of `samples` accumulated images into grey levels: without noise rounded
 /// exactly in integers; with noise, read noise and shot noise from the stream
 /// `<name>/pixels` of `seed` (ChaCha stream = `frame_index`) are added before rounding.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn finish(
     acc: &[u32],
     samples: u32,
-    width: u32,
-    height: u32,
+    (width, height): (u32, u32),
     p: &Photometric,
-    seed: u64,
-    name: &str,
-    frame_index: u64,
+    (seed, name, frame_index): (u64, &str, u64),
 ) -> GrayImage {
-    let den = u64::from(samples) * 65535;
-    let noisy = p.read_noise > 0.0 || p.electrons_per_level > 0.0;
-    let data = if !noisy {
+    let den = u64::from(samples) << 16;
+    let data = if !noisy(p) {
         acc.iter()
             .map(|&a| ((u64::from(a) * 2 + den) / (2 * den)).min(255) as u8)
             .collect()
