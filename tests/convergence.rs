@@ -110,3 +110,9 @@ fn full_room_replay_v2_02_stereo_imu() {
 fn full_room_figure8_blackout_stereo_imu() {
     full_length("room_figure8_blackout_stereo_imu");
 }
+
+#[test]
+#[ignore = "full length, every capture rendered"]
+fn full_room_figure8_rendered_stereo_imu() {
+    full_length("room_figure8_rendered_stereo_imu");
+}
