@@ -206,3 +206,59 @@ fn noise_free_window_from_a_known_start_stays_on_the_truth() {
         "{worst} m, {worst_rot} deg"
     );
 }
+
+#[test]
+fn covariance_of_the_newest_state_is_positive_definite_and_consistent_for_the_biases() {
+    // The same run with and without covariances: identical estimates. The covariance is a
+    // symmetric positive-definite 15×15 in the documented order: the NEES of the (gauge-free)
+    // bias errors against the true biases, averaged over the frames after start-up, stays
+    // within two orders of magnitude of its 3 degrees of freedom. That bound is about block
+    // placement, not consistency: swapped or misplaced blocks are off by ~1e4 (accelerometer
+    // and gyroscope bias variances differ that much). Measured here (seed 3): 37.7 and 64.5 —
+    // the window is overconfident, as VINS-style windows are (with
+    // `reuse_marginalized_tracks = false`, which stops the double counting: 12.4 and 22.1).
+    let mut world = World::new(3, 2500, 1.0);
+    let (ba_true, bg_true) = (world.ba, world.bg);
+    let mut config = world.config(Suite::StereoImu);
+    config.compute_covariance = true;
+    let mut with = Estimator::new(config).unwrap();
+    let (_, without) = run(&mut World::new(3, 2500, 1.0), Suite::StereoImu, 6.0, false);
+    let mut out = Vec::new();
+    let (mut t_imu, mut t_frame) = (0, 0);
+    while t_frame <= 6_000_000_000 {
+        while t_imu <= t_frame {
+            out.extend(with.push_imu(world.imu(t_imu)).unwrap());
+            t_imu += IMU_NS;
+        }
+        out.extend(with.push_frame(world.frame(t_frame)).unwrap());
+        t_frame += FRAME_NS;
+    }
+    assert_eq!(out.len(), without.len());
+    let (mut nees_ba, mut nees_bg, mut n) = (0.0, 0.0, 0.0);
+    for (a, b) in out.iter().zip(&without) {
+        assert_eq!(
+            a.T_w_b, b.T_w_b,
+            "computing covariances changed an estimate"
+        );
+        if a.status != Status::Tracking || a.t_ns < 2_000_000_000 {
+            continue;
+        }
+        let cov = a.covariance.as_ref().expect("covariance requested");
+        assert_eq!(cov.shape(), (15, 15));
+        assert!((cov - cov.transpose()).amax() <= 1e-12 * cov.amax());
+        assert!(cov.clone().cholesky().is_some(), "not positive definite");
+        let nees = |e: Vector3<f64>, k: usize| {
+            let p = cov.fixed_view::<3, 3>(k, k).into_owned();
+            e.dot(&(p.try_inverse().unwrap() * e))
+        };
+        nees_ba += nees(a.ba - ba_true, 9);
+        nees_bg += nees(a.bg - bg_true, 12);
+        n += 1.0;
+    }
+    assert!(n > 50.0);
+    let (nees_ba, nees_bg) = (nees_ba / n, nees_bg / n);
+    eprintln!("mean NEES over {n} frames: accel bias {nees_ba:.2}, gyro bias {nees_bg:.2} (dof 3)");
+    for (what, v) in [("accel bias", nees_ba), ("gyro bias", nees_bg)] {
+        assert!((0.03..300.0).contains(&v), "{what}: mean NEES {v}");
+    }
+}

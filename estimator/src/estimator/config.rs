@@ -96,6 +96,11 @@ pub struct EstimatorConfig {
     pub min_track_frames: usize,
     /// Keep every frame's factors to allow [`super::Estimator::batch_solve`] at the end.
     pub record_history: bool,
+    /// Return the marginal covariance of the newest state with every estimate
+    /// ([`super::Estimate::covariance`]). It comes from the window's Gauss-Newton information at
+    /// the solution (all factors, landmarks and the prior included) through a dense
+    /// factorization of the whole window system: a few milliseconds per frame, so off by default.
+    pub compute_covariance: bool,
 }
 
 impl EstimatorConfig {
@@ -136,6 +141,7 @@ impl EstimatorConfig {
             reuse_marginalized_tracks: true,
             min_track_frames: 1,
             record_history: false,
+            compute_covariance: false,
         }
     }
 }

@@ -20,7 +20,7 @@ use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Instant;
 
-use nalgebra::{Matrix4, SymmetricEigen, UnitQuaternion, Vector2, Vector3, Vector4};
+use nalgebra::{DMatrix, Matrix4, SymmetricEigen, UnitQuaternion, Vector2, Vector3, Vector4};
 
 pub use config::{CameraConfig, EstimatorConfig, Suite};
 use features::{FeatureManager, Observation};
@@ -33,6 +33,7 @@ use crate::frontend::FeatureFrame;
 use crate::geometry::Pose;
 use crate::imu::{ImuError, ImuSample, Preintegration};
 use crate::problem::marginalization::{MarginalizationOptions, marginalize};
+use crate::problem::solver::dense_normal_equations;
 use crate::problem::{
     BlockId, BlockKind, Euclidean, Factor, HuberLoss, LossFunction, PoseManifold, Problem,
     ResidualId, SolverSummary, solve,
@@ -77,6 +78,11 @@ pub struct Estimate {
     pub solve_s: f64,
     /// Part of `backend_s` spent marginalizing and sliding (s).
     pub marginalization_s: f64,
+    /// Marginal covariance of the newest state in its tangent coordinates, when
+    /// `EstimatorConfig::compute_covariance` is set and the window system is positive
+    /// definite: 15×15 over `[δp (world), δθ (body, right perturbation), δv, δba, δbg]` for
+    /// IMU suites, 6×6 over `[δp, δθ]` for stereo-only.
+    pub covariance: Option<DMatrix<f64>>,
 }
 
 /// Errors from the estimator's inputs.
@@ -136,6 +142,40 @@ impl Built {
     fn block(&self, r: BlockRef) -> Option<BlockId> {
         self.refs.iter().find(|(x, _)| *x == r).map(|(_, b)| *b)
     }
+}
+
+/// Marginal covariance of frame `seq`'s pose (and speed-bias) blocks: the matching block of the
+/// inverse of the whole window's Gauss-Newton information. `None` if a block is constant or
+/// absent, or the information is not positive definite.
+fn newest_covariance(built: &Built, seq: u64) -> Option<DMatrix<f64>> {
+    let (h, _, blocks) = dense_normal_equations(&built.problem)?;
+    let mut offsets = Vec::with_capacity(blocks.len());
+    let mut at = 0;
+    for b in &blocks {
+        offsets.push(at);
+        at += built.problem.manifold(*b).tangent_size();
+    }
+    let mut cols = Vec::new();
+    for r in [BlockRef::Pose(seq), BlockRef::SpeedBias(seq)] {
+        let Some(id) = built.block(r) else { continue };
+        let k = blocks.iter().position(|b| *b == id)?;
+        cols.extend(offsets[k]..offsets[k] + built.problem.manifold(id).tangent_size());
+    }
+    if cols.is_empty() {
+        return None;
+    }
+    let n = h.nrows();
+    let chol = h.cholesky()?;
+    let mut e = DMatrix::zeros(n, cols.len());
+    for (j, &c) in cols.iter().enumerate() {
+        e[(c, j)] = 1.0;
+    }
+    let x = chol.solve(&e);
+    let m = cols.len();
+    let mut cov = DMatrix::from_fn(m, m, |i, j| x[(cols[i], j)]);
+    // Symmetric by construction up to rounding.
+    cov = (&cov + cov.transpose()) * 0.5;
+    Some(cov)
 }
 
 /// History kept for [`Estimator::batch_solve`].
@@ -474,6 +514,12 @@ impl Estimator {
         let mut built = self.build(imu_active);
         let summary = solve(&mut built.problem, &self.config.solver);
         self.write_back(&built);
+        let covariance = if self.config.compute_covariance {
+            let seq = self.frames.back().expect("just pushed").seq;
+            newest_covariance(&built, seq)
+        } else {
+            None
+        };
         let landmarks = built.landmarks.len();
         // The newest frame's state and (not yet merged) IMU interval, as solved.
         let newest = self.frames.back().expect("just pushed").clone();
@@ -510,6 +556,7 @@ impl Estimator {
             backend_s: start.elapsed().as_secs_f64(),
             solve_s: summary.time.as_secs_f64(),
             marginalization_s,
+            covariance,
         }
     }
 
