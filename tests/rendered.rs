@@ -83,7 +83,23 @@ fn bad_render_settings_name_the_key_and_line() {
     let msg = err.to_string();
     assert!(msg.contains("camera.photometric.vignetting"), "{msg}");
     assert!(err.line.is_some(), "{msg}");
-    let text = text.replace("mode = \"rendered\"", "mode = \"painted\"");
-    let err = Scenario::parse("bad", Origin::File("bad.toml".into()), &text).unwrap_err();
+    let painted = text.replace("mode = \"rendered\"", "mode = \"painted\"");
+    let err = Scenario::parse("bad", Origin::File("bad.toml".into()), &painted).unwrap_err();
     assert!(err.to_string().contains("camera.mode"), "{err}");
+    // Feature-level scenarios check their render settings too (`vio render` uses them).
+    let features = text.replace("mode = \"rendered\"", "mode = \"features\"");
+    let err = Scenario::parse("bad", Origin::File("bad.toml".into()), &features).unwrap_err();
+    assert!(
+        err.to_string().contains("camera.photometric.vignetting"),
+        "{err}"
+    );
+    let blur = text.replace(
+        "[camera.photometric]",
+        "[camera.render]\nmotion_blur = { exposure_s = 100.0, samples = 4 }\n\n[camera.photometric]",
+    ).replace("vignetting = 1.5", "vignetting = 0.2");
+    let err = Scenario::parse("bad", Origin::File("bad.toml".into()), &blur).unwrap_err();
+    assert!(
+        err.to_string().contains("camera.render.motion_blur"),
+        "{err}"
+    );
 }

@@ -5,7 +5,8 @@
 //! noise values, `state_groundtruth_estimate0/data.csv` at every IMU sample with the true biases,
 //! `cam<i>/data.csv` + `sensor.yaml` with each camera's calibration) and `OUT/features.csv`
 //! (`t_ns,cam_id,feature_id,u,v`, distorted pixels). Rendered scenarios (`camera.mode =
-//! "rendered"`) also write every image as `mav0/cam<i>/data/<t_ns>.png`; feature-level
+//! "rendered"`) also write every image as `mav0/cam<i>/data/<t_ns>.png` (depth images are not
+//! exported; `vio render` writes them); feature-level
 //! scenarios have no images: the camera `data.csv` lists the frame times, and `features.csv`
 //! holds what the cameras measured at those times.
 

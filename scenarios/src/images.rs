@@ -51,7 +51,7 @@ pub struct RenderedAt {
 }
 
 /// Renders every camera of `scenario` (with depth) at `at_s` seconds into the run, with the
-/// scenario's rendering settings (defaults for feature-level scenarios).
+/// scenario's rendering settings (also for feature-level scenarios).
 pub fn render_at(
     scenario: &crate::spec::Scenario,
     at_s: f64,
@@ -70,7 +70,7 @@ pub fn render_at(
             "--at {at_s} s is outside the scenario's [0, {end_s}] s"
         )));
     }
-    let mut cfg = scenario.render_config()?.unwrap_or_default();
+    let mut cfg = scenario.render_settings()?;
     cfg.depth = true;
     let mut renderer = world.renderer(&cfg).map_err(|e| sim_error(e.to_string()))?;
     let rig = world

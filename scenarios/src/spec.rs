@@ -789,10 +789,14 @@ impl Scenario {
 
     /// The renderer configuration of a rendered scenario (`None` for feature-level ones).
     pub fn render_config(&self) -> Result<Option<RenderConfig>, SpecError> {
+        let cfg = self.render_settings()?;
+        Ok((self.spec.camera.mode == CameraMode::Rendered).then_some(cfg))
+    }
+
+    /// The scenario's rendering settings whatever its mode (`vio render` uses them for
+    /// feature-level scenarios too); validated, errors name the key.
+    pub fn render_settings(&self) -> Result<RenderConfig, SpecError> {
         let c = &self.spec.camera;
-        if c.mode == CameraMode::Features {
-            return Ok(None);
-        }
         let (r, p) = (&c.render, &c.photometric);
         let d = RenderConfig::default();
         let dp = d.photometric;
@@ -834,7 +838,7 @@ impl Scenario {
             };
             self.error(&key, e.to_string())
         })?;
-        Ok(Some(cfg))
+        Ok(cfg)
     }
 
     /// The name errors use for the file.

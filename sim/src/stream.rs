@@ -9,7 +9,7 @@ use crate::camera::RigSim;
 use crate::faults::FaultTimeline;
 use crate::imu::{ImuBias, ImuSim};
 use crate::motion::{Kinematics, TruthBuffer};
-use crate::render::{CameraImage, GrayImage, ImageFrame, RenderError, Renderer};
+use crate::render::{CameraImage, DepthImage, GrayImage, ImageFrame, RenderError, Renderer};
 use crate::scene::Landmark;
 use estimator::frontend::FeatureFrame;
 use estimator::geometry::Pose;
@@ -212,7 +212,12 @@ impl Stream {
                         CameraImage {
                             cam_id: c,
                             image: GrayImage::black(w, h),
-                            depth: None,
+                            // Nothing seen.
+                            depth: renderer.config().depth.then(|| DepthImage {
+                                width: w,
+                                height: h,
+                                data: vec![0.0; (w as usize) * (h as usize)],
+                            }),
                         }
                     })
                     .collect(),

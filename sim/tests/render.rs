@@ -225,7 +225,7 @@ fn depth_images_agree_with_ray_casting() {
     }
     eprintln!("depth: {checked} pixels, worst relative error {worst_rel:.2e}");
     assert!(checked > 2000, "{checked}");
-    assert!(worst_rel < 1e-3, "depth off by {worst_rel} (relative)");
+    assert!(worst_rel < 1e-4, "depth off by {worst_rel} (relative)");
 }
 
 #[test]

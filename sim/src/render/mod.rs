@@ -8,10 +8,12 @@
 //!    and anisotropic on request); `shade` is a fixed directional light per surface. Optional 4×
 //!    MSAA anti-aliases geometric edges. Reversed infinite Z (depth = near / z) with a 32-bit
 //!    float depth buffer keeps 100 m scenes free of z-fighting.
-//! 2. **Readback** of every camera's pinhole image(s) in one copy and one map.
+//! 2. **Readback** of every camera's pinhole image(s) (one copy per image into one buffer, one
+//!    map per frame).
 //! 3. **Remap (CPU)**: every real pixel has a tap precomputed at start-up through
-//!    [`estimator::camera::CameraModel::unproject`]: where its bearing lands in the virtual pinhole, as four
-//!    bilinear weights with the vignetting folded in. Images carry the model's real
+//!    [`estimator::camera::CameraModel::unproject`]: where its bearing lands in the virtual
+//!    pinhole (top-left index and 1/256-px position) and its vignetting factor; integer bilinear
+//!    interpolation, one thread per camera. Images carry the model's real
 //!    distortion (radtan, Kannala-Brandt, MEI, double sphere). Pixels whose bearing is outside
 //!    the model's valid region, or more than `max_half_angle_deg` off-axis, are black. (On the
 //!    software adapter this costs ≈0.5 ms per image against ≈5 ms for the same remap as a GPU
@@ -22,7 +24,8 @@
 //!    `<camera name>/pixels` of the seed (ChaCha stream index = frame index, so any frame can be
 //!    re-rendered alone with the same noise), then rounding to 8 bits.
 //!
-//! Depth images (optional) are rendered at the centre of the exposure as inverse depth, remapped
+//! Depth images (optional) are rendered at exposure sample ⌊samples/2⌋ (the capture time without
+//! motion blur; the middle sample of an odd count) as inverse depth, remapped
 //! without blending across depth edges, and returned as z along the optical axis (m; 0 where no
 //! surface is seen).
 //!
@@ -229,7 +232,7 @@ impl GrayImage {
         Self {
             width,
             height,
-            data: vec![0; (width * height) as usize],
+            data: vec![0; width as usize * height as usize],
         }
     }
 
@@ -560,7 +563,10 @@ impl RenderConfig {
         let c = self;
         let p = &c.photometric;
         let blur_ok = c.motion_blur.is_none_or(|b| {
-            b.exposure_s.is_finite() && b.exposure_s > 0.0 && (2..=32).contains(&b.samples)
+            b.exposure_s.is_finite()
+                && b.exposure_s > 0.0
+                && b.exposure_s <= 0.5
+                && (2..=32).contains(&b.samples)
         });
         let fin = |v: f64, ok: bool| v.is_finite() && ok;
         let checks: [(&'static str, String, bool, &'static str); 13] = [
@@ -573,8 +579,8 @@ impl RenderConfig {
             (
                 "texel_m",
                 c.texel_m.to_string(),
-                fin(c.texel_m, c.texel_m > 0.0),
-                "> 0",
+                (1e-4..=0.1).contains(&c.texel_m),
+                "in [1e-4, 0.1] m",
             ),
             (
                 "max_half_angle_deg",
@@ -604,7 +610,7 @@ impl RenderConfig {
                 "motion_blur",
                 format!("{:?}", c.motion_blur),
                 blur_ok,
-                "exposure_s > 0 and samples in 2..=32",
+                "exposure_s in (0, 0.5] and samples in 2..=32",
             ),
             (
                 "photometric.gain",
@@ -666,6 +672,19 @@ impl Renderer {
         seed: u64,
     ) -> Result<Self, RenderError> {
         config.validate()?;
+        if let Some((i, c)) = rig
+            .cameras
+            .iter()
+            .enumerate()
+            .find(|(_, c)| c.model.width().max(c.model.height()) > 8192)
+        {
+            return Err(RenderError::Config(format!(
+                "camera {i} ({}) is {}×{}: rendered cameras are at most 8192 pixels a side",
+                c.name,
+                c.model.width(),
+                c.model.height()
+            )));
+        }
         if rig.cameras.is_empty() {
             return Err(RenderError::Config("the rig has no camera".into()));
         }
@@ -983,6 +1002,12 @@ impl Renderer {
                 readback_offset,
             });
         }
+        if readback_size > device.limits().max_buffer_size {
+            return Err(RenderError::Config(format!(
+                "the readback of one frame needs {readback_size} bytes, more than the device allows ({}): lower motion_blur.samples or pinhole_scale, or turn depth off",
+                device.limits().max_buffer_size
+            )));
+        }
         let readback = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("readback"),
             size: readback_size,
@@ -1267,7 +1292,7 @@ fn finish_camera(
             data: remap::remap_u8(&cam.table, &data[base..base + image_bytes]),
         }
     } else {
-        let mut acc = vec![0u32; (cam.width * cam.height) as usize];
+        let mut acc = vec![0u32; cam.width as usize * cam.height as usize];
         for k in 0..samples {
             let at = base + k * image_bytes;
             remap::accumulate(&cam.table, &data[at..at + image_bytes], &mut acc);

@@ -69,7 +69,7 @@ pub(crate) fn build(
 ) -> RemapTable {
     let (w, h) = (model.width(), model.height());
     let cos_max = max_half_angle_deg.to_radians().cos();
-    let mut tangents: Vec<Option<Vector2<f64>>> = Vec::with_capacity((w * h) as usize);
+    let mut tangents: Vec<Option<Vector2<f64>>> = Vec::with_capacity(w as usize * h as usize);
     let (mut lo, mut hi) = (
         Vector2::repeat(f64::INFINITY),
         Vector2::repeat(f64::NEG_INFINITY),
@@ -278,4 +278,48 @@ pub(crate) fn depth(table: &RemapTable, inv: &[f32], row: usize) -> Vec<f32> {
             if d > 0.0 { 1.0 / d } else { 0.0 }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use estimator::camera::{Camera, KannalaBrandt, PinholeRadtan};
+
+    /// Every tap's 2×2 neighbourhood lies inside the pinhole readback, for a narrow and a wide
+    /// lens, with and without the size cap, at the largest half-angle.
+    #[test]
+    fn taps_stay_inside_the_pinhole() {
+        let pad = |w: u32| w.div_ceil(256) * 256;
+        let models = [
+            Camera::PinholeRadtan(PinholeRadtan::euroc_cam0()),
+            Camera::KannalaBrandt(
+                KannalaBrandt::new(
+                    512, 512, 190.0, 190.0, 254.93, 256.9, 0.0034, 0.0007, -0.002, 0.0002,
+                )
+                .unwrap(),
+            ),
+        ];
+        for model in &models {
+            for (angle, cap, scale) in [(75.0, 2048, 1.0), (88.0, 8192, 1.0), (88.0, 300, 0.85)] {
+                let t = build(model, pad, angle, cap, scale, 0.3);
+                let (w, h) = (t.pinhole.width as usize, t.pinhole.height as usize);
+                assert!(
+                    w <= cap as usize && h <= cap as usize,
+                    "{w}×{h} over the cap {cap}"
+                );
+                let len = t.row * h;
+                let mut rendered = 0;
+                for tap in &t.taps {
+                    if tap.gain == 0 {
+                        continue;
+                    }
+                    rendered += 1;
+                    let i = tap.idx as usize;
+                    assert!(i % t.row + 1 < w, "tap column {} of {w}", i % t.row);
+                    assert!(i + t.row + 1 < len, "tap row {} of {h}", i / t.row);
+                }
+                assert!(rendered > t.taps.len() / 2, "{rendered} rendered pixels");
+            }
+        }
+    }
 }
