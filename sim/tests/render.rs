@@ -641,3 +641,46 @@ fn every_preset_renders_textured_and_its_landmarks_lie_on_the_rendered_surfaces(
         assert_eq!(ok, n, "{preset:?}: landmarks off the rendered surfaces");
     }
 }
+
+#[test]
+fn images_are_rendered_at_the_capture_time_whatever_the_stamp() {
+    // A camera time offset shifts the stamps, not the captures: the images of each capture are
+    // the same bytes with and without it, stamped like their feature frames.
+    let images = |faults: Vec<Fault>| {
+        let world = World::new(WorldConfig {
+            duration_s: 0.5,
+            faults,
+            ..WorldConfig::default()
+        })
+        .unwrap();
+        let renderer = world.renderer(&test_config()).unwrap();
+        world
+            .rendered_stream(renderer)
+            .filter_map(|m| match m {
+                Measurement::Images(f) => Some(f),
+                _ => None,
+            })
+            .collect::<Vec<_>>()
+    };
+    let plain = images(vec![]);
+    let shifted = images(vec![Fault::CameraTimeOffset {
+        start_ns: 0,
+        td_ns: 7_000_000,
+    }]);
+    assert_eq!(plain.len(), 11);
+    assert_eq!(plain.len(), shifted.len());
+    for (a, b) in plain.iter().zip(&shifted) {
+        assert_eq!(b.t_ns, a.t_ns - 7_000_000);
+        assert_eq!(
+            hash(a),
+            hash(b),
+            "capture at {} rendered differently",
+            a.t_ns
+        );
+    }
+    assert_ne!(
+        hash(&plain[0]),
+        hash(&plain[10]),
+        "the view must change over 0.5 s"
+    );
+}
