@@ -22,7 +22,7 @@ use crate::dataset::{
     CameraFrame, CameraSensor, DatasetError, EurocCamera, EurocDataset, GroundTruthState,
     ImuSensor, write_euroc, write_features_csv,
 };
-use crate::run::{RunError, RunOptions};
+use crate::run::{RunError, RunOptions, measurement_stream, stream_result};
 use crate::spec::{ModelSpec, Scenario};
 
 /// What an export wrote.
@@ -105,20 +105,8 @@ pub fn export(
     let spec = &scenario.spec;
     let imu_rate = spec.rig.imu.rate_hz;
     let noise: ImuNoise = est_cfg.imu_noise;
-    let world = World::new(world_cfg).map_err(|e| RunError::Sim {
-        file: scenario.file_label(),
-        message: e.to_string(),
-    })?;
-    let mut stream = match scenario.render_config().map_err(RunError::from)? {
-        None => world.stream(),
-        Some(cfg) => {
-            let r = world.renderer(&cfg).map_err(|e| RunError::Sim {
-                file: scenario.file_label(),
-                message: e.to_string(),
-            })?;
-            world.rendered_stream(r)
-        }
-    };
+    let world = World::new(world_cfg).map_err(|e| RunError::sim(scenario, e))?;
+    let (mut stream, _) = measurement_stream(scenario, &world)?;
     let mut images = 0;
     let mut data = EurocDataset {
         imu_sensor: Some(ImuSensor {
@@ -181,13 +169,7 @@ pub fn export(
             }
         }
     }
-    if let Some(e) = stream.error() {
-        return Err(RunError::Sim {
-            file: scenario.file_label(),
-            message: e.to_string(),
-        }
-        .into());
-    }
+    stream_result(scenario, &stream)?;
     write_euroc(out.join("mav0"), &data)?;
     write_features_csv(out.join("features.csv"), &frames)?;
     Ok(ExportSummary {

@@ -58,21 +58,20 @@ pub fn render_at(
     seed: Option<u64>,
 ) -> Result<RenderedAt, crate::run::RunError> {
     use crate::run::RunError;
-    let sim_error = |m: String| RunError::Sim {
-        file: scenario.file_label(),
-        message: m,
-    };
     let world_cfg = scenario.world_config(seed, None)?;
-    let world = sim::World::new(world_cfg).map_err(|e| sim_error(e.to_string()))?;
+    let world = sim::World::new(world_cfg).map_err(|e| RunError::sim(scenario, e))?;
     let end_s = world.end_ns() as f64 * 1e-9;
     if !(at_s.is_finite() && (0.0..=end_s).contains(&at_s)) {
-        return Err(sim_error(format!(
-            "--at {at_s} s is outside the scenario's [0, {end_s}] s"
-        )));
+        return Err(RunError::sim(
+            scenario,
+            format!("--at {at_s} s is outside the scenario's [0, {end_s}] s"),
+        ));
     }
     let mut cfg = scenario.render_settings()?;
     cfg.depth = true;
-    let mut renderer = world.renderer(&cfg).map_err(|e| sim_error(e.to_string()))?;
+    let mut renderer = world
+        .renderer(&cfg)
+        .map_err(|e| RunError::sim(scenario, e))?;
     let rig = world
         .config()
         .rig
@@ -94,7 +93,7 @@ pub fn render_at(
     let start = std::time::Instant::now();
     let frame = renderer
         .render(t_ns, t_ns, (t_ns / rig.period_ns()) as u64, &poses, &live)
-        .map_err(|e| sim_error(e.to_string()))?;
+        .map_err(|e| RunError::sim(scenario, e))?;
     Ok(RenderedAt {
         frame,
         adapter: renderer.adapter().to_string(),

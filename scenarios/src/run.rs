@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use estimator::estimator::{Estimate, Estimator, Status};
 use sim::World;
-use sim::stream::{GroundTruth, Measurement};
+use sim::stream::{GroundTruth, Measurement, Stream};
 
 use crate::spec::{Scenario, SpecError};
 
@@ -122,6 +122,42 @@ pub enum RunError {
     },
 }
 
+impl RunError {
+    /// A failure of the simulator or the renderer while running `scenario`.
+    pub fn sim(scenario: &Scenario, message: impl std::fmt::Display) -> Self {
+        RunError::Sim {
+            file: scenario.file_label(),
+            message: message.to_string(),
+        }
+    }
+}
+
+/// The scenario's measurement stream: with rendered images when `camera.mode = "rendered"`
+/// (then also the adapter's description), else feature-level.
+pub fn measurement_stream(
+    scenario: &Scenario,
+    world: &World,
+) -> Result<(Stream, Option<String>), RunError> {
+    Ok(match scenario.render_config()? {
+        None => (world.stream(), None),
+        Some(cfg) => {
+            let r = world
+                .renderer(&cfg)
+                .map_err(|e| RunError::sim(scenario, e))?;
+            let adapter = r.adapter().to_string();
+            (world.rendered_stream(r), Some(adapter))
+        }
+    })
+}
+
+/// The rendering error that ended `stream` early, if any, as a run error.
+pub fn stream_result(scenario: &Scenario, stream: &Stream) -> Result<(), RunError> {
+    match stream.error() {
+        Some(e) => Err(RunError::sim(scenario, e)),
+        None => Ok(()),
+    }
+}
+
 /// Runs `scenario`; `progress` is called with the fraction of simulated time done (0..=1).
 pub fn run(
     scenario: &Scenario,
@@ -131,27 +167,13 @@ pub fn run(
     let world_cfg = scenario.world_config(options.seed, options.duration_s)?;
     let est_cfg = scenario.estimator_config()?;
     let seed = world_cfg.seed;
-    let world = World::new(world_cfg).map_err(|e| RunError::Sim {
-        file: scenario.file_label(),
-        message: e.to_string(),
-    })?;
+    let world = World::new(world_cfg).map_err(|e| RunError::sim(scenario, e))?;
     let mut estimator = Estimator::new(est_cfg).map_err(|e| RunError::Estimator {
         file: scenario.file_label(),
         message: e.to_string(),
     })?;
     let end_ns = world.end_ns();
-    let sim_error = |e: sim::SimError| RunError::Sim {
-        file: scenario.file_label(),
-        message: e.to_string(),
-    };
-    let (mut stream, renderer) = match scenario.render_config()? {
-        None => (world.stream(), None),
-        Some(cfg) => {
-            let r = world.renderer(&cfg).map_err(sim_error)?;
-            let adapter = r.adapter().to_string();
-            (world.rendered_stream(r), Some(adapter))
-        }
-    };
+    let (mut stream, renderer) = measurement_stream(scenario, &world)?;
     let mut out = RunOutput {
         scenario: scenario.name.clone(),
         seed,
@@ -231,12 +253,7 @@ pub fn run(
             last_progress = frac;
         }
     }
-    if let Some(e) = stream.error() {
-        return Err(RunError::Sim {
-            file: scenario.file_label(),
-            message: e.to_string(),
-        });
-    }
+    stream_result(scenario, &stream)?;
     progress(1.0);
     Ok(out)
 }
