@@ -270,6 +270,33 @@ impl Problem {
         }
     }
 
+    /// Calls `f` with the value slices of residual `id`'s blocks taken from `values` (a full
+    /// value vector); no allocation for residuals of up to 8 blocks (every factor but the
+    /// marginalization prior, which allocates once per linearization).
+    #[inline]
+    pub(crate) fn with_residual_params<R>(
+        &self,
+        values: &[f64],
+        id: usize,
+        f: impl FnOnce(&[&[f64]]) -> R,
+    ) -> R {
+        let blocks = &self.residuals[id].blocks;
+        let slice = |b: &BlockId| {
+            let blk = &self.blocks[b.0];
+            &values[blk.offset..blk.offset + blk.ambient]
+        };
+        let mut small: [&[f64]; 8] = [&[]; 8];
+        if blocks.len() <= small.len() {
+            for (k, b) in blocks.iter().enumerate() {
+                small[k] = slice(b);
+            }
+            f(&small[..blocks.len()])
+        } else {
+            let large: Vec<&[f64]> = blocks.iter().map(slice).collect();
+            f(&large)
+        }
+    }
+
     /// Evaluates residual `id` at `values` (a full value vector), optionally with loss, into
     /// `r`; Jacobians where requested. `rotations`, if given, holds [`Self::fill_rotations`]
     /// for `values`. Returns the robustified `ρ(‖r‖²)` or `None` if the factor cannot be
@@ -283,25 +310,9 @@ impl Problem {
         jacobians: Option<&mut [Option<&mut [f64]>]>,
     ) -> Option<f64> {
         let res = &self.residuals[id];
-        let slice = |b: &BlockId| {
-            let blk = &self.blocks[b.0];
-            &values[blk.offset..blk.offset + blk.ambient]
-        };
-        // Most factors touch few blocks: avoid an allocation for them.
-        let mut small: [&[f64]; 8] = [&[]; 8];
-        let large: Vec<&[f64]>;
-        let params: &[&[f64]] = if res.blocks.len() <= small.len() {
-            for (k, b) in res.blocks.iter().enumerate() {
-                small[k] = slice(b);
-            }
-            &small[..res.blocks.len()]
-        } else {
-            large = res.blocks.iter().map(slice).collect();
-            &large
-        };
         let has_j = jacobians.is_some();
         let mut jacobians = jacobians;
-        let ok = match rotations {
+        let ok = self.with_residual_params(values, id, |params| match rotations {
             Some(rot) if res.blocks.len() <= INLINE_BLOCKS => {
                 let mut rots: [Option<&Matrix3<f64>>; INLINE_BLOCKS] = [None; INLINE_BLOCKS];
                 for (k, b) in res.blocks.iter().enumerate() {
@@ -317,7 +328,7 @@ impl Problem {
                 )
             }
             _ => res.factor.evaluate(params, r, jacobians.as_deref_mut()),
-        };
+        });
         if !ok {
             return None;
         }

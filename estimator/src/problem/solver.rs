@@ -778,26 +778,11 @@ impl NormalEquations {
         self.direct_h.resize(total * total, 0.0);
         self.direct_g.clear();
         self.direct_g.resize(total, 0.0);
-        let mut small: [&[f64]; 16] = [&[]; 16];
-        let large: Vec<&[f64]>;
-        let slice = |b: &super::BlockId| {
-            let blk = &problem.blocks[b.0];
-            &problem.values[blk.offset..blk.offset + blk.ambient]
-        };
-        let params: &[&[f64]] = if res.blocks.len() <= small.len() {
-            for (k, b) in res.blocks.iter().enumerate() {
-                small[k] = slice(b);
-            }
-            &small[..res.blocks.len()]
-        } else {
-            large = res.blocks.iter().map(slice).collect();
-            &large
-        };
-        if res
-            .factor
-            .normal_equations(params, &mut self.direct_h, &mut self.direct_g)
-            .is_none()
-        {
+        let (h, g) = (&mut self.direct_h, &mut self.direct_g);
+        let direct = problem.with_residual_params(&problem.values, p.ri, |params| {
+            res.factor.normal_equations(params, h, g)
+        });
+        if direct.is_none() {
             return false;
         }
         let (h, g, n) = (&self.direct_h, &self.direct_g, self.n);
@@ -862,42 +847,8 @@ impl NormalEquations {
             let (ho, go) = (self.lhoff[l], self.loff[l]);
             let cs = &self.couplings[self.cstart[l]..self.cstart[l + 1]];
             let gl = &self.gl[go..go + t];
-            if t == 1 && self.dense_schur {
-                // Inverse depths: C is a scalar; its W C⁻¹ Wᵀ goes in as column l of Z₁ (W)
-                // and Z₂ (W C⁻¹), multiplied out below.
-                let h = self.hll[ho];
-                let c = h + lambda * h.max(min_diag);
-                let ci = 1.0 / c;
-                if !(c > 0.0 && ci.is_finite()) {
-                    valid[l] = false;
-                    if skip_singular {
-                        continue;
-                    }
-                    return false;
-                }
-                cinv[ho] = ci;
-                valid[l] = true;
-                let gs = ci * gl[0];
-                let zd = self.zdim;
-                let (col1, col2) = (
-                    &mut z.z1[l * zd..(l + 1) * zd],
-                    &mut z.z2[l * zd..(l + 1) * zd],
-                );
-                for ca in cs {
-                    let wa = &self.w[ca.pos..ca.pos + ca.t];
-                    for (r, w) in rhs[ca.offset..ca.offset + ca.t].iter_mut().zip(wa) {
-                        *r += w * gs;
-                    }
-                    col1[ca.z..ca.z + ca.t].copy_from_slice(wa);
-                    for (o, w) in col2[ca.z..ca.z + ca.t].iter_mut().zip(wa) {
-                        *o = w * ci;
-                    }
-                }
-                dense = true;
-                continue;
-            }
             if t == 1 {
-                // Inverse depths: C is a scalar, W C⁻¹ Wᵀ an outer product per block pair.
+                // Inverse depths: C is a scalar.
                 let h = self.hll[ho];
                 let c = h + lambda * h.max(min_diag);
                 let ci = 1.0 / c;
@@ -911,50 +862,72 @@ impl NormalEquations {
                 cinv[ho] = ci;
                 valid[l] = true;
                 let gs = ci * gl[0];
-                for (ia, ca) in cs.iter().enumerate() {
-                    let wa = &self.w[ca.pos..ca.pos + ca.t];
-                    for (r, w) in rhs[ca.offset..ca.offset + ca.t].iter_mut().zip(wa) {
-                        *r += w * gs;
-                    }
-                    // Diagonal block: upper triangle only (`mirror_upper` fills the rest).
-                    for (i, wi) in wa.iter().enumerate() {
-                        let si = wi * ci;
-                        let s = (ca.offset + i) * n + ca.offset;
-                        for (hv, w) in a[s + i..s + ca.t].iter_mut().zip(&wa[i..]) {
-                            *hv -= si * w;
+                if self.dense_schur {
+                    // W C⁻¹ Wᵀ goes in as column l of Z₁ (W) and Z₂ (W C⁻¹), multiplied out
+                    // below.
+                    let zd = self.zdim;
+                    let (col1, col2) = (
+                        &mut z.z1[l * zd..(l + 1) * zd],
+                        &mut z.z2[l * zd..(l + 1) * zd],
+                    );
+                    for ca in cs {
+                        let wa = &self.w[ca.pos..ca.pos + ca.t];
+                        for (r, w) in rhs[ca.offset..ca.offset + ca.t].iter_mut().zip(wa) {
+                            *r += w * gs;
+                        }
+                        col1[ca.z..ca.z + ca.t].copy_from_slice(wa);
+                        for (o, w) in col2[ca.z..ca.z + ca.t].iter_mut().zip(wa) {
+                            *o = w * ci;
                         }
                     }
-                    if ca.t == 6 {
-                        // Pose blocks (the usual case): fixed sizes, unrolled.
-                        let wa: &[f64; 6] = wa.try_into().unwrap();
-                        let mut sa = [0.0; 6];
-                        for i in 0..6 {
-                            sa[i] = wa[i] * ci;
+                    dense = true;
+                } else {
+                    // W C⁻¹ Wᵀ as an outer product per block pair.
+                    for (ia, ca) in cs.iter().enumerate() {
+                        let wa = &self.w[ca.pos..ca.pos + ca.t];
+                        for (r, w) in rhs[ca.offset..ca.offset + ca.t].iter_mut().zip(wa) {
+                            *r += w * gs;
                         }
-                        for cb in &cs[ia + 1..] {
-                            if cb.t != 6 {
-                                continue;
+                        // Diagonal block: upper triangle only (`mirror_upper` fills the rest).
+                        for (i, wi) in wa.iter().enumerate() {
+                            let si = wi * ci;
+                            let s = (ca.offset + i) * n + ca.offset;
+                            for (hv, w) in a[s + i..s + ca.t].iter_mut().zip(&wa[i..]) {
+                                *hv -= si * w;
                             }
-                            let wb: &[f64; 6] = self.w[cb.pos..cb.pos + 6].try_into().unwrap();
+                        }
+                        if ca.t == 6 {
+                            // Pose blocks (the usual case): fixed sizes, unrolled.
+                            let wa: &[f64; 6] = wa.try_into().unwrap();
+                            let mut sa = [0.0; 6];
                             for i in 0..6 {
-                                let s = (ca.offset + i) * n + cb.offset;
-                                let row: &mut [f64; 6] = (&mut a[s..s + 6]).try_into().unwrap();
-                                for j in 0..6 {
-                                    row[j] -= sa[i] * wb[j];
+                                sa[i] = wa[i] * ci;
+                            }
+                            for cb in &cs[ia + 1..] {
+                                if cb.t != 6 {
+                                    continue;
+                                }
+                                let wb: &[f64; 6] = self.w[cb.pos..cb.pos + 6].try_into().unwrap();
+                                for i in 0..6 {
+                                    let s = (ca.offset + i) * n + cb.offset;
+                                    let row: &mut [f64; 6] = (&mut a[s..s + 6]).try_into().unwrap();
+                                    for j in 0..6 {
+                                        row[j] -= sa[i] * wb[j];
+                                    }
                                 }
                             }
                         }
-                    }
-                    for cb in &cs[ia + 1..] {
-                        if ca.t == 6 && cb.t == 6 {
-                            continue;
-                        }
-                        let wb = &self.w[cb.pos..cb.pos + cb.t];
-                        for (i, wi) in wa.iter().enumerate() {
-                            let si = wi * ci;
-                            let s = (ca.offset + i) * n + cb.offset;
-                            for (hv, w) in a[s..s + cb.t].iter_mut().zip(wb) {
-                                *hv -= si * w;
+                        for cb in &cs[ia + 1..] {
+                            if ca.t == 6 && cb.t == 6 {
+                                continue;
+                            }
+                            let wb = &self.w[cb.pos..cb.pos + cb.t];
+                            for (i, wi) in wa.iter().enumerate() {
+                                let si = wi * ci;
+                                let s = (ca.offset + i) * n + cb.offset;
+                                for (hv, w) in a[s..s + cb.t].iter_mut().zip(wb) {
+                                    *hv -= si * w;
+                                }
                             }
                         }
                     }
