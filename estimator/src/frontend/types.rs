@@ -1,4 +1,4 @@
-//! Feature front end types: what a camera frame contributes to the estimator.
+//! Feature frames: what a camera frame contributes to the estimator.
 
 use nalgebra::Vector2;
 

@@ -1,0 +1,311 @@
+//! Shi–Tomasi corners: the minimum eigenvalue of the 3×3-summed structure tensor of Sobel
+//! gradients, local maxima above a quality level, taken strongest first under a minimum
+//! distance to every existing and already accepted feature, optionally capped per grid cell.
+//!
+//! The structure tensor is summed in exact integer arithmetic; ties between equal responses are
+//! broken by pixel index, so the selection is deterministic.
+
+use nalgebra::Vector2;
+
+use super::image::ImageView;
+
+/// Detection settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CornerParams {
+    /// Keep corners whose response is at least this fraction of the image's strongest one.
+    pub quality_level: f64,
+    /// Smallest accepted response: mean minimum eigenvalue per pixel of the 3×3 block, in
+    /// (grey level / px)² of the Sobel gradient divided by 8 (a flat or noise-only area stays
+    /// below it).
+    pub min_response: f64,
+    /// Minimum distance between features (px).
+    pub min_distance_px: f64,
+    /// Pixels this close to the image border are not taken.
+    pub border_px: u32,
+    /// Grid `[columns, rows]`; each cell holds at most its share of the feature budget
+    /// (`[1, 1]`: no bucketing).
+    pub grid: [usize; 2],
+}
+
+impl Default for CornerParams {
+    fn default() -> Self {
+        Self {
+            quality_level: 0.01,
+            min_response: 4.0,
+            min_distance_px: 30.0,
+            border_px: 8,
+            grid: [1, 1],
+        }
+    }
+}
+
+/// Reusable buffers for [`detect`].
+#[derive(Clone, Debug, Default)]
+pub struct CornerScratch {
+    response: Vec<f32>,
+    candidates: Vec<(f32, u32)>,
+}
+
+/// The Shi–Tomasi response (minimum eigenvalue per pixel of the 3×3 block, Sobel gradients
+/// scaled by 1/8) of every pixel; 0 on the one-pixel border.
+pub fn shi_tomasi_response(img: &ImageView<'_>, out: &mut Vec<f32>) {
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    out.clear();
+    out.resize(w * h, 0.0);
+    if w < 5 || h < 5 {
+        return;
+    }
+    // Per row: gradient products (Sobel), then 3-row sums kept in a ring.
+    let mut prods = vec![[0i32; 3]; 3 * w];
+    let prod_row = |y: usize, dst: &mut [[i32; 3]]| {
+        let (r0, r1, r2) = (img.row(y - 1), img.row(y), img.row(y + 1));
+        dst[0] = [0; 3];
+        dst[w - 1] = [0; 3];
+        for x in 1..w - 1 {
+            let gx = (r0[x + 1] as i32 - r0[x - 1] as i32)
+                + 2 * (r1[x + 1] as i32 - r1[x - 1] as i32)
+                + (r2[x + 1] as i32 - r2[x - 1] as i32);
+            let gy = (r2[x - 1] as i32 + 2 * r2[x] as i32 + r2[x + 1] as i32)
+                - (r0[x - 1] as i32 + 2 * r0[x] as i32 + r0[x + 1] as i32);
+            dst[x] = [gx * gx, gx * gy, gy * gy];
+        }
+    };
+    // Rows 1 and 2 first; each step adds row y+1 and emits the response of row y.
+    prod_row(1, &mut prods[0..w]);
+    prod_row(2, &mut prods[w..2 * w]);
+    let scale = 1.0 / (64.0 * 9.0);
+    for y in 2..h - 2 {
+        let slot = (y + 1) % 3;
+        prod_row(y + 1, &mut prods[slot * w..(slot + 1) * w]);
+        let (a, b, c) = (
+            &prods[((y - 1) % 3) * w..((y - 1) % 3 + 1) * w],
+            &prods[(y % 3) * w..(y % 3 + 1) * w],
+            &prods[((y + 1) % 3) * w..((y + 1) % 3 + 1) * w],
+        );
+        let row = &mut out[y * w..(y + 1) * w];
+        for x in 2..w - 2 {
+            let mut s = [0i32; 3];
+            for dx in 0..3 {
+                for k in 0..3 {
+                    s[k] += a[x + dx - 1][k] + b[x + dx - 1][k] + c[x + dx - 1][k];
+                }
+            }
+            let (sxx, sxy, syy) = (s[0] as f32, s[1] as f32, s[2] as f32);
+            let d = sxx - syy;
+            row[x] = (0.5 * ((sxx + syy) - (d * d + 4.0 * sxy * sxy).sqrt()) * scale).max(0.0);
+        }
+    }
+}
+
+/// Detects up to `count` new corners in `img`, at least `min_distance_px` from each other and
+/// from every point of `existing`; strongest first.
+pub fn detect(
+    img: &ImageView<'_>,
+    existing: &[Vector2<f64>],
+    count: usize,
+    params: &CornerParams,
+    scratch: &mut CornerScratch,
+) -> Vec<Vector2<f64>> {
+    let mut found = Vec::new();
+    if count == 0 {
+        return found;
+    }
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    shi_tomasi_response(img, &mut scratch.response);
+    let resp = &scratch.response;
+    let max = resp.iter().copied().fold(0f32, f32::max);
+    let threshold = (params.quality_level as f32 * max).max(params.min_response as f32);
+    let b = (params.border_px as usize).max(2);
+    scratch.candidates.clear();
+    if w > 2 * b && h > 2 * b {
+        for y in b..h - b {
+            let (up, row, down) = (
+                &resp[(y - 1) * w..y * w],
+                &resp[y * w..(y + 1) * w],
+                &resp[(y + 1) * w..(y + 2) * w],
+            );
+            for x in b..w - b {
+                let v = row[x];
+                if v < threshold || v <= 0.0 {
+                    continue;
+                }
+                // Local maximum over the 3×3 neighbourhood (ties: keep; order decides).
+                let is_max = v >= row[x - 1]
+                    && v >= row[x + 1]
+                    && v >= up[x - 1]
+                    && v >= up[x]
+                    && v >= up[x + 1]
+                    && v >= down[x - 1]
+                    && v >= down[x]
+                    && v >= down[x + 1];
+                if is_max {
+                    scratch.candidates.push((v, (y * w + x) as u32));
+                }
+            }
+        }
+    }
+    scratch
+        .candidates
+        .sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    let mut occupancy = Occupancy::new(w, h, params.min_distance_px);
+    let [gc, gr] = [params.grid[0].max(1), params.grid[1].max(1)];
+    let total_budget = existing.len() + count;
+    let cell_cap = total_budget.div_ceil(gc * gr);
+    let mut cell_count = vec![0usize; gc * gr];
+    let cell_of = |p: &Vector2<f64>| {
+        let cx = ((p.x.max(0.0) / w as f64 * gc as f64) as usize).min(gc - 1);
+        let cy = ((p.y.max(0.0) / h as f64 * gr as f64) as usize).min(gr - 1);
+        cy * gc + cx
+    };
+    for p in existing {
+        occupancy.insert(*p);
+        cell_count[cell_of(p)] += 1;
+    }
+    for &(_, idx) in &scratch.candidates {
+        if found.len() >= count {
+            break;
+        }
+        let p = Vector2::new((idx as usize % w) as f64, (idx as usize / w) as f64);
+        let cell = cell_of(&p);
+        if cell_count[cell] >= cell_cap || occupancy.is_near(&p) {
+            continue;
+        }
+        occupancy.insert(p);
+        cell_count[cell] += 1;
+        found.push(p);
+    }
+    found
+}
+
+/// Points on a grid of `min_distance`-sized cells, for O(1) minimum-distance queries.
+#[derive(Debug)]
+pub(crate) struct Occupancy {
+    cell: f64,
+    cols: usize,
+    rows: usize,
+    r2: f64,
+    cells: Vec<Vec<Vector2<f64>>>,
+}
+
+impl Occupancy {
+    /// An empty grid over a `w × h` image for minimum distance `min_distance`.
+    pub(crate) fn new(w: usize, h: usize, min_distance: f64) -> Self {
+        let cell = min_distance.max(1.0);
+        let cols = ((w as f64 / cell).ceil() as usize).max(1);
+        let rows = ((h as f64 / cell).ceil() as usize).max(1);
+        Self {
+            cell,
+            cols,
+            rows,
+            r2: min_distance * min_distance,
+            cells: vec![Vec::new(); cols * rows],
+        }
+    }
+
+    fn cell_of(&self, p: &Vector2<f64>) -> (usize, usize) {
+        let cx = ((p.x / self.cell).floor().max(0.0) as usize).min(self.cols - 1);
+        let cy = ((p.y / self.cell).floor().max(0.0) as usize).min(self.rows - 1);
+        (cx, cy)
+    }
+
+    /// Adds a point.
+    pub(crate) fn insert(&mut self, p: Vector2<f64>) {
+        let (cx, cy) = self.cell_of(&p);
+        self.cells[cy * self.cols + cx].push(p);
+    }
+
+    /// True if a point lies closer than the minimum distance to `p`.
+    pub(crate) fn is_near(&self, p: &Vector2<f64>) -> bool {
+        let (cx, cy) = self.cell_of(p);
+        for y in cy.saturating_sub(1)..=(cy + 1).min(self.rows - 1) {
+            for x in cx.saturating_sub(1)..=(cx + 1).min(self.cols - 1) {
+                if self.cells[y * self.cols + x]
+                    .iter()
+                    .any(|q| (q - p).norm_squared() < self.r2)
+                {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A black image with white squares: corners at the squares' corners.
+    fn squares(w: u32, h: u32, squares: &[(u32, u32, u32)]) -> Vec<u8> {
+        let mut d = vec![20u8; (w * h) as usize];
+        for &(x0, y0, s) in squares {
+            for y in y0..y0 + s {
+                for x in x0..x0 + s {
+                    d[(y * w + x) as usize] = 220;
+                }
+            }
+        }
+        d
+    }
+
+    #[test]
+    fn corners_of_a_square_are_found_and_flat_areas_are_not() {
+        let d = squares(120, 100, &[(40, 30, 30)]);
+        let img = ImageView::packed(120, 100, &d).unwrap();
+        let params = CornerParams {
+            min_distance_px: 10.0,
+            ..Default::default()
+        };
+        let found = detect(&img, &[], 10, &params, &mut CornerScratch::default());
+        assert_eq!(found.len(), 4, "{found:?}");
+        for p in &found {
+            // Corners of the square [40, 69] × [30, 59], within a pixel.
+            let near_x = (p.x - 39.5).abs() <= 1.0 || (p.x - 69.5).abs() <= 1.0;
+            let near_y = (p.y - 29.5).abs() <= 1.0 || (p.y - 59.5).abs() <= 1.0;
+            assert!(near_x && near_y, "{p:?}");
+        }
+        let flat = vec![128u8; 120 * 100];
+        let img = ImageView::packed(120, 100, &flat).unwrap();
+        assert!(detect(&img, &[], 10, &params, &mut CornerScratch::default()).is_empty());
+    }
+
+    #[test]
+    fn existing_features_claim_their_neighbourhood() {
+        let d = squares(200, 100, &[(20, 30, 30), (120, 30, 30)]);
+        let img = ImageView::packed(200, 100, &d).unwrap();
+        let params = CornerParams {
+            min_distance_px: 45.0,
+            ..Default::default()
+        };
+        // One existing feature in the middle of the left square blocks all its corners.
+        let existing = [Vector2::new(35.0, 45.0)];
+        let found = detect(&img, &existing, 10, &params, &mut CornerScratch::default());
+        assert!(!found.is_empty());
+        for p in &found {
+            assert!(p.x > 100.0, "{p:?}");
+            for q in &found {
+                assert!(p == q || (p - q).norm() >= 45.0);
+            }
+        }
+    }
+
+    #[test]
+    fn grid_bucketing_spreads_features() {
+        // Many squares on the left half only, one on the right.
+        let mut sq: Vec<(u32, u32, u32)> = (0..4)
+            .flat_map(|i| (0..3).map(move |j| (10 + 22 * i, 10 + 25 * j, 10)))
+            .collect();
+        sq.push((160, 40, 20));
+        let d = squares(200, 100, &sq);
+        let img = ImageView::packed(200, 100, &d).unwrap();
+        let params = CornerParams {
+            min_distance_px: 5.0,
+            grid: [2, 1],
+            ..Default::default()
+        };
+        let found = detect(&img, &[], 8, &params, &mut CornerScratch::default());
+        let right = found.iter().filter(|p| p.x > 100.0).count();
+        assert_eq!(found.len() - right, 4, "{found:?}");
+        assert_eq!(right, 4);
+    }
+}

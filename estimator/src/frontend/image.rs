@@ -1,0 +1,324 @@
+//! Grey images for the front end: a borrowed view (no copy for the caller), owned pyramid
+//! levels, and histogram equalization.
+
+use thiserror::Error;
+
+/// Why an image view could not be made.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+pub enum ImageError {
+    /// Width or height is zero.
+    #[error("image size {width}×{height}: both must be positive")]
+    Empty {
+        /// Width (px).
+        width: u32,
+        /// Height (px).
+        height: u32,
+    },
+    /// The stride is smaller than the width or the buffer is too short.
+    #[error("image {width}×{height} with stride {stride} needs {needed} bytes, got {len}")]
+    Buffer {
+        /// Width (px).
+        width: u32,
+        /// Height (px).
+        height: u32,
+        /// Row stride (bytes).
+        stride: usize,
+        /// Bytes needed.
+        needed: usize,
+        /// Bytes given.
+        len: usize,
+    },
+}
+
+/// A borrowed 8-bit grey image: `height` rows of `width` pixels, rows `stride` bytes apart.
+#[derive(Clone, Copy, Debug)]
+pub struct ImageView<'a> {
+    width: u32,
+    height: u32,
+    stride: usize,
+    data: &'a [u8],
+}
+
+impl<'a> ImageView<'a> {
+    /// A view of `data` (row-major, `stride ≥ width` bytes per row).
+    pub fn new(width: u32, height: u32, stride: usize, data: &'a [u8]) -> Result<Self, ImageError> {
+        if width == 0 || height == 0 {
+            return Err(ImageError::Empty { width, height });
+        }
+        let needed = stride * (height as usize - 1) + width as usize;
+        if stride < width as usize || data.len() < needed {
+            return Err(ImageError::Buffer {
+                width,
+                height,
+                stride,
+                needed,
+                len: data.len(),
+            });
+        }
+        Ok(Self {
+            width,
+            height,
+            stride,
+            data,
+        })
+    }
+
+    /// A view of a tightly packed image (`stride = width`).
+    pub fn packed(width: u32, height: u32, data: &'a [u8]) -> Result<Self, ImageError> {
+        Self::new(width, height, width as usize, data)
+    }
+
+    /// Width (px).
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Height (px).
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// Row `y` (exactly `width` bytes).
+    pub fn row(&self, y: usize) -> &'a [u8] {
+        let s = y * self.stride;
+        &self.data[s..s + self.width as usize]
+    }
+
+    /// A tightly packed copy.
+    pub fn to_owned_image(&self) -> OwnedImage {
+        let mut data = Vec::with_capacity(self.width as usize * self.height as usize);
+        for y in 0..self.height as usize {
+            data.extend_from_slice(self.row(y));
+        }
+        OwnedImage {
+            width: self.width,
+            height: self.height,
+            data,
+        }
+    }
+
+    /// Mean grey level.
+    pub fn mean(&self) -> f64 {
+        let mut sum = 0u64;
+        for y in 0..self.height as usize {
+            sum += self.row(y).iter().map(|&p| p as u64).sum::<u64>();
+        }
+        sum as f64 / (self.width as f64 * self.height as f64)
+    }
+}
+
+/// A tightly packed 8-bit grey image.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct OwnedImage {
+    /// Width (px).
+    pub width: u32,
+    /// Height (px).
+    pub height: u32,
+    /// `width × height` grey levels, row-major.
+    pub data: Vec<u8>,
+}
+
+impl OwnedImage {
+    /// The image as a view.
+    pub fn view(&self) -> ImageView<'_> {
+        ImageView {
+            width: self.width,
+            height: self.height,
+            stride: self.width as usize,
+            data: &self.data,
+        }
+    }
+
+    /// Half-size image (`⌈w/2⌉ × ⌈h/2⌉`) by the 5-tap binomial filter `[1 4 6 4 1]/16` in both
+    /// directions, then every second pixel (OpenCV's `pyrDown`: level-0 pixel `2x` becomes
+    /// pixel `x`); the border is replicated. Exact integer arithmetic.
+    pub fn half_of(src: &ImageView<'_>) -> OwnedImage {
+        let (sw, sh) = (src.width as usize, src.height as usize);
+        let (w, h) = (sw.div_ceil(2), sh.div_ceil(2));
+        // Vertical pass on the rows needed, then horizontal, per output row.
+        let mut col = vec![0u16; sw];
+        let mut data = vec![0u8; w * h];
+        let clamp_row = |y: isize| src.row(y.clamp(0, sh as isize - 1) as usize);
+        for (oy, out) in data.chunks_exact_mut(w).enumerate() {
+            let y = 2 * oy as isize;
+            let (r0, r1, r2, r3, r4) = (
+                clamp_row(y - 2),
+                clamp_row(y - 1),
+                clamp_row(y),
+                clamp_row(y + 1),
+                clamp_row(y + 2),
+            );
+            for x in 0..sw {
+                col[x] = r0[x] as u16
+                    + 4 * r1[x] as u16
+                    + 6 * r2[x] as u16
+                    + 4 * r3[x] as u16
+                    + r4[x] as u16;
+            }
+            let at = |x: isize| col[x.clamp(0, sw as isize - 1) as usize] as u32;
+            for (ox, o) in out.iter_mut().enumerate() {
+                let x = 2 * ox as isize;
+                let s = if x >= 2 && x + 2 < sw as isize {
+                    let x = x as usize;
+                    col[x - 2] as u32
+                        + 4 * col[x - 1] as u32
+                        + 6 * col[x] as u32
+                        + 4 * col[x + 1] as u32
+                        + col[x + 2] as u32
+                } else {
+                    at(x - 2) + 4 * at(x - 1) + 6 * at(x) + 4 * at(x + 1) + at(x + 2)
+                };
+                *o = ((s + 128) >> 8) as u8;
+            }
+        }
+        OwnedImage {
+            width: w as u32,
+            height: h as u32,
+            data,
+        }
+    }
+
+    /// Global histogram equalization (for exposure changes): grey levels remapped through the
+    /// normalized cumulative histogram.
+    pub fn equalized(src: &ImageView<'_>) -> OwnedImage {
+        let mut hist = [0u32; 256];
+        for y in 0..src.height as usize {
+            for &p in src.row(y) {
+                hist[p as usize] += 1;
+            }
+        }
+        let total = src.width as u64 * src.height as u64;
+        let first = hist.iter().position(|&c| c > 0).unwrap_or(0);
+        let c0 = hist[first] as u64;
+        let mut lut = [0u8; 256];
+        let mut cum = 0u64;
+        for (i, &c) in hist.iter().enumerate() {
+            cum += c as u64;
+            lut[i] = if total > c0 {
+                (((cum.saturating_sub(c0)) * 255 + (total - c0) / 2) / (total - c0)).min(255) as u8
+            } else {
+                i as u8
+            };
+        }
+        let mut data = Vec::with_capacity(total as usize);
+        for y in 0..src.height as usize {
+            data.extend(src.row(y).iter().map(|&p| lut[p as usize]));
+        }
+        OwnedImage {
+            width: src.width,
+            height: src.height,
+            data,
+        }
+    }
+}
+
+/// An image pyramid: level 0 is the full image, each further level half the size of the one
+/// before ([`OwnedImage::half_of`]).
+#[derive(Clone, Debug, Default)]
+pub struct Pyramid {
+    levels: Vec<OwnedImage>,
+}
+
+impl Pyramid {
+    /// Builds levels `0..=max_level` of `image` (fewer when the image becomes smaller than
+    /// 8 px on a side). Level 0 is copied so the pyramid can outlive the caller's buffer.
+    pub fn build(image: &ImageView<'_>, max_level: usize) -> Self {
+        let mut p = Pyramid::default();
+        p.rebuild(image, max_level);
+        p
+    }
+
+    /// [`Pyramid::build`] into existing buffers.
+    pub fn rebuild(&mut self, image: &ImageView<'_>, max_level: usize) {
+        self.levels.clear();
+        self.levels.push(image.to_owned_image());
+        for _ in 0..max_level {
+            let last = self.levels.last().expect("level 0");
+            if last.width < 16 || last.height < 16 {
+                break;
+            }
+            let next = OwnedImage::half_of(&last.view());
+            self.levels.push(next);
+        }
+    }
+
+    /// Number of levels (≥ 1 once built).
+    pub fn len(&self) -> usize {
+        self.levels.len()
+    }
+
+    /// True before the first build.
+    pub fn is_empty(&self) -> bool {
+        self.levels.is_empty()
+    }
+
+    /// Level `l` (0 = full size).
+    pub fn level(&self, l: usize) -> &OwnedImage {
+        &self.levels[l]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn view_rejects_short_buffers_and_zero_sizes() {
+        assert!(matches!(
+            ImageView::packed(0, 4, &[]),
+            Err(ImageError::Empty { .. })
+        ));
+        assert!(matches!(
+            ImageView::new(4, 4, 4, &[0; 15]),
+            Err(ImageError::Buffer { needed: 16, .. })
+        ));
+        assert!(matches!(
+            ImageView::new(4, 2, 3, &[0; 16]),
+            Err(ImageError::Buffer { .. })
+        ));
+        // A strided view needs no bytes after the last row's pixels.
+        let v = ImageView::new(2, 2, 5, &[1, 2, 0, 0, 0, 3, 4]).unwrap();
+        assert_eq!(v.row(1), &[3, 4]);
+        assert_eq!(v.to_owned_image().data, vec![1, 2, 3, 4]);
+    }
+
+    #[test]
+    fn pyramid_halves_by_the_binomial_filter() {
+        // A linear ramp stays a ramp (the filter is symmetric and sums to one).
+        let data: Vec<u8> = (0..64u32)
+            .map(|i| ((i % 8) * 10 + (i / 8) * 3) as u8)
+            .collect();
+        let img = ImageView::packed(8, 8, &data).unwrap();
+        let half = OwnedImage::half_of(&img);
+        assert_eq!((half.width, half.height), (4, 4));
+        // Interior pixel (1, 1) ← level-0 (2, 2): 2·10 + 2·3 = 26.
+        assert_eq!(half.data[4 + 1], 26);
+        let big: Vec<u8> = vec![7; 100 * 60];
+        let p = Pyramid::build(&ImageView::packed(100, 60, &big).unwrap(), 5);
+        // 100×60 → 50×30 → 25×15 (< 16 tall: no further level).
+        assert_eq!(p.len(), 3);
+        assert_eq!((p.level(2).width, p.level(2).height), (25, 15));
+        assert!(p.level(2).data.iter().all(|&v| v == 7));
+    }
+
+    #[test]
+    fn equalization_spreads_a_narrow_histogram() {
+        let data: Vec<u8> = (0..256u32).map(|i| 100 + (i % 20) as u8).collect();
+        let img = ImageView::packed(16, 16, &data).unwrap();
+        let eq = OwnedImage::equalized(&img);
+        let (lo, hi) = (
+            *eq.data.iter().min().unwrap(),
+            *eq.data.iter().max().unwrap(),
+        );
+        assert_eq!(lo, 0);
+        assert_eq!(hi, 255);
+        // Monotone: order of grey levels is kept.
+        for (a, b) in data.iter().zip(&eq.data) {
+            for (c, d) in data.iter().zip(&eq.data) {
+                if a < c {
+                    assert!(b <= d);
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,20 @@
+//! The image front end: what a camera frame contributes to the estimator.
+//!
+//! [`FeatureTracker`] turns grey images into [`FeatureFrame`]s: Shi–Tomasi corners
+//! ([`corners`]), pyramidal inverse-compositional Lucas–Kanade with flow-back ([`klt`]), stereo
+//! matching with epipolar checks, RANSAC on normalized coordinates ([`ransac`]). Images are
+//! borrowed ([`ImageView`]): the caller keeps its buffers.
+
+pub mod corners;
+pub mod image;
+pub mod klt;
+pub mod ransac;
+mod tracker;
+mod types;
+
+pub use image::{ImageError, ImageView, OwnedImage, Pyramid};
+pub use tracker::{
+    CameraImageView, FeatureTracker, StageTimes, TrackReport, TrackedFeature, TrackerCamera,
+    TrackerConfig, TrackerError,
+};
+pub use types::{CameraFeatures, FeatureFrame, FeatureObservation};
