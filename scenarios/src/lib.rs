@@ -14,6 +14,7 @@
 pub mod catalog;
 pub mod dataset;
 pub mod export;
+pub mod frontend;
 pub mod images;
 pub mod metrics;
 pub mod plot;
@@ -21,3 +22,4 @@ pub mod report;
 pub mod run;
 pub mod selfcheck;
 pub mod spec;
+pub mod tracker_spec;

@@ -44,6 +44,7 @@ use estimator::geometry::Pose;
 use serde::Serialize;
 
 use crate::dataset::{self, StampedPose};
+use crate::frontend::FrontendStats;
 use crate::metrics::{self, Alignment, AteResult, MetricsError, RpeOptions, RpeResult};
 use crate::plot::{self, PlotData};
 use crate::run::{EventKind, RunOutput};
@@ -264,6 +265,9 @@ pub struct Report {
     pub camera_mode: &'static str,
     /// The graphics adapter that rendered the images (`null` for feature-level scenarios).
     pub renderer: Option<String>,
+    /// The image front end's statistics against ground truth (`null` unless the estimator
+    /// tracked rendered images).
+    pub frontend: Option<FrontendStats>,
     /// Events.
     pub events: Vec<EventReport>,
     /// The scenario's faults.
@@ -287,6 +291,11 @@ impl Report {
             "tracking_fraction" => Some(self.tracking_fraction),
             "gyro_bias_error_rad_s" => self.gyro_bias_error_rad_s,
             "accel_bias_error_m_s2" => self.accel_bias_error_m_s2,
+            "frontend_features_min" => self.frontend.map(|f| f.features_min as f64),
+            "frontend_track_error_median_px" => self.frontend.map(|f| f.track_error_median_px),
+            "frontend_track_error_p95_px" => self.frontend.map(|f| f.track_error_p95_px),
+            "frontend_wrong_after_ransac" => self.frontend.map(|f| f.wrong_after_ransac),
+            "frontend_stereo_error_median_px" => self.frontend.map(|f| f.stereo_error_median_px),
             _ => None,
         }
     }
@@ -355,6 +364,7 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
             "features"
         },
         renderer: run.renderer.clone(),
+        frontend: run.frontend,
         events,
         faults,
         expectations: Vec::new(),
@@ -443,6 +453,21 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
             s,
             "rendering     per frame median / p99 / max: {:.2} / {:.2} / {:.2} ms on {adapter}",
             rt.median, rt.p99, rt.max
+        );
+    }
+    if let Some(f) = &r.frontend {
+        let _ = writeln!(
+            s,
+            "front end     {:.0} features/frame (min {}), tracks {:.1} frames, stereo {:.0} %, track error median / p95 {:.3} / {:.3} px, wrong {:.2} % → {:.2} % after RANSAC, stereo error median {:.3} px",
+            f.features_mean,
+            f.features_min,
+            f.mean_track_length,
+            100.0 * f.stereo_match_ratio,
+            f.track_error_median_px,
+            f.track_error_p95_px,
+            100.0 * f.wrong_before_ransac,
+            100.0 * f.wrong_after_ransac,
+            f.stereo_error_median_px
         );
     }
     let _ = writeln!(s, "resets        {}", r.resets);

@@ -7,9 +7,11 @@
 use std::time::Instant;
 
 use estimator::estimator::{Estimate, Estimator, Status};
+use estimator::frontend::TrackerCamera;
 use sim::World;
 use sim::stream::{GroundTruth, Measurement, Stream};
 
+use crate::frontend::{FrontendStats, ImageFrontend};
 use crate::spec::{Scenario, SpecError};
 
 /// Overrides for one run.
@@ -24,8 +26,8 @@ pub struct RunOptions {
 /// Wall time spent on one frame (s). Measured for reports only.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FrameTiming {
-    /// Front end: turning the sensor input into the estimator's feature frame. Feature-level
-    /// scenarios hand the simulated features over as they are, so this is ~0.
+    /// Front end: turning the sensor input into the estimator's feature frame: the image
+    /// tracker's time in rendered scenarios, ~0 for feature-level input (handed over as is).
     pub frontend_s: f64,
     /// Back end: the estimator's own measurement (`Estimate::backend_s`).
     pub backend_s: f64,
@@ -90,6 +92,9 @@ pub struct RunOutput {
     pub resets: usize,
     /// The graphics adapter of a rendered scenario (`None` for feature-level ones).
     pub renderer: Option<String>,
+    /// The image front end's statistics against ground truth (rendered scenarios tracked by
+    /// the KLT front end).
+    pub frontend: Option<FrontendStats>,
 }
 
 /// Errors that stop a run.
@@ -109,6 +114,14 @@ pub enum RunError {
     /// The estimator rejected its configuration.
     #[error("{file}: the estimator rejected the scenario's configuration: {message}")]
     Estimator {
+        /// The scenario file.
+        file: String,
+        /// Why.
+        message: String,
+    },
+    /// The image front end rejected its configuration or an image.
+    #[error("{file}: image front end: {message}")]
+    Frontend {
         /// The scenario file.
         file: String,
         /// Why.
@@ -167,7 +180,13 @@ pub fn run(
     let world_cfg = scenario.world_config(options.seed, options.duration_s)?;
     let est_cfg = scenario.estimator_config()?;
     let seed = world_cfg.seed;
+    let tracker_cfg = scenario.tracker_config(seed)?;
+    let uses_imu = est_cfg.suite.uses_imu();
     let world = World::new(world_cfg).map_err(|e| RunError::sim(scenario, e))?;
+    let mut frontend = match tracker_cfg {
+        None => None,
+        Some(cfg) => Some(image_frontend(scenario, &world, &est_cfg, cfg)?),
+    };
     let mut estimator = Estimator::new(est_cfg).map_err(|e| RunError::Estimator {
         file: scenario.file_label(),
         message: e.to_string(),
@@ -184,6 +203,7 @@ pub fn run(
         events: Vec::new(),
         resets: 0,
         renderer,
+        frontend: None,
     };
     let mut render_s = 0.0;
     let mut status = estimator.status();
@@ -191,15 +211,32 @@ pub fn run(
     while let Some(m) = stream.next() {
         let t_ns = m.t_ns();
         let (result, frontend_s, call_start) = match m {
-            Measurement::Images(_) => {
+            Measurement::Images(images) => {
                 render_s = stream.last_render_s();
-                continue;
+                let Some(fe) = frontend.as_mut() else {
+                    continue;
+                };
+                // The front end tracks the images; the ideal frame that follows is skipped.
+                let truth = stream.truth(images.t_capture_ns).map(|g| g.pose);
+                let (frame, frontend_s) =
+                    fe.process(&images, truth.as_ref())
+                        .map_err(|e| RunError::Frontend {
+                            file: scenario.file_label(),
+                            message: e.to_string(),
+                        })?;
+                out.frames_in += 1;
+                let start = Instant::now();
+                (estimator.push_frame(frame), frontend_s, start)
             }
             Measurement::Imu(s) => {
                 out.imu_samples += 1;
+                if let Some(fe) = frontend.as_mut().filter(|_| uses_imu) {
+                    fe.push_imu(&s);
+                }
                 let start = Instant::now();
                 (estimator.push_imu(s), 0.0, start)
             }
+            Measurement::Frame(_) if frontend.is_some() => continue,
             Measurement::Frame(f) => {
                 out.frames_in += 1;
                 // Feature-level input: the frame is already the estimator's input.
@@ -253,7 +290,38 @@ pub fn run(
             last_progress = frac;
         }
     }
+    out.frontend = frontend.map(|f| f.stats());
     stream_result(scenario, &stream)?;
     progress(1.0);
     Ok(out)
+}
+
+/// The image front end for a rendered scenario: the estimator's cameras, the scene and the
+/// simulator's true extrinsics for the ground-truth statistics.
+pub fn image_frontend(
+    scenario: &Scenario,
+    world: &World,
+    est_cfg: &estimator::estimator::EstimatorConfig,
+    cfg: estimator::frontend::TrackerConfig,
+) -> Result<ImageFrontend, RunError> {
+    let cameras = est_cfg
+        .cameras
+        .iter()
+        .map(|c| TrackerCamera {
+            model: c.model.clone(),
+            T_b_c: c.T_b_c,
+        })
+        .collect();
+    let true_t_b_c = world
+        .config()
+        .rig
+        .as_ref()
+        .map(|r| r.cameras.iter().map(|c| c.t_b_c).collect())
+        .unwrap_or_default();
+    ImageFrontend::new(cfg, cameras, world.scene().clone(), true_t_b_c).map_err(|e| {
+        RunError::Frontend {
+            file: scenario.file_label(),
+            message: e.to_string(),
+        }
+    })
 }

@@ -70,11 +70,13 @@ use sim::camera::{CameraConfig as SimCamera, RigConfig};
 use sim::faults::Fault;
 use sim::imu::{ImuConfig, ImuWindow};
 use sim::motion::{Lissajous, RandomWaypoints, Replay};
-use sim::render::{MotionBlur, Photometric, RenderBackend, RenderConfig, RenderError};
+use sim::render::{GainStep, MotionBlur, Photometric, RenderBackend, RenderConfig, RenderError};
 use sim::scene::{SceneConfig, ScenePreset};
 use sim::{StaticStartConfig, TrajectoryConfig, WorldConfig};
 
 use crate::catalog;
+pub use crate::tracker_spec::{FrontendSpec, TrackerSpec};
+use estimator::frontend::TrackerConfig;
 
 /// A scenario file as written (see the module documentation).
 #[derive(Clone, Debug, Deserialize)]
@@ -139,6 +141,8 @@ impl SuiteSpec {
 /// ```toml
 /// [camera]
 /// mode = "rendered"            # or "features" (default)
+/// frontend = "klt"             # rendered: "klt" (default) or "truth" (ideal tracks)
+/// [camera.tracker]             # every key optional (see `TrackerSpec`)
 /// [camera.render]              # every key optional
 /// backend = "gl"               # "gl" (Mesa llvmpipe without a GPU) or "vulkan"
 /// msaa = false                 # 4× multisampling of geometric edges
@@ -159,6 +163,13 @@ pub struct CameraModeSpec {
     /// Exposure, vignetting and noise (defaults: none).
     #[serde(default)]
     pub photometric: PhotometricSpec,
+    /// Rendered mode: `klt` (default: the image front end tracks the rendered images) or
+    /// `truth` (the simulator's ideal tracks of the same captures).
+    #[serde(default)]
+    pub frontend: FrontendSpec,
+    /// The image front end's settings.
+    #[serde(default)]
+    pub tracker: TrackerSpec,
 }
 
 /// Camera measurement mode.
@@ -168,9 +179,8 @@ pub enum CameraMode {
     /// Feature-level measurements only.
     #[default]
     Features,
-    /// Rendered images too. Until the image front end lands, the estimator still consumes the
-    /// feature-level measurements of the same captures; the images are rendered, timed
-    /// (`timing_ms.render`) and exported.
+    /// Rendered images too; the estimator gets what the image front end tracks in them (or,
+    /// with `frontend = "truth"`, the ideal tracks of the same captures).
     Rendered,
 }
 
@@ -238,6 +248,18 @@ pub struct PhotometricSpec {
     pub read_noise: Option<f64>,
     /// Electrons per grey level (shot noise; 0 = none).
     pub electrons_per_level: Option<f64>,
+    /// A gain step: `{ at_s, factor }`.
+    pub gain_step: Option<GainStepSpec>,
+}
+
+/// `gain_step = { at_s, factor }`.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GainStepSpec {
+    /// When (s).
+    pub at_s: f64,
+    /// Gain factor from then on.
+    pub factor: f64,
 }
 
 /// `[world]`: scene and seed.
@@ -639,6 +661,16 @@ pub struct ExpectationsSpec {
     pub gyro_bias_error_rad_s: Option<Bound>,
     /// Final accelerometer bias error (m/s²).
     pub accel_bias_error_m_s2: Option<Bound>,
+    /// Fewest features the image front end tracked in a frame.
+    pub frontend_features_min: Option<Bound>,
+    /// Median track error of the image front end (px).
+    pub frontend_track_error_median_px: Option<Bound>,
+    /// 95th-percentile track error of the image front end (px).
+    pub frontend_track_error_p95_px: Option<Bound>,
+    /// Fraction of wrong tracks (> 2 px) the estimator gets.
+    pub frontend_wrong_after_ransac: Option<Bound>,
+    /// Median stereo match error (px).
+    pub frontend_stereo_error_median_px: Option<Bound>,
 }
 
 impl ExpectationsSpec {
@@ -652,6 +684,23 @@ impl ExpectationsSpec {
             ("tracking_fraction", self.tracking_fraction),
             ("gyro_bias_error_rad_s", self.gyro_bias_error_rad_s),
             ("accel_bias_error_m_s2", self.accel_bias_error_m_s2),
+            ("frontend_features_min", self.frontend_features_min),
+            (
+                "frontend_track_error_median_px",
+                self.frontend_track_error_median_px,
+            ),
+            (
+                "frontend_track_error_p95_px",
+                self.frontend_track_error_p95_px,
+            ),
+            (
+                "frontend_wrong_after_ransac",
+                self.frontend_wrong_after_ransac,
+            ),
+            (
+                "frontend_stereo_error_median_px",
+                self.frontend_stereo_error_median_px,
+            ),
         ]
         .into_iter()
         .filter_map(|(n, b)| b.map(|b| (n, b)))
@@ -826,6 +875,10 @@ impl Scenario {
                 vignetting: p.vignetting.unwrap_or(dp.vignetting),
                 read_noise: p.read_noise.unwrap_or(dp.read_noise),
                 electrons_per_level: p.electrons_per_level.unwrap_or(dp.electrons_per_level),
+                gain_step: p.gain_step.map(|g| GainStep {
+                    at_s: g.at_s,
+                    factor: g.factor,
+                }),
             },
         };
         cfg.validate().map_err(|e| {
@@ -839,6 +892,17 @@ impl Scenario {
             self.error(&key, e.to_string())
         })?;
         Ok(cfg)
+    }
+
+    /// The image front end's configuration when the estimator should track the rendered images
+    /// (`mode = "rendered"` and `frontend = "klt"`); `None` otherwise.
+    pub fn tracker_config(&self, seed: u64) -> Result<Option<TrackerConfig>, SpecError> {
+        let c = &self.spec.camera;
+        let cfg = c
+            .tracker
+            .config(seed)
+            .map_err(|(field, why)| self.error(&format!("camera.tracker.{field}"), why))?;
+        Ok((c.mode == CameraMode::Rendered && c.frontend == FrontendSpec::Klt).then_some(cfg))
     }
 
     /// The name errors use for the file.
@@ -863,6 +927,7 @@ impl Scenario {
     /// [`Scenario::world_config`] and [`Scenario::estimator_config`] only fail on data files.
     fn validate(&self) -> Result<(), SpecError> {
         self.render_config()?;
+        self.tracker_config(0)?;
         let s = &self.spec;
         let pos = |key: &str, v: f64| -> Result<(), SpecError> {
             if v.is_finite() && v > 0.0 {

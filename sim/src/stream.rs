@@ -205,6 +205,7 @@ impl Stream {
         let out = if self.faults.black_frames_at(t_cap) {
             Ok(ImageFrame {
                 t_ns,
+                t_capture_ns: t_cap,
                 cameras: live
                     .iter()
                     .map(|&c| {

@@ -103,6 +103,17 @@ pub struct Photometric {
     /// Shot noise: electrons per grey level (variance of a level `I` is `I / electrons_per_level`);
     /// 0 turns shot noise off.
     pub electrons_per_level: f64,
+    /// A sudden exposure change: from this true time on, the gain is multiplied by a factor.
+    pub gain_step: Option<GainStep>,
+}
+
+/// A step in the gain (an auto-exposure jump between two frames).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GainStep {
+    /// When (s of true time).
+    pub at_s: f64,
+    /// Gain factor from then on.
+    pub factor: f64,
 }
 
 impl Default for Photometric {
@@ -115,6 +126,7 @@ impl Default for Photometric {
             vignetting: 0.0,
             read_noise: 0.0,
             electrons_per_level: 0.0,
+            gain_step: None,
         }
     }
 }
@@ -269,6 +281,8 @@ pub struct CameraImage {
 pub struct ImageFrame {
     /// Stamp (ns, camera clock, like the feature frame of the same capture).
     pub t_ns: i64,
+    /// True capture time (ns, IMU clock): the instant the images show (mid-exposure).
+    pub t_capture_ns: i64,
     /// One entry per live camera.
     pub cameras: Vec<CameraImage>,
 }
@@ -569,7 +583,14 @@ impl RenderConfig {
                 && (2..=32).contains(&b.samples)
         });
         let fin = |v: f64, ok: bool| v.is_finite() && ok;
-        let checks: [(&'static str, String, bool, &'static str); 13] = [
+        let step_ok = p.gain_step.is_none_or(|g| {
+            g.at_s.is_finite()
+                && g.at_s >= 0.0
+                && g.factor.is_finite()
+                && g.factor > 0.0
+                && g.factor <= 100.0
+        });
+        let checks: [(&'static str, String, bool, &'static str); 14] = [
             (
                 "texture_size",
                 c.texture_size.to_string(),
@@ -647,6 +668,12 @@ impl RenderConfig {
                 p.electrons_per_level.to_string(),
                 fin(p.electrons_per_level, p.electrons_per_level >= 0.0),
                 ">= 0",
+            ),
+            (
+                "photometric.gain_step",
+                format!("{:?}", p.gain_step),
+                step_ok,
+                "at_s >= 0 and factor in (0, 100]",
             ),
         ];
         for (field, value, ok, expected) in checks {
@@ -1075,7 +1102,12 @@ impl Renderer {
     pub fn gain_at(&self, t_ns: i64) -> f64 {
         let p = &self.config.photometric;
         let t = t_ns as f64 * 1e-9;
-        p.gain * (1.0 + p.gain_variation * (std::f64::consts::TAU * t / p.gain_period_s).sin())
+        let step = p
+            .gain_step
+            .filter(|g| t >= g.at_s)
+            .map_or(1.0, |g| g.factor);
+        step * p.gain
+            * (1.0 + p.gain_variation * (std::f64::consts::TAU * t / p.gain_period_s).sin())
     }
 
     /// Renders the cameras `live` (rig indices, increasing). `poses_w_b` are the body poses at
@@ -1195,6 +1227,7 @@ impl Renderer {
             });
             ImageFrame {
                 t_ns: stamp_ns,
+                t_capture_ns,
                 cameras: images,
             }
         };

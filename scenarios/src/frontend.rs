@@ -1,0 +1,318 @@
+//! The image front end in a simulated run: the estimator crate's `FeatureTracker` fed with the
+//! rendered images and gyro-predicted rotations, and its tracks checked against ground truth.
+//!
+//! Ground truth for a track: the scene point that the ray through its *first* observation hits
+//! (the renderer draws exactly these surfaces); in every later frame that point is projected with
+//! the true pose and compared with the tracked pixel, so drift accumulates into the error. Stereo
+//! matches are checked the same way within one frame (left ray → right projection).
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use estimator::camera::CameraModel;
+use estimator::frontend::{
+    CameraImageView, FeatureFrame, FeatureTracker, ImageView, TrackerCamera, TrackerConfig,
+    TrackerError,
+};
+use estimator::geometry::{Pose, so3_exp};
+use estimator::imu::ImuSample;
+use nalgebra::{UnitQuaternion, Vector2, Vector3};
+use serde::Serialize;
+use sim::render::ImageFrame;
+use sim::scene::Scene;
+
+/// Tracks farther than this from ground truth (px) count as wrong.
+pub const WRONG_TRACK_PX: f64 = 2.0;
+
+/// The tracker with its gyro integration and its ground-truth bookkeeping.
+#[derive(Debug)]
+pub struct ImageFrontend {
+    tracker: FeatureTracker,
+    gyro: GyroIntegrator,
+    eval: TrackEvaluation,
+}
+
+impl ImageFrontend {
+    /// A front end for `cameras` (the estimator's view of the rig) in `scene`; `true_cameras`
+    /// are the simulator's (ground truth) extrinsics, camera by camera.
+    #[allow(non_snake_case)]
+    pub fn new(
+        config: TrackerConfig,
+        cameras: Vec<TrackerCamera>,
+        scene: Arc<Scene>,
+        true_T_b_c: Vec<Pose>,
+    ) -> Result<Self, TrackerError> {
+        let models = cameras.iter().map(|c| c.model.clone()).collect();
+        Ok(Self {
+            tracker: FeatureTracker::new(config, cameras)?,
+            gyro: GyroIntegrator::default(),
+            eval: TrackEvaluation::new(scene, models, true_T_b_c),
+        })
+    }
+
+    /// The tracker.
+    pub fn tracker(&self) -> &FeatureTracker {
+        &self.tracker
+    }
+
+    /// Accumulates a gyroscope sample for the next frame's rotation prediction.
+    pub fn push_imu(&mut self, s: &ImuSample) {
+        self.gyro.push(s);
+    }
+
+    /// Tracks one capture; `T_w_b_true` (the true pose at the capture time) feeds the
+    /// ground-truth statistics when given. Returns the frame and the tracker's time (s).
+    #[allow(non_snake_case)]
+    pub fn process(
+        &mut self,
+        images: &ImageFrame,
+        T_w_b_true: Option<&Pose>,
+    ) -> Result<(FeatureFrame, f64), TrackerError> {
+        let views = images
+            .cameras
+            .iter()
+            .map(|c| {
+                ImageView::packed(c.image.width, c.image.height, &c.image.data)
+                    .map(|image| CameraImageView {
+                        cam_id: c.cam_id,
+                        image,
+                    })
+                    .map_err(|e| TrackerError::Config {
+                        field: "image",
+                        message: e.to_string(),
+                    })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let rotation = self.gyro.take();
+        let frame = self.tracker.track(&views, images.t_ns, rotation)?;
+        let seconds = self.tracker.report().times.total_s;
+        if std::env::var("FE_DEBUG").is_ok() {
+            let r = self.tracker.report();
+            let t = r.times;
+            eprintln!(
+                "FE pyr {:.2} temp {:.2} ransac {:.2} det {:.2} stereo {:.2} total {:.2} | in {} lost {} fb {} rs {} crowd {} det {} st {}/{} fb {} epi {}",
+                t.pyramids_s * 1e3,
+                t.temporal_s * 1e3,
+                t.ransac_s * 1e3,
+                t.detect_s * 1e3,
+                t.stereo_s * 1e3,
+                t.total_s * 1e3,
+                r.tracks_in,
+                r.klt_lost,
+                r.flow_back_rejected,
+                r.ransac_rejected.len(),
+                r.crowded,
+                r.detected,
+                r.stereo_matched,
+                r.stereo_tried,
+                r.stereo_flow_back_rejected,
+                r.stereo_epipolar_rejected
+            );
+        }
+        if let Some(pose) = T_w_b_true {
+            self.eval.add(
+                &frame,
+                self.tracker.report().ransac_rejected.as_slice(),
+                pose,
+            );
+        }
+        Ok((frame, seconds))
+    }
+
+    /// The statistics so far.
+    pub fn stats(&self) -> FrontendStats {
+        self.eval.stats()
+    }
+}
+
+/// Body rotation since the last frame from raw gyroscope samples (midpoint of consecutive
+/// samples; the bias is ignored: over 50 ms it moves a pixel by far less than the KLT basin).
+#[derive(Debug, Default)]
+struct GyroIntegrator {
+    last: Option<ImuSample>,
+    rotation: Option<UnitQuaternion<f64>>,
+}
+
+impl GyroIntegrator {
+    fn push(&mut self, s: &ImuSample) {
+        if let Some(prev) = self.last {
+            let dt = (s.t_ns - prev.t_ns) as f64 * 1e-9;
+            if dt > 0.0 && dt < 0.1 {
+                let w = 0.5 * (prev.gyro + s.gyro);
+                let r = self.rotation.unwrap_or_else(UnitQuaternion::identity);
+                self.rotation = Some(r * so3_exp(&(w * dt)));
+            }
+        }
+        self.last = Some(*s);
+    }
+
+    /// `R_bprev_bcur` since the last call (`None` before any rotation was integrated).
+    fn take(&mut self) -> Option<UnitQuaternion<f64>> {
+        self.rotation.take()
+    }
+}
+
+/// Front-end statistics of a run against ground truth (`report.json` → `frontend`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct FrontendStats {
+    /// Frames tracked.
+    pub frames: usize,
+    /// Features on the primary camera per frame: mean.
+    pub features_mean: f64,
+    /// Features on the primary camera per frame: fewest.
+    pub features_min: usize,
+    /// Observations per track (primary camera), averaged over tracks.
+    pub mean_track_length: f64,
+    /// Stereo matches per primary-camera feature.
+    pub stereo_match_ratio: f64,
+    /// Distance of tracked points from their first observation's scene point (px): median.
+    pub track_error_median_px: f64,
+    /// Same: 95th percentile.
+    pub track_error_p95_px: f64,
+    /// Fraction of tracked points more than 2 px off, before RANSAC.
+    pub wrong_before_ransac: f64,
+    /// Fraction of tracked points more than 2 px off, after RANSAC (what the estimator gets).
+    pub wrong_after_ransac: f64,
+    /// Stereo matches against the projection of the left ray's scene point (px): median.
+    pub stereo_error_median_px: f64,
+    /// Same: 95th percentile.
+    pub stereo_error_p95_px: f64,
+    /// Observations with no scene point to compare with (the ray hit nothing).
+    pub unverifiable: usize,
+}
+
+/// Ground-truth bookkeeping of the tracks.
+#[derive(Debug)]
+struct TrackEvaluation {
+    scene: Arc<Scene>,
+    models: Vec<Arc<dyn CameraModel>>,
+    true_t_b_c: Vec<Pose>,
+    /// Scene point of each track's first observation (`None`: the ray hit nothing).
+    anchors: BTreeMap<u64, Option<Vector3<f64>>>,
+    track_errors: Vec<f64>,
+    rejected_errors: Vec<f64>,
+    stereo_errors: Vec<f64>,
+    features: Vec<usize>,
+    stereo_matches: usize,
+    unverifiable: usize,
+}
+
+impl TrackEvaluation {
+    fn new(scene: Arc<Scene>, models: Vec<Arc<dyn CameraModel>>, true_t_b_c: Vec<Pose>) -> Self {
+        Self {
+            scene,
+            models,
+            true_t_b_c,
+            anchors: BTreeMap::new(),
+            track_errors: Vec::new(),
+            rejected_errors: Vec::new(),
+            stereo_errors: Vec::new(),
+            features: Vec::new(),
+            stereo_matches: 0,
+            unverifiable: 0,
+        }
+    }
+
+    /// The scene point seen at pixel `uv` of camera `cam` with the body at `T_w_b`.
+    #[allow(non_snake_case)]
+    fn ray_point(&self, cam: usize, uv: &Vector2<f64>, T_w_b: &Pose) -> Option<Vector3<f64>> {
+        let T_w_c = T_w_b.compose(&self.true_t_b_c[cam]);
+        let d = (T_w_c.q * self.models[cam].unproject(uv)?).normalize();
+        let (t, _) = self.scene.ray_cast(&T_w_c.p, &d, 1e-3, 1e4)?;
+        Some(T_w_c.p + d * t)
+    }
+
+    /// Pixel error of `uv` in camera `cam` against scene point `x_w`.
+    #[allow(non_snake_case)]
+    fn error(
+        &self,
+        cam: usize,
+        uv: &Vector2<f64>,
+        x_w: &Vector3<f64>,
+        T_w_b: &Pose,
+    ) -> Option<f64> {
+        let T_w_c = T_w_b.compose(&self.true_t_b_c[cam]);
+        let p_c = T_w_c.inverse().transform(x_w);
+        Some((self.models[cam].project(&p_c)? - uv).norm())
+    }
+
+    #[allow(non_snake_case)]
+    fn add(&mut self, frame: &FeatureFrame, rejected: &[(u64, Vector2<f64>)], T_w_b: &Pose) {
+        let Some(primary) = frame.cameras.first() else {
+            self.features.push(0);
+            return;
+        };
+        let p = primary.cam_id;
+        self.features.push(primary.features.len());
+        let mut left: BTreeMap<u64, Vector2<f64>> = BTreeMap::new();
+        for f in &primary.features {
+            left.insert(f.feature_id, f.uv);
+            match self.anchors.get(&f.feature_id) {
+                None => {
+                    let x = self.ray_point(p, &f.uv, T_w_b);
+                    self.anchors.insert(f.feature_id, x);
+                }
+                Some(Some(x)) => match self.error(p, &f.uv, x, T_w_b) {
+                    Some(e) => self.track_errors.push(e),
+                    None => self.track_errors.push(f64::INFINITY),
+                },
+                Some(None) => self.unverifiable += 1,
+            }
+        }
+        for (id, uv) in rejected {
+            if let Some(Some(x)) = self.anchors.get(id) {
+                let e = self.error(p, uv, x, T_w_b).unwrap_or(f64::INFINITY);
+                self.rejected_errors.push(e);
+            }
+        }
+        for cam in frame.cameras.iter().skip(1) {
+            for f in &cam.features {
+                self.stereo_matches += 1;
+                let Some(uv0) = left.get(&f.feature_id) else {
+                    continue;
+                };
+                match self.ray_point(p, uv0, T_w_b) {
+                    Some(x) => {
+                        let e = self.error(cam.cam_id, &f.uv, &x, T_w_b);
+                        self.stereo_errors.push(e.unwrap_or(f64::INFINITY));
+                    }
+                    None => self.unverifiable += 1,
+                }
+            }
+        }
+    }
+
+    fn stats(&self) -> FrontendStats {
+        let total: usize = self.features.iter().sum();
+        let wrong = |v: &[f64]| v.iter().filter(|&&e| e > WRONG_TRACK_PX).count();
+        let (kept, rej) = (self.track_errors.len(), self.rejected_errors.len());
+        let frac = |n: usize, d: usize| if d == 0 { 0.0 } else { n as f64 / d as f64 };
+        FrontendStats {
+            frames: self.features.len(),
+            features_mean: frac(total, self.features.len()),
+            features_min: self.features.iter().copied().min().unwrap_or(0),
+            mean_track_length: frac(total, self.anchors.len()),
+            stereo_match_ratio: frac(self.stereo_matches, total),
+            track_error_median_px: percentile(&self.track_errors, 0.5),
+            track_error_p95_px: percentile(&self.track_errors, 0.95),
+            wrong_before_ransac: frac(
+                wrong(&self.track_errors) + wrong(&self.rejected_errors),
+                kept + rej,
+            ),
+            wrong_after_ransac: frac(wrong(&self.track_errors), kept),
+            stereo_error_median_px: percentile(&self.stereo_errors, 0.5),
+            stereo_error_p95_px: percentile(&self.stereo_errors, 0.95),
+            unverifiable: self.unverifiable,
+        }
+    }
+}
+
+/// Nearest-rank percentile (`p` in 0..=1); 0 when empty.
+fn percentile(v: &[f64], p: f64) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    s[((p * s.len() as f64).ceil() as usize).clamp(1, s.len()) - 1]
+}
