@@ -1,6 +1,7 @@
-//! Rendered scenarios: rendering adds images without changing any other measurement (the
-//! estimate is byte-identical to the feature-level run), reports its adapter and timing, exports
-//! images in the EuRoC layout, and rejects bad render settings naming the key.
+//! Rendered scenarios: rendering adds images without changing any other measurement (with
+//! `frontend = "truth"` the estimate is byte-identical to the feature-level run), reports its
+//! adapter and timing, exports images in the EuRoC layout, and rejects bad render settings and
+//! bad tracker settings naming the key.
 //!
 //! Needs Mesa's llvmpipe (`bash .ci/install-deps`).
 
@@ -8,18 +9,45 @@ use scenarios::report;
 use scenarios::run::{RunOptions, run};
 use scenarios::spec::{Origin, Scenario};
 
+fn catalog_text(name: &str) -> String {
+    std::fs::read_to_string(format!(
+        "{}/scenarios/catalog/{name}.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap()
+}
+
+/// The rendered default scenario with the simulator's ideal tracks instead of the front end.
+fn rendered_with_ideal_tracks() -> Scenario {
+    let text = catalog_text("room_figure8_rendered_stereo_imu").replace(
+        "[camera.photometric]",
+        "frontend = \"truth\"\n\n[camera.photometric]",
+    );
+    Scenario::parse(
+        "rendered_truth",
+        Origin::File("rendered_truth.toml".into()),
+        &text,
+    )
+    .unwrap()
+}
+
 fn estimate_bytes(name: &str, seconds: f64) -> (Vec<u8>, report::Report) {
     let scenario = Scenario::load(name).unwrap();
+    scenario_bytes(&scenario, seconds)
+}
+
+fn scenario_bytes(scenario: &Scenario, seconds: f64) -> (Vec<u8>, report::Report) {
+    let name = scenario.name.clone();
     let options = RunOptions {
         seed: None,
         duration_s: Some(seconds),
     };
-    let output = run(&scenario, &options, &mut |_| {}).unwrap();
+    let output = run(scenario, &options, &mut |_| {}).unwrap();
     let eval = report::evaluate(&output, scenario.spec.suite);
-    let rep = report::build_report(&scenario, &output, &eval);
+    let rep = report::build_report(scenario, &output, &eval);
     let dir = std::env::temp_dir().join(format!("vio-rendered-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    report::write_outputs(&dir, &scenario, &output, &eval, &rep).unwrap();
+    report::write_outputs(&dir, scenario, &output, &eval, &rep).unwrap();
     let bytes = std::fs::read(dir.join("estimate.tum")).unwrap();
     let json = std::fs::read_to_string(dir.join("report.json")).unwrap();
     assert!(
@@ -32,7 +60,7 @@ fn estimate_bytes(name: &str, seconds: f64) -> (Vec<u8>, report::Report) {
 #[test]
 fn rendering_changes_no_measurement_and_reports_its_adapter_and_timing() {
     let (plain, plain_rep) = estimate_bytes("room_figure8_stereo_imu", 3.0);
-    let (rendered, rep) = estimate_bytes("room_figure8_rendered_stereo_imu", 3.0);
+    let (rendered, rep) = scenario_bytes(&rendered_with_ideal_tracks(), 3.0);
     assert!(plain.len() > 500);
     assert!(plain == rendered, "rendering changed the estimate");
     assert_eq!(plain_rep.camera_mode, "features");
@@ -73,17 +101,14 @@ fn export_writes_rendered_images_in_the_euroc_layout() {
 
 #[test]
 fn bad_render_settings_name_the_key_and_line() {
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/scenarios/catalog/room_figure8_rendered_stereo_imu.toml"
-    ))
-    .unwrap()
-    .replace("vignetting = 0.25", "vignetting = 1.5");
+    let text = catalog_text("room_figure8_rendered_stereo_imu")
+        .replace("vignetting = 0.25", "vignetting = 1.5");
     let err = Scenario::parse("bad", Origin::File("bad.toml".into()), &text).unwrap_err();
     let msg = err.to_string();
     assert!(msg.contains("camera.photometric.vignetting"), "{msg}");
     assert!(err.line.is_some(), "{msg}");
     let painted = text.replace("mode = \"rendered\"", "mode = \"painted\"");
+    assert!(painted != text);
     let err = Scenario::parse("bad", Origin::File("bad.toml".into()), &painted).unwrap_err();
     assert!(err.to_string().contains("camera.mode"), "{err}");
     // Feature-level scenarios check their render settings too (`vio render` uses them).
@@ -102,4 +127,31 @@ fn bad_render_settings_name_the_key_and_line() {
         err.to_string().contains("camera.render.motion_blur"),
         "{err}"
     );
+}
+
+#[test]
+fn bad_tracker_settings_name_the_key() {
+    let base = catalog_text("room_figure8_rendered_stereo_imu");
+    for (setting, key) in [
+        ("window_px = 20", "camera.tracker.window_px"),
+        ("max_features = 0", "camera.tracker.max_features"),
+        ("flow_back_px = nan", "camera.tracker.flow_back_px"),
+        (
+            "ransac_confidence = 1.5",
+            "camera.tracker.ransac_confidence",
+        ),
+    ] {
+        let text = base.replace(
+            "[camera.photometric]",
+            &format!("[camera.tracker]\n{setting}\n\n[camera.photometric]"),
+        );
+        let err = Scenario::parse("bad", Origin::File("bad.toml".into()), &text).unwrap_err();
+        assert!(err.to_string().contains(key), "{setting}: {err}");
+    }
+    let text = base.replace(
+        "mode = \"rendered\"",
+        "mode = \"rendered\"\nfrontend = \"orb\"",
+    );
+    let err = Scenario::parse("bad", Origin::File("bad.toml".into()), &text).unwrap_err();
+    assert!(err.to_string().contains("camera.frontend"), "{err}");
 }

@@ -29,6 +29,11 @@ const ENTRIES: &[Entry] = &[
     entry!("room_replay_v2_02_stereo_imu"),
     entry!("room_figure8_blackout_stereo_imu"),
     entry!("room_figure8_rendered_stereo_imu"),
+    entry!("room_figure8_exposure_jump_rendered"),
+    entry!("room_figure8_blur_rendered"),
+    entry!("room_fast_rotation_rendered"),
+    entry!("hall_poor_wall_rendered"),
+    entry!("room_replay_v2_02_rendered"),
 ];
 
 /// Data files the catalog scenarios reference, by their path relative to `catalog/`.

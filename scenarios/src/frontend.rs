@@ -253,7 +253,12 @@ impl TrackEvaluation {
                     self.anchors.insert(f.feature_id, x);
                 }
                 Some(Some(x)) => match self.error(p, &f.uv, x, T_w_b) {
-                    Some(e) => self.track_errors.push(e),
+                    Some(e) => {
+                        if std::env::var("FE_AGE").is_ok() {
+                            eprintln!("AGE {} {:.4}", f.feature_id, e);
+                        }
+                        self.track_errors.push(e)
+                    }
                     None => self.track_errors.push(f64::INFINITY),
                 },
                 Some(None) => self.unverifiable += 1,

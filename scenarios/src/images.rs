@@ -58,15 +58,7 @@ pub fn render_at(
     seed: Option<u64>,
 ) -> Result<RenderedAt, crate::run::RunError> {
     use crate::run::RunError;
-    let world_cfg = scenario.world_config(seed, None)?;
-    let world = sim::World::new(world_cfg).map_err(|e| RunError::sim(scenario, e))?;
-    let end_s = world.end_ns() as f64 * 1e-9;
-    if !(at_s.is_finite() && (0.0..=end_s).contains(&at_s)) {
-        return Err(RunError::sim(
-            scenario,
-            format!("--at {at_s} s is outside the scenario's [0, {end_s}] s"),
-        ));
-    }
+    let world = world_at(scenario, at_s, seed)?;
     let mut cfg = scenario.render_settings()?;
     cfg.depth = true;
     let mut renderer = world
@@ -99,6 +91,25 @@ pub fn render_at(
         adapter: renderer.adapter().to_string(),
         render_s: start.elapsed().as_secs_f64(),
     })
+}
+
+/// The scenario's world (`seed` instead of the scenario's), checking that `at_s` lies in the run.
+pub(crate) fn world_at(
+    scenario: &crate::spec::Scenario,
+    at_s: f64,
+    seed: Option<u64>,
+) -> Result<sim::World, crate::run::RunError> {
+    use crate::run::RunError;
+    let world_cfg = scenario.world_config(seed, None)?;
+    let world = sim::World::new(world_cfg).map_err(|e| RunError::sim(scenario, e))?;
+    let end_s = world.end_ns() as f64 * 1e-9;
+    if !(at_s.is_finite() && (0.0..=end_s).contains(&at_s)) {
+        return Err(RunError::sim(
+            scenario,
+            format!("--at {at_s} s is outside the scenario's [0, {end_s}] s"),
+        ));
+    }
+    Ok(world)
 }
 
 /// The cameras' images side by side (a white 8-pixel gap between them), for a quick look.

@@ -9,6 +9,7 @@
 //! - [`report`] — evaluation, `report.json`, TUM files, the human summary;
 //! - [`plot`] — `trajectory.png`;
 //! - [`export`] — a scenario's measurements as an EuRoC ASL folder and `features.csv`;
+//! - [`images`], [`tracks_image`] — `vio render`: images, depth, and the front end's tracks;
 //! - [`selfcheck`] — a quick end-to-end check of the estimator's mathematics.
 
 pub mod catalog;
@@ -23,3 +24,4 @@ pub mod run;
 pub mod selfcheck;
 pub mod spec;
 pub mod tracker_spec;
+pub mod tracks_image;

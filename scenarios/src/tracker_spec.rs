@@ -55,6 +55,10 @@ pub struct TrackerSpec {
     pub normalize_patches: Option<bool>,
     /// Histogram equalization.
     pub equalize: Option<bool>,
+    /// Refinement against each track's first patch.
+    pub anchor_refinement: Option<bool>,
+    /// Largest refinement step (px).
+    pub anchor_max_shift_px: Option<f64>,
     /// Flow-back check.
     pub flow_back: Option<bool>,
     /// Flow-back tolerance (px).
@@ -94,6 +98,8 @@ impl TrackerSpec {
             min_eigen: self.min_eigen.unwrap_or(d.min_eigen),
             normalize_patches: self.normalize_patches.unwrap_or(d.normalize_patches),
             equalize: self.equalize.unwrap_or(d.equalize),
+            anchor_refinement: self.anchor_refinement.unwrap_or(d.anchor_refinement),
+            anchor_max_shift_px: self.anchor_max_shift_px.unwrap_or(d.anchor_max_shift_px),
             flow_back: self.flow_back.unwrap_or(d.flow_back),
             flow_back_px: self.flow_back_px.unwrap_or(d.flow_back_px),
             stereo: self.stereo.unwrap_or(d.stereo),

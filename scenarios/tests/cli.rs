@@ -453,3 +453,48 @@ fn render_writes_a_stereo_pair_with_depth_and_rejects_a_time_outside_the_run() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("--at 1000 s is outside"), "{stderr}");
 }
+
+#[test]
+fn render_tracks_draws_the_front_end_tracks_over_the_stereo_pair() {
+    let dir = std::env::temp_dir().join(format!("vio-cli-tracks-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = vio(&[
+        "render",
+        "room_figure8_rendered_stereo_imu",
+        "--at",
+        "3",
+        "--out",
+        dir.to_str().unwrap(),
+        "--tracks",
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // 2 s of 20 Hz captures before t = 3 s, both ends included.
+    assert!(
+        stdout.contains("tracked 41 captures from t = 1.00 s to 3.00 s"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("tracks.png"), "{stdout}");
+    let tracks: usize = stdout
+        .split(" tracks, ")
+        .next()
+        .and_then(|s| s.rsplit(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no track count in {stdout}"));
+    assert!(tracks >= 50, "{tracks} tracks");
+    let img = image::open(dir.join("tracks.png")).unwrap().to_rgb8();
+    assert_eq!((img.width(), img.height()), (2 * 752, 480));
+    let first = *img.get_pixel(0, 0);
+    assert!(img.pixels().any(|p| *p != first), "a uniform image");
+    // Tracks are drawn in colour over grey images.
+    let coloured = img
+        .pixels()
+        .filter(|p| p.0[0].abs_diff(p.0[1]) > 60 || p.0[1].abs_diff(p.0[2]) > 60)
+        .count();
+    assert!(coloured > 1000, "{coloured} coloured pixels");
+    let _ = std::fs::remove_dir_all(dir);
+}

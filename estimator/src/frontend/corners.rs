@@ -44,53 +44,80 @@ impl Default for CornerParams {
 pub struct CornerScratch {
     response: Vec<f32>,
     candidates: Vec<(f32, u32)>,
+    ring: Vec<[i32; 3]>,
+    vsum: Vec<[i32; 3]>,
 }
 
 /// The Shi–Tomasi response (minimum eigenvalue per pixel of the 3×3 block, Sobel gradients
-/// scaled by 1/8) of every pixel; 0 on the one-pixel border.
+/// scaled by 1/8) of every pixel; 0 on the two-pixel border.
 pub fn shi_tomasi_response(img: &ImageView<'_>, out: &mut Vec<f32>) {
     let (w, h) = (img.width() as usize, img.height() as usize);
     out.clear();
     out.resize(w * h, 0.0);
+    let (mut ring, mut vsum) = (Vec::new(), Vec::new());
+    response_band(img, [0, w, 0, h], out, &mut ring, &mut vsum);
+}
+
+/// Block side (px) of the detection mask: blocks wholly inside an existing feature's
+/// minimum-distance disk are not evaluated.
+const MASK_BLOCK: usize = 8;
+
+/// Writes the response of pixels `[x0, x1) × [y0, y1)` (clipped to the two-pixel border) into
+/// `out` (`w × h`). Structure-tensor sums are exact integers, summed separably.
+fn response_band(
+    img: &ImageView<'_>,
+    [x0, x1, y0, y1]: [usize; 4],
+    out: &mut [f32],
+    ring: &mut Vec<[i32; 3]>,
+    vsum: &mut Vec<[i32; 3]>,
+) {
+    let (w, h) = (img.width() as usize, img.height() as usize);
     if w < 5 || h < 5 {
         return;
     }
-    // Per row: gradient products (Sobel), then 3-row sums kept in a ring.
-    let mut prods = vec![[0i32; 3]; 3 * w];
-    let prod_row = |y: usize, dst: &mut [[i32; 3]]| {
+    let (x0, x1) = (x0.max(2), x1.min(w - 2));
+    let (y0, y1) = (y0.max(2), y1.min(h - 2));
+    if x0 >= x1 || y0 >= y1 {
+        return;
+    }
+    // Products on columns [c0, c1) = [x0 − 1, x1 + 1), for rows y − 1, y, y + 1 (a ring).
+    let (c0, c1) = (x0 - 1, x1 + 1);
+    let n = c1 - c0;
+    ring.clear();
+    ring.resize(3 * n, [0; 3]);
+    let products = |y: usize, dst: &mut [[i32; 3]]| {
         let (r0, r1, r2) = (img.row(y - 1), img.row(y), img.row(y + 1));
-        dst[0] = [0; 3];
-        dst[w - 1] = [0; 3];
-        for x in 1..w - 1 {
+        for (i, d) in dst.iter_mut().enumerate() {
+            let x = c0 + i;
             let gx = (r0[x + 1] as i32 - r0[x - 1] as i32)
                 + 2 * (r1[x + 1] as i32 - r1[x - 1] as i32)
                 + (r2[x + 1] as i32 - r2[x - 1] as i32);
             let gy = (r2[x - 1] as i32 + 2 * r2[x] as i32 + r2[x + 1] as i32)
                 - (r0[x - 1] as i32 + 2 * r0[x] as i32 + r0[x + 1] as i32);
-            dst[x] = [gx * gx, gx * gy, gy * gy];
+            *d = [gx * gx, gx * gy, gy * gy];
         }
     };
-    // Rows 1 and 2 first; each step adds row y+1 and emits the response of row y.
-    prod_row(1, &mut prods[0..w]);
-    prod_row(2, &mut prods[w..2 * w]);
+    products(y0 - 1, &mut ring[0..n]);
+    products(y0, &mut ring[n..2 * n]);
+    vsum.clear();
+    vsum.resize(n, [0; 3]);
     let scale = 1.0 / (64.0 * 9.0);
-    for y in 2..h - 2 {
-        let slot = (y + 1) % 3;
-        prod_row(y + 1, &mut prods[slot * w..(slot + 1) * w]);
-        let (a, b, c) = (
-            &prods[((y - 1) % 3) * w..((y - 1) % 3 + 1) * w],
-            &prods[(y % 3) * w..(y % 3 + 1) * w],
-            &prods[((y + 1) % 3) * w..((y + 1) % 3 + 1) * w],
-        );
-        let row = &mut out[y * w..(y + 1) * w];
-        for x in 2..w - 2 {
-            let mut s = [0i32; 3];
-            for dx in 0..3 {
-                for k in 0..3 {
-                    s[k] += a[x + dx - 1][k] + b[x + dx - 1][k] + c[x + dx - 1][k];
-                }
+    for y in y0..y1 {
+        let slot = (y + 1 - (y0 - 1)) % 3;
+        products(y + 1, &mut ring[slot * n..(slot + 1) * n]);
+        let (a, rest) = ring.split_at(n);
+        let (b, c) = rest.split_at(n);
+        for i in 0..n {
+            for k in 0..3 {
+                vsum[i][k] = a[i][k] + b[i][k] + c[i][k];
             }
-            let (sxx, sxy, syy) = (s[0] as f32, s[1] as f32, s[2] as f32);
+        }
+        let row = &mut out[y * w..(y + 1) * w];
+        for x in x0..x1 {
+            let i = x - c0;
+            let sxx = (vsum[i - 1][0] + vsum[i][0] + vsum[i + 1][0]) as f32;
+            let sxy = (vsum[i - 1][1] + vsum[i][1] + vsum[i + 1][1]) as f32;
+            let syy = (vsum[i - 1][2] + vsum[i][2] + vsum[i + 1][2]) as f32;
             let d = sxx - syy;
             row[x] = (0.5 * ((sxx + syy) - (d * d + 4.0 * sxy * sxy).sqrt()) * scale).max(0.0);
         }
@@ -98,7 +125,9 @@ pub fn shi_tomasi_response(img: &ImageView<'_>, out: &mut Vec<f32>) {
 }
 
 /// Detects up to `count` new corners in `img`, at least `min_distance_px` from each other and
-/// from every point of `existing`; strongest first.
+/// from every point of `existing`; strongest first. Only blocks not wholly claimed by an
+/// existing feature are evaluated, and the quality level is relative to the strongest response
+/// among them (as OpenCV's `goodFeaturesToTrack` with a mask).
 pub fn detect(
     img: &ImageView<'_>,
     existing: &[Vector2<f64>],
@@ -111,20 +140,69 @@ pub fn detect(
         return found;
     }
     let (w, h) = (img.width() as usize, img.height() as usize);
-    shi_tomasi_response(img, &mut scratch.response);
+    // Mask blocks wholly inside an existing feature's disk.
+    let (bw, bh) = (w.div_ceil(MASK_BLOCK), h.div_ceil(MASK_BLOCK));
+    let mut masked = vec![false; bw * bh];
+    let r = params.min_distance_px;
+    for p in existing {
+        let bx0 = ((p.x - r).max(0.0) / MASK_BLOCK as f64) as usize;
+        let by0 = ((p.y - r).max(0.0) / MASK_BLOCK as f64) as usize;
+        let bx1 = (((p.x + r).max(0.0) / MASK_BLOCK as f64) as usize).min(bw - 1);
+        let by1 = (((p.y + r).max(0.0) / MASK_BLOCK as f64) as usize).min(bh - 1);
+        for by in by0..=by1 {
+            for bx in bx0..=bx1 {
+                let (xa, ya) = (
+                    (bx * MASK_BLOCK) as f64 - 1.0,
+                    (by * MASK_BLOCK) as f64 - 1.0,
+                );
+                let (xb, yb) = (xa + MASK_BLOCK as f64 + 1.0, ya + MASK_BLOCK as f64 + 1.0);
+                let far_x = (p.x - xa).abs().max((p.x - xb).abs());
+                let far_y = (p.y - ya).abs().max((p.y - yb).abs());
+                if far_x * far_x + far_y * far_y < r * r {
+                    masked[by * bw + bx] = true;
+                }
+            }
+        }
+    }
+    scratch.response.clear();
+    scratch.response.resize(w * h, 0.0);
+    let mut runs = Vec::new();
+    for by in 0..bh {
+        let mut bx = 0;
+        while bx < bw {
+            if masked[by * bw + bx] {
+                bx += 1;
+                continue;
+            }
+            let start = bx;
+            while bx < bw && !masked[by * bw + bx] {
+                bx += 1;
+            }
+            let (x0, x1) = (start * MASK_BLOCK, (bx * MASK_BLOCK).min(w));
+            let (y0, y1) = (by * MASK_BLOCK, ((by + 1) * MASK_BLOCK).min(h));
+            response_band(
+                img,
+                [x0, x1, y0, y1],
+                &mut scratch.response,
+                &mut scratch.ring,
+                &mut scratch.vsum,
+            );
+            runs.push((x0, x1, y0, y1));
+        }
+    }
     let resp = &scratch.response;
     let max = resp.iter().copied().fold(0f32, f32::max);
     let threshold = (params.quality_level as f32 * max).max(params.min_response as f32);
     let b = (params.border_px as usize).max(2);
     scratch.candidates.clear();
-    if w > 2 * b && h > 2 * b {
-        for y in b..h - b {
+    for &(x0, x1, y0, y1) in &runs {
+        for y in y0.max(b)..y1.min(h.saturating_sub(b)) {
             let (up, row, down) = (
                 &resp[(y - 1) * w..y * w],
                 &resp[y * w..(y + 1) * w],
                 &resp[(y + 1) * w..(y + 2) * w],
             );
-            for x in b..w - b {
+            for x in x0.max(b)..x1.min(w.saturating_sub(b)) {
                 let v = row[x];
                 if v < threshold || v <= 0.0 {
                     continue;

@@ -217,6 +217,19 @@ impl OwnedImage {
 #[derive(Clone, Debug, Default)]
 pub struct Pyramid {
     levels: Vec<OwnedImage>,
+    /// The same levels as `f32` grey levels (what KLT samples: no conversions in its loops).
+    planes: Vec<Vec<f32>>,
+}
+
+/// One pyramid level as `f32` grey levels.
+#[derive(Clone, Copy, Debug)]
+pub struct Plane<'a> {
+    /// Width (px).
+    pub width: u32,
+    /// Height (px).
+    pub height: u32,
+    /// `width × height` values, row-major.
+    pub data: &'a [f32],
 }
 
 impl Pyramid {
@@ -239,6 +252,21 @@ impl Pyramid {
             }
             let next = OwnedImage::half_of(&last.view());
             self.levels.push(next);
+        }
+        self.planes.resize_with(self.levels.len(), Vec::new);
+        for (plane, level) in self.planes.iter_mut().zip(&self.levels) {
+            plane.clear();
+            plane.extend(level.data.iter().map(|&v| v as f32));
+        }
+    }
+
+    /// Level `l` as `f32` values.
+    pub fn plane(&self, l: usize) -> Plane<'_> {
+        let level = &self.levels[l];
+        Plane {
+            width: level.width,
+            height: level.height,
+            data: &self.planes[l],
         }
     }
 

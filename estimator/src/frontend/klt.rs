@@ -16,7 +16,7 @@
 
 use nalgebra::Vector2;
 
-use super::image::{OwnedImage, Pyramid};
+use super::image::{Plane, Pyramid};
 
 /// Lucas–Kanade settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -78,6 +78,23 @@ impl Template {
     /// Samples the template around level-0 point `uv` of `pyramid` at levels
     /// `0..min(levels, pyramid.len())`.
     pub fn new(pyramid: &Pyramid, uv: Vector2<f64>, levels: usize, params: &KltParams) -> Self {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2 (checked just above). Same results either way
+            // (see `window_sums`).
+            return unsafe { Self::new_avx2(pyramid, uv, levels, params) };
+        }
+        Self::new_lanes(pyramid, uv, levels, params)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn new_avx2(pyramid: &Pyramid, uv: Vector2<f64>, levels: usize, params: &KltParams) -> Self {
+        Self::new_lanes(pyramid, uv, levels, params)
+    }
+
+    #[inline(always)]
+    fn new_lanes(pyramid: &Pyramid, uv: Vector2<f64>, levels: usize, params: &KltParams) -> Self {
         let h = params.half_window;
         let side = 2 * h + 1;
         let n = side * side;
@@ -88,9 +105,9 @@ impl Template {
         let mut s = vec![0f32; ext * ext];
         for l in 0..levels {
             let p = to_level(uv, l);
-            let img = pyramid.level(l);
+            let img = pyramid.plane(l);
             sample_grid(
-                img,
+                &img,
                 p.x - (h + 1) as f64,
                 p.y - (h + 1) as f64,
                 ext,
@@ -101,12 +118,18 @@ impl Template {
             let (t, g) = block.split_at_mut(n);
             let (gx, gy) = g.split_at_mut(n);
             for i in 0..side {
+                let up = &s[i * ext + 1..i * ext + 1 + side];
+                let mid = &s[(i + 1) * ext..(i + 1) * ext + side + 2];
+                let down = &s[(i + 2) * ext + 1..(i + 2) * ext + 1 + side];
+                let (tr, gxr, gyr) = (
+                    &mut t[i * side..(i + 1) * side],
+                    &mut gx[i * side..(i + 1) * side],
+                    &mut gy[i * side..(i + 1) * side],
+                );
                 for j in 0..side {
-                    let k = i * side + j;
-                    let (si, sj) = (i + 1, j + 1);
-                    t[k] = s[si * ext + sj];
-                    gx[k] = 0.5 * (s[si * ext + sj + 1] - s[si * ext + sj - 1]);
-                    gy[k] = 0.5 * (s[(si + 1) * ext + sj] - s[(si - 1) * ext + sj]);
+                    tr[j] = mid[j + 1];
+                    gxr[j] = 0.5 * (mid[j + 2] - mid[j]);
+                    gyr[j] = 0.5 * (down[j] - up[j]);
                 }
             }
             let sum_t = lane_sum(t, |_| 1.0);
@@ -146,6 +169,16 @@ impl Template {
         }
     }
 
+    /// A template of the finest level only (for refinement against a fixed reference).
+    pub fn finest(&self) -> Template {
+        let n = (2 * self.half_window + 1).pow(2);
+        Template {
+            half_window: self.half_window,
+            data: self.data[..3 * n].to_vec(),
+            info: self.info[..1].to_vec(),
+        }
+    }
+
     /// Levels held.
     pub fn levels(&self) -> usize {
         self.info.len()
@@ -182,6 +215,9 @@ pub enum TrackFailure {
 
 /// Tracks the template's point into `target`, starting from the level-0 guess `guess`, from
 /// level `min(top_level, levels − 1)` down to 0. Returns the level-0 position.
+///
+/// Levels above 0 stop at 5× `epsilon_px` (in their own pixels): the next finer level refines
+/// the position anyway.
 pub fn track(
     template: &Template,
     target: &Pyramid,
@@ -197,32 +233,26 @@ pub fn track(
     let n = side * side;
     let top = top_level.min(template.levels() - 1).min(target.len() - 1);
     let mut q = to_level(guess, top);
-    let mut buf = [0f32; 64 * 64];
-    let mut heap;
-    let sample: &mut [f32] = if n <= buf.len() {
-        &mut buf[..n]
-    } else {
-        heap = vec![0f32; n];
-        &mut heap
-    };
     for l in (0..=top).rev() {
         let info = template.info[l];
-        let img = target.level(l);
+        let img = target.plane(l);
         if info.valid {
             let block = &template.data[3 * n * l..3 * n * (l + 1)];
             let (gx, gy) = (&block[n..2 * n], &block[2 * n..]);
-            let eps2 = (params.epsilon_px * params.epsilon_px) as f32;
+            let eps = if l == 0 {
+                params.epsilon_px
+            } else {
+                5.0 * params.epsilon_px
+            };
+            let eps2 = (eps * eps) as f32;
             for _ in 0..params.max_iterations {
                 let (w, hgt) = (img.width as f64, img.height as f64);
                 if !(q.x > -1.0 && q.y > -1.0 && q.x < w && q.y < hgt) {
                     return Err(TrackFailure::OutOfImage);
                 }
-                sample_grid(img, q.x - h as f64, q.y - h as f64, side, side, sample);
-                let sum_i = lane_sum(sample, |_| 1.0);
-                let sgx = lane_dot(gx, sample);
-                let sgy = lane_dot(gy, sample);
+                let [sum_i, sum_ii, sgx, sgy] =
+                    window_sums(&img, q.x - h as f64, q.y - h as f64, side, gx, gy);
                 let (bx, by) = if params.normalize {
-                    let sum_ii = lane_dot(sample, sample);
                     let mean_i = sum_i / n as f32;
                     let var_i = sum_ii / n as f32 - mean_i * mean_i;
                     if var_i <= 1e-6 || info.sigma <= 1e-6 {
@@ -270,8 +300,136 @@ pub fn track(
     Ok(q)
 }
 
+/// Normalized cross-correlation of the template's finest patch with the window of `target`'s
+/// level 0 centred at `uv` (1 = identical up to gain and offset).
+pub fn ncc(template: &Template, target: &Pyramid, uv: Vector2<f64>) -> f32 {
+    let h = template.half_window;
+    let side = 2 * h + 1;
+    let n = side * side;
+    let info = template.info[0];
+    let t = &template.data[..n];
+    let mut s = vec![0f32; n];
+    sample_grid(
+        &target.plane(0),
+        uv.x - h as f64,
+        uv.y - h as f64,
+        side,
+        side,
+        &mut s,
+    );
+    let mean = lane_sum(&s, |_| 1.0) / n as f32;
+    let var = lane_dot(&s, &s) / n as f32 - mean * mean;
+    if var <= 1e-6 || info.sigma <= 1e-6 {
+        return 0.0;
+    }
+    // Σ (T − T̄)(I − Ī) = Σ (T − T̄) I, since Σ (T − T̄) = 0.
+    lane_dot(t, &s) / (n as f32 * info.sigma * var.sqrt())
+}
+
+/// `[Σ I, Σ I², Σ gx·I, Σ gy·I]` over the `side × side` window with top-left sample at `(x, y)`.
+///
+/// On x86-64 with AVX2 the same source is compiled for 256-bit registers. Both builds perform
+/// the same IEEE operations in the same order per lane (no fused multiply–adds), so the results
+/// are bit-identical whichever runs.
+fn window_sums(img: &Plane<'_>, x: f64, y: f64, side: usize, gx: &[f32], gy: &[f32]) -> [f32; 4] {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2 (checked just above).
+        return unsafe { window_sums_avx2(img, x, y, side, gx, gy) };
+    }
+    window_sums_lanes(img, x, y, side, gx, gy)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn window_sums_avx2(
+    img: &Plane<'_>,
+    x: f64,
+    y: f64,
+    side: usize,
+    gx: &[f32],
+    gy: &[f32],
+) -> [f32; 4] {
+    window_sums_lanes(img, x, y, side, gx, gy)
+}
+
+/// The portable body of [`window_sums`]: bilinear, one pass, eight lanes per row; replicated
+/// border near the edges.
+#[inline(always)]
+fn window_sums_lanes(
+    img: &Plane<'_>,
+    x: f64,
+    y: f64,
+    side: usize,
+    gx: &[f32],
+    gy: &[f32],
+) -> [f32; 4] {
+    let (fx0, fy0) = (x.floor(), y.floor());
+    let (ix, iy) = (fx0 as i64, fy0 as i64);
+    let (w, h) = (img.width as i64, img.height as i64);
+    if !(ix >= 0 && iy >= 0 && ix + (side as i64) < w && iy + (side as i64) < h) {
+        let mut s = vec![0f32; side * side];
+        sample_grid(img, x, y, side, side, &mut s);
+        return [
+            lane_sum(&s, |_| 1.0),
+            lane_dot(&s, &s),
+            lane_dot(gx, &s),
+            lane_dot(gy, &s),
+        ];
+    }
+    let (fx, fy) = ((x - fx0) as f32, (y - fy0) as f32);
+    let (w00, w01, w10, w11) = (
+        (1.0 - fx) * (1.0 - fy),
+        fx * (1.0 - fy),
+        (1.0 - fx) * fy,
+        fx * fy,
+    );
+    let (ix, iy, wu) = (ix as usize, iy as usize, w as usize);
+    let data = &img.data;
+    let mut acc = [[0f32; LANES]; 4];
+    let mut tail = [0f32; 4];
+    let full = side / LANES * LANES;
+    for r in 0..side {
+        let a = &data[(iy + r) * wu + ix..(iy + r) * wu + ix + side + 1];
+        let b = &data[(iy + r + 1) * wu + ix..(iy + r + 1) * wu + ix + side + 1];
+        let (gxr, gyr) = (&gx[r * side..(r + 1) * side], &gy[r * side..(r + 1) * side]);
+        let (a0, a1, b0, b1) = (&a[..full], &a[1..full + 1], &b[..full], &b[1..full + 1]);
+        let rows = a0
+            .chunks_exact(LANES)
+            .zip(a1.chunks_exact(LANES))
+            .zip(b0.chunks_exact(LANES).zip(b1.chunks_exact(LANES)))
+            .zip(
+                gxr[..full]
+                    .chunks_exact(LANES)
+                    .zip(gyr[..full].chunks_exact(LANES)),
+            );
+        for (((a0, a1), (b0, b1)), (g0, g1)) in rows {
+            for k in 0..LANES {
+                let v = w00 * a0[k] + w01 * a1[k] + w10 * b0[k] + w11 * b1[k];
+                acc[0][k] += v;
+                acc[1][k] += v * v;
+                acc[2][k] += g0[k] * v;
+                acc[3][k] += g1[k] * v;
+            }
+        }
+        for j in full..side {
+            let v = w00 * a[j] + w01 * a[j + 1] + w10 * b[j] + w11 * b[j + 1];
+            tail[0] += v;
+            tail[1] += v * v;
+            tail[2] += gxr[j] * v;
+            tail[3] += gyr[j] * v;
+        }
+    }
+    [
+        reduce(acc[0]) + tail[0],
+        reduce(acc[1]) + tail[1],
+        reduce(acc[2]) + tail[2],
+        reduce(acc[3]) + tail[3],
+    ]
+}
+
 /// Σ f(i)·x_i over eight fixed lanes (f is a per-element weight, usually 1).
-#[inline]
+#[inline(always)]
 fn lane_sum(x: &[f32], f: impl Fn(usize) -> f32) -> f32 {
     let mut acc = [0f32; LANES];
     let chunks = x.len() / LANES;
@@ -288,7 +446,7 @@ fn lane_sum(x: &[f32], f: impl Fn(usize) -> f32) -> f32 {
 }
 
 /// Σ x_i·y_i over eight fixed lanes.
-#[inline]
+#[inline(always)]
 fn lane_dot(x: &[f32], y: &[f32]) -> f32 {
     debug_assert_eq!(x.len(), y.len());
     let mut acc = [0f32; LANES];
@@ -306,15 +464,16 @@ fn lane_dot(x: &[f32], y: &[f32]) -> f32 {
     reduce(acc) + tail
 }
 
-#[inline]
+#[inline(always)]
 fn reduce(a: [f32; LANES]) -> f32 {
     ((a[0] + a[4]) + (a[1] + a[5])) + ((a[2] + a[6]) + (a[3] + a[7]))
 }
 
 /// Samples a `cols × rows` grid of unit spacing whose top-left sample is at `(x, y)` (level
 /// pixels) by bilinear interpolation; outside the image the border is replicated.
+#[inline(always)]
 pub(crate) fn sample_grid(
-    img: &OwnedImage,
+    img: &Plane<'_>,
     x: f64,
     y: f64,
     cols: usize,
@@ -333,21 +492,17 @@ pub(crate) fn sample_grid(
     let (ix, iy) = (ix as i64, iy as i64);
     let data = &img.data;
     let wu = w as usize;
-    if ix >= 0 && iy >= 0 && ix + cols as i64 + 1 <= w && iy + rows as i64 + 1 <= h {
+    if ix >= 0 && iy >= 0 && ix + (cols as i64) < w && iy + (rows as i64) < h {
         let (ix, iy) = (ix as usize, iy as usize);
         for (r, o) in out.chunks_exact_mut(cols).take(rows).enumerate() {
             let a = &data[(iy + r) * wu + ix..(iy + r) * wu + ix + cols + 1];
             let b = &data[(iy + r + 1) * wu + ix..(iy + r + 1) * wu + ix + cols + 1];
             for j in 0..cols {
-                o[j] = w00 * a[j] as f32
-                    + w01 * a[j + 1] as f32
-                    + w10 * b[j] as f32
-                    + w11 * b[j + 1] as f32;
+                o[j] = w00 * a[j] + w01 * a[j + 1] + w10 * b[j] + w11 * b[j + 1];
             }
         }
     } else {
-        let px =
-            |xx: i64, yy: i64| data[(yy.clamp(0, h - 1) * w + xx.clamp(0, w - 1)) as usize] as f32;
+        let px = |xx: i64, yy: i64| data[(yy.clamp(0, h - 1) * w + xx.clamp(0, w - 1)) as usize];
         for r in 0..rows {
             let yy = iy + r as i64;
             for j in 0..cols {

@@ -5,6 +5,9 @@
 //! matching with epipolar checks, RANSAC on normalized coordinates ([`ransac`]). Images are
 //! borrowed ([`ImageView`]): the caller keeps its buffers.
 
+pub mod affine;
+mod checks;
+mod config;
 pub mod corners;
 pub mod image;
 pub mod klt;
@@ -12,9 +15,9 @@ pub mod ransac;
 mod tracker;
 mod types;
 
+pub use config::{TrackerConfig, TrackerError};
 pub use image::{ImageError, ImageView, OwnedImage, Pyramid};
 pub use tracker::{
     CameraImageView, FeatureTracker, StageTimes, TrackReport, TrackedFeature, TrackerCamera,
-    TrackerConfig, TrackerError,
 };
 pub use types::{CameraFeatures, FeatureFrame, FeatureObservation};

@@ -20,199 +20,16 @@ use std::time::Instant;
 
 use nalgebra::{UnitQuaternion, Vector2, Vector3};
 
+use super::affine::AffineAnchor;
+use super::checks::{StereoGeometry, build_pyramid, median2, predict};
+use super::config::{TrackerConfig, TrackerError};
 use super::corners::{CornerParams, CornerScratch, Occupancy, detect};
-use super::image::{ImageView, OwnedImage, Pyramid};
-use super::klt::{KltParams, Template, track};
+use super::image::{ImageView, Pyramid};
+use super::klt::{Template, track};
 use super::ransac::{RansacParams, ransac_fundamental};
 use super::types::{CameraFeatures, FeatureFrame, FeatureObservation};
 use crate::camera::CameraModel;
 use crate::geometry::Pose;
-
-/// Tracker settings (defaults after VINS-Fusion's EuRoC configuration).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TrackerConfig {
-    /// Features kept per frame on the primary camera.
-    pub max_features: usize,
-    /// Minimum distance between features (px).
-    pub min_distance_px: f64,
-    /// Shi–Tomasi quality level (fraction of the strongest response).
-    pub quality_level: f64,
-    /// Shi–Tomasi absolute floor (see [`CornerParams::min_response`]).
-    pub min_corner_response: f64,
-    /// Grid `[columns, rows]` for bucketing new corners (`[1, 1]`: none).
-    pub grid: [usize; 2],
-    /// New corners keep this far from the image border (px); tracks whose window leaves the
-    /// image are lost anyway, so at least half the window plus one.
-    pub border_px: u32,
-    /// KLT window side (odd, px): 21 → 21×21.
-    pub window_px: usize,
-    /// Coarsest pyramid level (level 0 is full size; 3 → four levels, OpenCV's `maxLevel`).
-    pub max_level: usize,
-    /// KLT iteration cap per level.
-    pub max_iterations: usize,
-    /// KLT convergence threshold (px).
-    pub epsilon_px: f64,
-    /// KLT minimum structure (see [`KltParams::min_eigen`]).
-    pub min_eigen: f64,
-    /// Match patches up to gain and offset (robust to exposure changes).
-    pub normalize_patches: bool,
-    /// Equalize each image's histogram before tracking.
-    pub equalize: bool,
-    /// Track back and require to land within `flow_back_px` of the start.
-    pub flow_back: bool,
-    /// Flow-back tolerance (px).
-    pub flow_back_px: f64,
-    /// Match features into the other cameras.
-    pub stereo: bool,
-    /// Largest distance of a stereo match from its epipolar line (px).
-    pub epipolar_px: f64,
-    /// Reject temporal outliers by RANSAC.
-    pub ransac: bool,
-    /// RANSAC inlier threshold (px, Sampson distance).
-    pub ransac_threshold_px: f64,
-    /// RANSAC confidence.
-    pub ransac_confidence: f64,
-    /// RANSAC hypothesis cap.
-    pub ransac_max_iterations: usize,
-    /// Start temporal KLT where the gyro rotation predicts each feature.
-    pub gyro_prediction: bool,
-    /// Seed of the per-frame RANSAC streams (mixed with the frame stamp).
-    pub seed: u64,
-}
-
-impl Default for TrackerConfig {
-    fn default() -> Self {
-        Self {
-            max_features: 150,
-            min_distance_px: 30.0,
-            quality_level: 0.01,
-            min_corner_response: 4.0,
-            grid: [1, 1],
-            border_px: 11,
-            window_px: 21,
-            max_level: 3,
-            max_iterations: 30,
-            epsilon_px: 0.01,
-            min_eigen: 1.0,
-            normalize_patches: true,
-            equalize: false,
-            flow_back: true,
-            flow_back_px: 0.5,
-            stereo: true,
-            epipolar_px: 1.5,
-            ransac: true,
-            ransac_threshold_px: 1.0,
-            ransac_confidence: 0.99,
-            ransac_max_iterations: 200,
-            gyro_prediction: true,
-            seed: 0,
-        }
-    }
-}
-
-impl TrackerConfig {
-    /// Checks every setting; the message names the field.
-    pub fn validate(&self) -> Result<(), TrackerError> {
-        let bad = |field: &'static str, why: &str| {
-            Err(TrackerError::Config {
-                field,
-                message: why.to_string(),
-            })
-        };
-        let pos = |v: f64| v.is_finite() && v > 0.0;
-        if self.max_features == 0 || self.max_features > 10_000 {
-            return bad("max_features", "must be in 1..=10000");
-        }
-        if !(self.min_distance_px.is_finite() && (0.0..=1000.0).contains(&self.min_distance_px)) {
-            return bad("min_distance_px", "must be finite, in 0..=1000 px");
-        }
-        if !(self.quality_level.is_finite() && (0.0..1.0).contains(&self.quality_level)) {
-            return bad("quality_level", "must be in [0, 1)");
-        }
-        if !(self.min_corner_response.is_finite() && self.min_corner_response >= 0.0) {
-            return bad("min_corner_response", "must be finite and ≥ 0");
-        }
-        if self.grid[0] == 0 || self.grid[1] == 0 || self.grid[0] * self.grid[1] > 10_000 {
-            return bad("grid", "needs ≥ 1 column and row, at most 10000 cells");
-        }
-        if self.window_px < 5 || self.window_px > 63 || self.window_px % 2 == 0 {
-            return bad("window_px", "must be odd, in 5..=63");
-        }
-        if self.max_level > 6 {
-            return bad("max_level", "must be in 0..=6");
-        }
-        if self.max_iterations == 0 || self.max_iterations > 1000 {
-            return bad("max_iterations", "must be in 1..=1000");
-        }
-        if !pos(self.epsilon_px) {
-            return bad("epsilon_px", "must be finite and > 0");
-        }
-        if !(self.min_eigen.is_finite() && self.min_eigen >= 0.0) {
-            return bad("min_eigen", "must be finite and ≥ 0");
-        }
-        if !pos(self.flow_back_px) {
-            return bad("flow_back_px", "must be finite and > 0");
-        }
-        if !pos(self.epipolar_px) {
-            return bad("epipolar_px", "must be finite and > 0");
-        }
-        if !pos(self.ransac_threshold_px) {
-            return bad("ransac_threshold_px", "must be finite and > 0");
-        }
-        if !(self.ransac_confidence > 0.0 && self.ransac_confidence < 1.0) {
-            return bad("ransac_confidence", "must be in (0, 1)");
-        }
-        if self.ransac_max_iterations == 0 || self.ransac_max_iterations > 100_000 {
-            return bad("ransac_max_iterations", "must be in 1..=100000");
-        }
-        Ok(())
-    }
-
-    fn klt(&self) -> KltParams {
-        KltParams {
-            half_window: self.window_px / 2,
-            max_iterations: self.max_iterations,
-            epsilon_px: self.epsilon_px,
-            min_eigen: self.min_eigen,
-            normalize: self.normalize_patches,
-        }
-    }
-}
-
-/// Errors of the tracker.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum TrackerError {
-    /// A setting is out of range.
-    #[error("tracker setting `{field}`: {message}")]
-    Config {
-        /// The field.
-        field: &'static str,
-        /// Why.
-        message: String,
-    },
-    /// An image came for a camera the tracker does not know.
-    #[error("image for camera {cam_id}, but the rig has {cameras} camera(s)")]
-    UnknownCamera {
-        /// The camera index.
-        cam_id: usize,
-        /// Cameras configured.
-        cameras: usize,
-    },
-    /// An image's size differs from its camera model's.
-    #[error("camera {cam_id}: image {got_w}×{got_h}, the camera model is {want_w}×{want_h}")]
-    ImageSize {
-        /// The camera index.
-        cam_id: usize,
-        /// Image width.
-        got_w: u32,
-        /// Image height.
-        got_h: u32,
-        /// Model width.
-        want_w: u32,
-        /// Model height.
-        want_h: u32,
-    },
-}
 
 /// One camera of the rig as the tracker sees it.
 #[allow(non_snake_case)]
@@ -276,6 +93,8 @@ pub struct TrackReport {
     pub klt_lost: usize,
     /// Rejected by the temporal flow-back check.
     pub flow_back_rejected: usize,
+    /// Tracks re-anchored (their anchor patch no longer matched within the tolerance).
+    pub reanchored: usize,
     /// Rejected by RANSAC: `(id, position)` where KLT had put them.
     pub ransac_rejected: Vec<(u64, Vector2<f64>)>,
     /// Dropped because an older track claimed their neighbourhood.
@@ -300,13 +119,15 @@ struct Track {
     uv: Vector2<f64>,
     age: u32,
     template: Template,
+    /// The patch of the first observation (or of the last re-anchoring) and its warp.
+    anchor: Option<AffineAnchor>,
     matches: Vec<(usize, Vector2<f64>)>,
     /// Last frame's stereo disparities `(camera, match − uv)`: this frame's starting guesses.
     hints: Vec<(usize, Vector2<f64>)>,
 }
 
 /// The image front end: KLT tracks on the primary camera, stereo matches into the others.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct FeatureTracker {
     config: TrackerConfig,
     cameras: Vec<TrackerCamera>,
@@ -460,13 +281,26 @@ impl FeatureTracker {
             let guess = rotation
                 .and_then(|r| predict(model.as_ref(), &r, &t.uv))
                 .unwrap_or(t.uv);
-            let Ok(q) = track(&t.template, &self.cur, guess, cfg.max_level, &klt) else {
+            let Ok(mut q) = track(&t.template, &self.cur, guess, cfg.max_level, &klt) else {
                 report.klt_lost += 1;
                 continue;
             };
+            let mut anchor = t.anchor;
+            if cfg.anchor_refinement {
+                let refined = anchor
+                    .as_mut()
+                    .and_then(|a| a.refine(&self.cur, q, cfg.max_iterations, cfg.epsilon_px));
+                match refined {
+                    Some(r) if (r - q).norm() <= cfg.anchor_max_shift_px => q = r,
+                    _ => {
+                        report.reanchored += 1;
+                        anchor = AffineAnchor::new(&self.cur, q, klt.half_window);
+                    }
+                }
+            }
             let template = Template::new(&self.cur, q, levels, &klt);
             if cfg.flow_back {
-                let back = track(&template, &self.prev, t.uv, 1, &klt);
+                let back = track(&template, &self.prev, t.uv, 0, &klt);
                 if !back.is_ok_and(|b| (b - t.uv).norm() <= cfg.flow_back_px) {
                     report.flow_back_rejected += 1;
                     continue;
@@ -479,6 +313,7 @@ impl FeatureTracker {
                     id: t.id,
                     uv: q,
                     age: t.age + 1,
+                    anchor,
                     template,
                     matches: Vec::new(),
                     hints,
@@ -567,6 +402,10 @@ impl FeatureTracker {
                     id: self.next_id,
                     uv,
                     age: 1,
+                    anchor: cfg
+                        .anchor_refinement
+                        .then(|| AffineAnchor::new(&self.cur, uv, klt.half_window))
+                        .flatten(),
                     template,
                     matches: Vec::new(),
                     hints: Vec::new(),
@@ -598,8 +437,8 @@ impl FeatureTracker {
                         continue;
                     };
                     if cfg.flow_back {
-                        let back_t = Template::new(&self.other, q, 2, &klt);
-                        let back = track(&back_t, &self.cur, t.uv, 1, &klt);
+                        let back_t = Template::new(&self.other, q, 1, &klt);
+                        let back = track(&back_t, &self.cur, t.uv, 0, &klt);
                         if !back.is_ok_and(|b| (b - t.uv).norm() <= cfg.flow_back_px) {
                             report.stereo_flow_back_rejected += 1;
                             continue;
@@ -663,84 +502,4 @@ impl FeatureTracker {
         self.report = report;
         Ok(FeatureFrame { t_ns, cameras })
     }
-}
-
-/// Builds `pyr` from `image`, equalized first when asked.
-fn build_pyramid(pyr: &mut Pyramid, image: &ImageView<'_>, equalize: bool, max_level: usize) {
-    if equalize {
-        let eq = OwnedImage::equalized(image);
-        pyr.rebuild(&eq.view(), max_level);
-    } else {
-        pyr.rebuild(image, max_level);
-    }
-}
-
-/// Where a pixel moves under a pure camera rotation `R_ccur_cprev` (points far away).
-#[allow(non_snake_case)]
-fn predict(
-    model: &dyn CameraModel,
-    R_ccur_cprev: &UnitQuaternion<f64>,
-    uv: &Vector2<f64>,
-) -> Option<Vector2<f64>> {
-    let f = model.unproject(uv)?;
-    let g = R_ccur_cprev * f;
-    let q = model.project(&g)?;
-    model.is_valid(&q).then_some(q)
-}
-
-/// The relative pose of a camera pair, for epipolar and depth checks of matches.
-#[allow(non_snake_case)]
-struct StereoGeometry {
-    /// `R_c0_c1`.
-    R: nalgebra::Matrix3<f64>,
-    /// `p_c0_c1`.
-    t: Vector3<f64>,
-}
-
-impl StereoGeometry {
-    fn new(c0: &TrackerCamera, c1: &TrackerCamera) -> Self {
-        let t_c0_c1 = c0.T_b_c.inverse().compose(&c1.T_b_c);
-        Self {
-            R: t_c0_c1.q.to_rotation_matrix().into_inner(),
-            t: t_c0_c1.p,
-        }
-    }
-
-    /// True if bearings `f0` (camera 0) and `f1` (camera 1) are within `tol` rad of coplanar
-    /// with the baseline and their rays meet in front of both cameras.
-    fn accepts(&self, f0: &Vector3<f64>, f1: &Vector3<f64>, tol: f64) -> bool {
-        let f0 = f0.normalize();
-        let g1 = (self.R * f1).normalize();
-        let n = self.t.cross(&g1);
-        let nn = n.norm();
-        if nn < 1e-12 {
-            return false;
-        }
-        if (f0.dot(&n) / nn).abs() > tol {
-            return false;
-        }
-        // Solve λ0·f0 − λ1·g1 ≈ t in least squares; both depths must be positive.
-        let (a, b, c) = (f0.dot(&f0), -f0.dot(&g1), g1.dot(&g1));
-        let (d, e) = (f0.dot(&self.t), -g1.dot(&self.t));
-        let det = a * c - b * b;
-        if det.abs() < 1e-12 {
-            return false;
-        }
-        let l0 = (c * d - b * e) / det;
-        let l1 = (a * e - b * d) / det;
-        l0 > 0.0 && l1 > 0.0
-    }
-}
-
-/// Component-wise median (lower middle) of a set of 2-vectors.
-fn median2(v: &mut [Vector2<f64>]) -> Option<Vector2<f64>> {
-    if v.is_empty() {
-        return None;
-    }
-    let m = v.len() / 2;
-    let mut xs: Vec<f64> = v.iter().map(|p| p.x).collect();
-    let mut ys: Vec<f64> = v.iter().map(|p| p.y).collect();
-    xs.sort_by(f64::total_cmp);
-    ys.sort_by(f64::total_cmp);
-    Some(Vector2::new(xs[m], ys[m]))
 }

@@ -59,7 +59,7 @@ enum Command {
     },
     /// Render one capture of a scenario: every camera's image and depth at time `--at`,
     /// written as `OUT/cam<i>.png`, `OUT/cam<i>_depth.png` (16-bit, millimetres) and
-    /// `OUT/stereo.png` (side by side).
+    /// `OUT/stereo.png` (side by side); with `--tracks` also `OUT/tracks.png`.
     Render {
         /// A catalog scenario name or a path to a scenario .toml file; default: the default
         /// scenario. Feature-level scenarios render with the default settings.
@@ -73,6 +73,11 @@ enum Command {
         /// Seed instead of the scenario's `world.seed`.
         #[arg(long)]
         seed: Option<u64>,
+        /// Also track the captures of the 2 s before `--at` with the image front end and
+        /// write `OUT/tracks.png`: the left and right images with each track's trail (colour by
+        /// age: red new, through yellow and green, to blue old) and its stereo match.
+        #[arg(long)]
+        tracks: bool,
     },
     /// Preintegrate a synthetic IMU interval and check every factor's Jacobians.
     Selfcheck,
@@ -286,7 +291,8 @@ fn main() -> ExitCode {
             at,
             out,
             seed,
-        } => render_command(scenario, at, &out, seed),
+            tracks,
+        } => render_command(scenario, at, &out, seed, tracks),
         Command::List => {
             for e in catalog::entries() {
                 match Scenario::load(e.name) {
@@ -339,6 +345,7 @@ fn render_command(
     at: f64,
     out: &std::path::Path,
     seed: Option<u64>,
+    tracks: bool,
 ) -> ExitCode {
     let scenario = match load_scenario(scenario.as_deref()) {
         Ok(s) => s,
@@ -387,6 +394,43 @@ fn render_command(
     for p in written {
         say(&format!("  {}\n", p.display()));
     }
+    if tracks {
+        return tracks_command(&scenario, at, out, seed);
+    }
+    ExitCode::SUCCESS
+}
+
+/// `vio render --tracks`: tracks the captures before `at` and writes `OUT/tracks.png`.
+fn tracks_command(
+    scenario: &Scenario,
+    at: f64,
+    out: &std::path::Path,
+    seed: Option<u64>,
+) -> ExitCode {
+    let t = match scenarios::tracks_image::render_tracks(scenario, at, seed) {
+        Ok(t) => t,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(BAD_INPUT);
+        }
+    };
+    let path = out.join("tracks.png");
+    if let Err(e) = t.image.save_with_format(&path, image::ImageFormat::Png) {
+        eprintln!("error: {}: cannot write the image: {e}", path.display());
+        return ExitCode::from(BAD_INPUT);
+    }
+    say(&format!(
+        "tracked {} captures from t = {:.2} s to {:.2} s (render {:.1} s, tracker {:.1} ms per capture): \
+         {} tracks, {} with a stereo match:\n  {}\n",
+        t.frames,
+        t.first_ns as f64 * 1e-9,
+        t.last_ns as f64 * 1e-9,
+        t.render_s,
+        t.track_s * 1e3 / t.frames.max(1) as f64,
+        t.tracks,
+        t.stereo_matches,
+        path.display()
+    ));
     ExitCode::SUCCESS
 }
 

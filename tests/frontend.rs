@@ -1,0 +1,152 @@
+//! The image front end on rendered scenarios: tracks against the renderer's ground truth, the
+//! estimator on those tracks, and determinism of the whole image pipeline.
+//!
+//! Needs Mesa's llvmpipe (`bash .ci/install-deps`). The full-length catalog runs are `--ignored`.
+
+use scenarios::report::{self, Report};
+use scenarios::run::{RunOptions, run};
+use scenarios::spec::Scenario;
+
+// Bounds with margin over what was measured (see each comment; seed 1 unless named).
+/// Track error median: measured 0.065 px over 8 s.
+const TRACK_MEDIAN_PX: f64 = 0.15;
+/// Track error p95: measured 0.30 px.
+const TRACK_P95_PX: f64 = 0.6;
+/// Wrong tracks (> 2 px) the estimator gets: measured 0.3 %.
+const WRONG_AFTER: f64 = 0.01;
+/// ATE over the first 8 s: measured 0.0028 m over 6 s.
+const ATE_8S_M: f64 = 0.01;
+/// `(scenario, seconds, fewest features, ATE bound m)` of the short catalog slices.
+const SHORT: &[(&str, f64, usize, f64)] = &[
+    ("room_figure8_exposure_jump_rendered", 10.0, 50, 0.02),
+    ("room_figure8_blur_rendered", 4.0, 50, 0.02),
+    ("room_fast_rotation_rendered", 6.0, 50, 0.03),
+    ("hall_poor_wall_rendered", 20.0, 50, 0.1),
+    ("room_replay_v2_02_rendered", 6.0, 50, 0.03),
+];
+
+fn run_report(name: &str, seconds: Option<f64>) -> (Report, Vec<u8>) {
+    let scenario = Scenario::load(name).unwrap();
+    let options = RunOptions {
+        seed: None,
+        duration_s: seconds,
+    };
+    let output = run(&scenario, &options, &mut |_| {}).unwrap();
+    let eval = report::evaluate(&output, scenario.spec.suite);
+    let rep = report::build_report(&scenario, &output, &eval);
+    let dir = std::env::temp_dir().join(format!("vio-frontend-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    report::write_outputs(&dir, &scenario, &output, &eval, &rep).unwrap();
+    let bytes = std::fs::read(dir.join("estimate.tum")).unwrap();
+    let json = std::fs::read_to_string(dir.join("report.json")).unwrap();
+    assert!(
+        json.contains("\"track_error_median_px\""),
+        "report.json lacks frontend"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+    (rep, bytes)
+}
+
+fn print(name: &str, r: &Report) {
+    let f = r.frontend.unwrap();
+    eprintln!(
+        "{name}: ATE {:.4} m, rot {:.3}°, features mean {:.0} min {}, track {:.1} frames, stereo {:.2}, track error median {:.3} p95 {:.3} px, wrong {:.4} → {:.4}, stereo error median {:.3} p95 {:.3} px",
+        r.ate_rmse_m.unwrap(),
+        r.ate_rot_rmse_deg.unwrap(),
+        f.features_mean,
+        f.features_min,
+        f.mean_track_length,
+        f.stereo_match_ratio,
+        f.track_error_median_px,
+        f.track_error_p95_px,
+        f.wrong_before_ransac,
+        f.wrong_after_ransac,
+        f.stereo_error_median_px,
+        f.stereo_error_p95_px
+    );
+}
+
+/// 8 s of the rendered default motion: the tracker's errors against ground truth and the
+/// estimate built on its tracks (bounds: measured figures in the comments, with margin).
+#[test]
+fn rendered_figure_eight_tracks_and_estimate_meet_their_bounds() {
+    let (r, _) = run_report("room_figure8_rendered_stereo_imu", Some(8.0));
+    print("room_figure8_rendered 8 s", &r);
+    let f = r.frontend.unwrap();
+    assert_eq!(f.frames, 161);
+    assert!(f.features_min >= 140, "{}", f.features_min);
+    assert!(f.stereo_match_ratio > 0.95, "{}", f.stereo_match_ratio);
+    assert!(
+        f.track_error_median_px < TRACK_MEDIAN_PX,
+        "{}",
+        f.track_error_median_px
+    );
+    assert!(
+        f.track_error_p95_px < TRACK_P95_PX,
+        "{}",
+        f.track_error_p95_px
+    );
+    assert!(
+        f.wrong_after_ransac < WRONG_AFTER,
+        "{}",
+        f.wrong_after_ransac
+    );
+    assert!(
+        f.stereo_error_median_px < 0.1,
+        "{}",
+        f.stereo_error_median_px
+    );
+    assert!(r.ate_rmse_m.unwrap() < ATE_8S_M, "{:?}", r.ate_rmse_m);
+    assert!(r.passed);
+}
+
+/// The same images give the same tracks and the same estimate, byte for byte.
+#[test]
+fn the_image_pipeline_is_deterministic() {
+    let (a, bytes_a) = run_report("room_fast_rotation_rendered", Some(2.0));
+    let (b, bytes_b) = run_report("room_fast_rotation_rendered", Some(2.0));
+    assert!(bytes_a.len() > 500);
+    assert!(bytes_a == bytes_b, "estimates differ");
+    assert_eq!(a.frontend, b.frontend);
+}
+
+/// A short slice of every image-front-end scenario of the catalog: tracked features and a
+/// bounded estimate (the full-length runs are the `--ignored` test below).
+#[test]
+fn image_catalog_scenarios_keep_features_and_do_not_diverge_short() {
+    for (name, seconds, min_features, max_ate) in SHORT {
+        let (r, _) = run_report(name, Some(*seconds));
+        print(name, &r);
+        let f = r.frontend.unwrap();
+        assert!(
+            f.features_min >= *min_features,
+            "{name}: {}",
+            f.features_min
+        );
+        assert!(
+            r.ate_rmse_m.unwrap() < *max_ate,
+            "{name}: {:?}",
+            r.ate_rmse_m
+        );
+    }
+}
+
+/// Every image-front-end scenario of the catalog at full length meets its expectations.
+#[test]
+#[ignore = "full-length rendered runs: minutes"]
+fn image_catalog_scenarios_meet_their_expectations() {
+    for name in [
+        "room_figure8_rendered_stereo_imu",
+        "room_figure8_exposure_jump_rendered",
+        "room_figure8_blur_rendered",
+        "room_fast_rotation_rendered",
+        "hall_poor_wall_rendered",
+        "room_replay_v2_02_rendered",
+    ] {
+        let (r, _) = run_report(name, None);
+        print(name, &r);
+        for e in &r.expectations {
+            assert!(e.passed, "{name}: {} = {:?}", e.metric, e.value);
+        }
+    }
+}
