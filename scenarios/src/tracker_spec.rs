@@ -39,6 +39,8 @@ pub struct TrackerSpec {
     pub min_corner_response: Option<f64>,
     /// Bucketing grid `[columns, rows]`.
     pub grid: Option<[usize; 2]>,
+    /// Pyramid level of corner detection.
+    pub detect_level: Option<usize>,
     /// Detection border (px).
     pub border_px: Option<u32>,
     /// KLT window side (odd, px).
@@ -90,6 +92,7 @@ impl TrackerSpec {
             quality_level: self.quality_level.unwrap_or(d.quality_level),
             min_corner_response: self.min_corner_response.unwrap_or(d.min_corner_response),
             grid: self.grid.unwrap_or(d.grid),
+            detect_level: self.detect_level.unwrap_or(d.detect_level),
             border_px: self.border_px.unwrap_or(d.border_px),
             window_px: self.window_px.unwrap_or(d.window_px),
             max_level: self.max_level.unwrap_or(d.max_level),

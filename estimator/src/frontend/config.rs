@@ -15,6 +15,9 @@ pub struct TrackerConfig {
     pub min_corner_response: f64,
     /// Grid `[columns, rows]` for bucketing new corners (`[1, 1]`: none).
     pub grid: [usize; 2],
+    /// Pyramid level Shi–Tomasi runs on (0 = full resolution; 1 = half, each corner then placed
+    /// on the strongest full-resolution response it covers: a quarter of the work).
+    pub detect_level: usize,
     /// New corners keep this far from the image border (px); tracks whose window leaves the
     /// image are lost anyway, so at least half the window plus one.
     pub border_px: u32,
@@ -70,6 +73,7 @@ impl Default for TrackerConfig {
             quality_level: 0.01,
             min_corner_response: 4.0,
             grid: [1, 1],
+            detect_level: 1,
             border_px: 11,
             window_px: 21,
             max_level: 3,
@@ -121,6 +125,9 @@ impl TrackerConfig {
         }
         if self.window_px < 5 || self.window_px > 63 || self.window_px.is_multiple_of(2) {
             return bad("window_px", "must be odd, in 5..=63");
+        }
+        if self.detect_level > 3 {
+            return bad("detect_level", "must be in 0..=3");
         }
         if self.max_level > 6 {
             return bad("max_level", "must be in 0..=6");

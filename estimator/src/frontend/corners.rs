@@ -44,8 +44,8 @@ impl Default for CornerParams {
 pub struct CornerScratch {
     response: Vec<f32>,
     candidates: Vec<(f32, u32)>,
-    ring: Vec<[i32; 3]>,
-    vsum: Vec<[i32; 3]>,
+    ring: Vec<i32>,
+    vsum: Vec<i32>,
 }
 
 /// The Shi–Tomasi response (minimum eigenvalue per pixel of the 3×3 block, Sobel gradients
@@ -63,13 +63,44 @@ pub fn shi_tomasi_response(img: &ImageView<'_>, out: &mut Vec<f32>) {
 const MASK_BLOCK: usize = 8;
 
 /// Writes the response of pixels `[x0, x1) × [y0, y1)` (clipped to the two-pixel border) into
-/// `out` (`w × h`). Structure-tensor sums are exact integers, summed separably.
+/// `out` (`w × h`). On x86-64 with AVX2 the same code runs on 256-bit registers: every value
+/// is computed element by element, so the results are identical.
 fn response_band(
+    img: &ImageView<'_>,
+    region: [usize; 4],
+    out: &mut [f32],
+    ring: &mut Vec<i32>,
+    vsum: &mut Vec<i32>,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2 (checked just above).
+        return unsafe { response_band_avx2(img, region, out, ring, vsum) };
+    }
+    response_band_portable(img, region, out, ring, vsum)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn response_band_avx2(
+    img: &ImageView<'_>,
+    region: [usize; 4],
+    out: &mut [f32],
+    ring: &mut Vec<i32>,
+    vsum: &mut Vec<i32>,
+) {
+    response_band_portable(img, region, out, ring, vsum)
+}
+
+/// The body of [`response_band`]: structure-tensor sums in exact integers, summed separably;
+/// rows kept as separate `xx`, `xy`, `yy` arrays so the loops vectorize.
+#[inline(always)]
+fn response_band_portable(
     img: &ImageView<'_>,
     [x0, x1, y0, y1]: [usize; 4],
     out: &mut [f32],
-    ring: &mut Vec<[i32; 3]>,
-    vsum: &mut Vec<[i32; 3]>,
+    ring: &mut Vec<i32>,
+    vsum: &mut Vec<i32>,
 ) {
     let (w, h) = (img.width() as usize, img.height() as usize);
     if w < 5 || h < 5 {
@@ -80,46 +111,51 @@ fn response_band(
     if x0 >= x1 || y0 >= y1 {
         return;
     }
-    // Products on columns [c0, c1) = [x0 − 1, x1 + 1), for rows y − 1, y, y + 1 (a ring).
-    let (c0, c1) = (x0 - 1, x1 + 1);
-    let n = c1 - c0;
+    // Products on columns [c0, c0 + n) = [x0 − 1, x1 + 1) for three rows (a ring of slots,
+    // each slot `[xx | xy | yy]`), then their vertical sums.
+    let c0 = x0 - 1;
+    let n = x1 + 1 - c0;
     ring.clear();
-    ring.resize(3 * n, [0; 3]);
-    let products = |y: usize, dst: &mut [[i32; 3]]| {
+    ring.resize(9 * n, 0);
+    vsum.clear();
+    vsum.resize(3 * n, 0);
+    let products = |y: usize, slot: &mut [i32]| {
         let (r0, r1, r2) = (img.row(y - 1), img.row(y), img.row(y + 1));
-        for (i, d) in dst.iter_mut().enumerate() {
+        let (xx, rest) = slot.split_at_mut(n);
+        let (xy, yy) = rest.split_at_mut(n);
+        for i in 0..n {
             let x = c0 + i;
             let gx = (r0[x + 1] as i32 - r0[x - 1] as i32)
                 + 2 * (r1[x + 1] as i32 - r1[x - 1] as i32)
                 + (r2[x + 1] as i32 - r2[x - 1] as i32);
             let gy = (r2[x - 1] as i32 + 2 * r2[x] as i32 + r2[x + 1] as i32)
                 - (r0[x - 1] as i32 + 2 * r0[x] as i32 + r0[x + 1] as i32);
-            *d = [gx * gx, gx * gy, gy * gy];
+            xx[i] = gx * gx;
+            xy[i] = gx * gy;
+            yy[i] = gy * gy;
         }
     };
-    products(y0 - 1, &mut ring[0..n]);
-    products(y0, &mut ring[n..2 * n]);
-    vsum.clear();
-    vsum.resize(n, [0; 3]);
+    products(y0 - 1, &mut ring[0..3 * n]);
+    products(y0, &mut ring[3 * n..6 * n]);
     let scale = 1.0 / (64.0 * 9.0);
     for y in y0..y1 {
         let slot = (y + 1 - (y0 - 1)) % 3;
-        products(y + 1, &mut ring[slot * n..(slot + 1) * n]);
-        let (a, rest) = ring.split_at(n);
-        let (b, c) = rest.split_at(n);
-        for i in 0..n {
-            for k in 0..3 {
-                vsum[i][k] = a[i][k] + b[i][k] + c[i][k];
-            }
+        products(y + 1, &mut ring[slot * 3 * n..(slot + 1) * 3 * n]);
+        let (a, rest) = ring.split_at(3 * n);
+        let (b, c) = rest.split_at(3 * n);
+        for ((v, (p, q)), r) in vsum.iter_mut().zip(a.iter().zip(b)).zip(c) {
+            *v = p + q + r;
         }
-        let row = &mut out[y * w..(y + 1) * w];
-        for x in x0..x1 {
-            let i = x - c0;
-            let sxx = (vsum[i - 1][0] + vsum[i][0] + vsum[i + 1][0]) as f32;
-            let sxy = (vsum[i - 1][1] + vsum[i][1] + vsum[i + 1][1]) as f32;
-            let syy = (vsum[i - 1][2] + vsum[i][2] + vsum[i + 1][2]) as f32;
-            let d = sxx - syy;
-            row[x] = (0.5 * ((sxx + syy) - (d * d + 4.0 * sxy * sxy).sqrt()) * scale).max(0.0);
+        let (sxx, rest) = vsum.split_at(n);
+        let (sxy, syy) = rest.split_at(n);
+        let row = &mut out[y * w + x0..y * w + x1];
+        for (k, o) in row.iter_mut().enumerate() {
+            // Column x = x0 + k sits at index k + 1 of the products.
+            let xx = (sxx[k] + sxx[k + 1] + sxx[k + 2]) as f32;
+            let xy = (sxy[k] + sxy[k + 1] + sxy[k + 2]) as f32;
+            let yy = (syy[k] + syy[k + 1] + syy[k + 2]) as f32;
+            let d = xx - yy;
+            *o = (0.5 * ((xx + yy) - (d * d + 4.0 * xy * xy).sqrt()) * scale).max(0.0);
         }
     }
 }
@@ -253,6 +289,73 @@ pub fn detect(
         found.push(p);
     }
     found
+}
+
+/// [`detect`] on a coarser pyramid level (`coarse`, `2^level` times smaller than `fine`, the
+/// level-0 image): distances and border scale down, and each corner found is then placed on the
+/// strongest level-0 response among the `2^level × 2^level` pixels it covers (±1 px). A
+/// quarter of the work per level for the same features at the scale KLT tracks them.
+pub fn detect_on_level(
+    coarse: &ImageView<'_>,
+    level: usize,
+    fine: &ImageView<'_>,
+    existing: &[Vector2<f64>],
+    count: usize,
+    params: &CornerParams,
+    scratch: &mut CornerScratch,
+) -> Vec<Vector2<f64>> {
+    if level == 0 {
+        return detect(fine, existing, count, params, scratch);
+    }
+    let s = (1u32 << level) as f64;
+    let scaled: Vec<Vector2<f64>> = existing.iter().map(|p| p / s).collect();
+    let coarse_params = CornerParams {
+        min_distance_px: params.min_distance_px / s,
+        border_px: params.border_px.div_ceil(1 << level),
+        ..*params
+    };
+    let found = detect(coarse, &scaled, count, &coarse_params, scratch);
+    let (w, h) = (fine.width() as i64, fine.height() as i64);
+    let b = params.border_px.max(2) as i64;
+    found
+        .into_iter()
+        .map(|p| {
+            let (cx, cy) = ((p.x * s) as i64, (p.y * s) as i64);
+            let r = (1i64 << level) / 2 + 1;
+            let mut best = (f32::MIN, cx, cy);
+            for y in (cy - r).max(b)..=(cy + r).min(h - 1 - b) {
+                for x in (cx - r).max(b)..=(cx + r).min(w - 1 - b) {
+                    let v = response_at(fine, x as usize, y as usize);
+                    if v > best.0 {
+                        best = (v, x, y);
+                    }
+                }
+            }
+            Vector2::new(best.1 as f64, best.2 as f64)
+        })
+        .collect()
+}
+
+/// The Shi–Tomasi response of one pixel (same formula as [`shi_tomasi_response`]); the pixel
+/// must be at least two pixels from the border.
+fn response_at(img: &ImageView<'_>, x: usize, y: usize) -> f32 {
+    let mut s = [0i32; 3];
+    for yy in y - 1..=y + 1 {
+        let (r0, r1, r2) = (img.row(yy - 1), img.row(yy), img.row(yy + 1));
+        for xx in x - 1..=x + 1 {
+            let gx = (r0[xx + 1] as i32 - r0[xx - 1] as i32)
+                + 2 * (r1[xx + 1] as i32 - r1[xx - 1] as i32)
+                + (r2[xx + 1] as i32 - r2[xx - 1] as i32);
+            let gy = (r2[xx - 1] as i32 + 2 * r2[xx] as i32 + r2[xx + 1] as i32)
+                - (r0[xx - 1] as i32 + 2 * r0[xx] as i32 + r0[xx + 1] as i32);
+            s[0] += gx * gx;
+            s[1] += gx * gy;
+            s[2] += gy * gy;
+        }
+    }
+    let (xx, xy, yy) = (s[0] as f32, s[1] as f32, s[2] as f32);
+    let d = xx - yy;
+    (0.5 * ((xx + yy) - (d * d + 4.0 * xy * xy).sqrt()) / (64.0 * 9.0)).max(0.0)
 }
 
 /// Points on a grid of `min_distance`-sized cells, for O(1) minimum-distance queries.

@@ -133,11 +133,30 @@ impl OwnedImage {
     /// directions, then every second pixel (OpenCV's `pyrDown`: level-0 pixel `2x` becomes
     /// pixel `x`); the border is replicated. Exact integer arithmetic.
     pub fn half_of(src: &ImageView<'_>) -> OwnedImage {
+        let mut out = OwnedImage {
+            width: 0,
+            height: 0,
+            data: Vec::new(),
+        };
+        Self::half_into(src, &mut out);
+        out
+    }
+
+    /// [`OwnedImage::half_of`] into an existing buffer.
+    pub fn half_into(src: &ImageView<'_>, out: &mut OwnedImage) {
+        Self::half_into_inline(src, out)
+    }
+
+    #[inline(always)]
+    fn half_into_inline(src: &ImageView<'_>, out: &mut OwnedImage) {
         let (sw, sh) = (src.width as usize, src.height as usize);
         let (w, h) = (sw.div_ceil(2), sh.div_ceil(2));
         // Vertical pass on the rows needed, then horizontal, per output row.
         let mut col = vec![0u16; sw];
-        let mut data = vec![0u8; w * h];
+        let mut hrow: Vec<u32> = Vec::with_capacity(sw);
+        let data = &mut out.data;
+        data.clear();
+        data.resize(w * h, 0);
         let clamp_row = |y: isize| src.row(y.clamp(0, sh as isize - 1) as usize);
         for (oy, out) in data.chunks_exact_mut(w).enumerate() {
             let y = 2 * oy as isize;
@@ -155,27 +174,31 @@ impl OwnedImage {
                     + 4 * r3[x] as u16
                     + r4[x] as u16;
             }
+            // Horizontal pass at every column (vectorizes), then every second one is kept.
+            hrow.clear();
+            hrow.resize(sw, 0);
+            if sw >= 5 {
+                for x in 2..sw - 2 {
+                    hrow[x] = col[x - 2] as u32
+                        + 4 * col[x - 1] as u32
+                        + 6 * col[x] as u32
+                        + 4 * col[x + 1] as u32
+                        + col[x + 2] as u32;
+                }
+            }
             let at = |x: isize| col[x.clamp(0, sw as isize - 1) as usize] as u32;
             for (ox, o) in out.iter_mut().enumerate() {
                 let x = 2 * ox as isize;
                 let s = if x >= 2 && x + 2 < sw as isize {
-                    let x = x as usize;
-                    col[x - 2] as u32
-                        + 4 * col[x - 1] as u32
-                        + 6 * col[x] as u32
-                        + 4 * col[x + 1] as u32
-                        + col[x + 2] as u32
+                    hrow[x as usize]
                 } else {
                     at(x - 2) + 4 * at(x - 1) + 6 * at(x) + 4 * at(x + 1) + at(x + 2)
                 };
                 *o = ((s + 128) >> 8) as u8;
             }
         }
-        OwnedImage {
-            width: w as u32,
-            height: h as u32,
-            data,
-        }
+        out.width = w as u32;
+        out.height = h as u32;
     }
 
     /// Global histogram equalization (for exposure changes): grey levels remapped through the
@@ -243,17 +266,49 @@ impl Pyramid {
 
     /// [`Pyramid::build`] into existing buffers.
     pub fn rebuild(&mut self, image: &ImageView<'_>, max_level: usize) {
-        self.levels.clear();
-        self.levels.push(image.to_owned_image());
-        for _ in 0..max_level {
-            let last = self.levels.last().expect("level 0");
-            if last.width < 16 || last.height < 16 {
-                break;
-            }
-            let next = OwnedImage::half_of(&last.view());
-            self.levels.push(next);
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2 (checked). Integer arithmetic and exact
+            // conversions: the same values either way.
+            return unsafe { self.rebuild_avx2(image, max_level) };
+        }
+        self.rebuild_inline(image, max_level)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn rebuild_avx2(&mut self, image: &ImageView<'_>, max_level: usize) {
+        self.rebuild_inline(image, max_level)
+    }
+
+    #[inline(always)]
+    fn rebuild_inline(&mut self, image: &ImageView<'_>, max_level: usize) {
+        // Buffers are reused frame to frame (no large allocations per frame).
+        let mut count = 1;
+        let (mut w, mut h) = (image.width(), image.height());
+        while count <= max_level && w >= 16 && h >= 16 {
+            count += 1;
+            (w, h) = (w.div_ceil(2), h.div_ceil(2));
+        }
+        self.levels.resize_with(count, || OwnedImage {
+            width: 0,
+            height: 0,
+            data: Vec::new(),
+        });
+        self.levels.truncate(count);
+        let first = &mut self.levels[0];
+        first.width = image.width();
+        first.height = image.height();
+        first.data.clear();
+        for y in 0..image.height() as usize {
+            first.data.extend_from_slice(image.row(y));
+        }
+        for l in 1..count {
+            let (done, rest) = self.levels.split_at_mut(l);
+            OwnedImage::half_into_inline(&done[l - 1].view(), &mut rest[0]);
         }
         self.planes.resize_with(self.levels.len(), Vec::new);
+        self.planes.truncate(self.levels.len());
         for (plane, level) in self.planes.iter_mut().zip(&self.levels) {
             plane.clear();
             plane.extend(level.data.iter().map(|&v| v as f32));

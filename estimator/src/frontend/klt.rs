@@ -21,7 +21,7 @@ use super::image::{Plane, Pyramid};
 /// Lucas–Kanade settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct KltParams {
-    /// Half the window side: the window is `(2h+1)²` pixels (10 → 21×21).
+    /// Half the window side: the window is `(2h+1)²` pixels (10 → 21×21); at most 31.
     pub half_window: usize,
     /// Iteration cap per level.
     pub max_iterations: usize,
@@ -69,7 +69,8 @@ struct LevelInfo {
 #[derive(Clone, Debug)]
 pub struct Template {
     half_window: usize,
-    /// Per level `[T − T̄ | ∂T/∂x | ∂T/∂y]`, `n` values each.
+    /// Per level `[T − T̄ | ∂T/∂x | ∂T/∂y]`, each `side` rows of `padded(side)` values (the
+    /// padding is zero, so every row is a whole number of eight-value lanes).
     data: Vec<f32>,
     info: Vec<LevelInfo>,
 }
@@ -78,6 +79,10 @@ impl Template {
     /// Samples the template around level-0 point `uv` of `pyramid` at levels
     /// `0..min(levels, pyramid.len())`.
     pub fn new(pyramid: &Pyramid, uv: Vector2<f64>, levels: usize, params: &KltParams) -> Self {
+        assert!(
+            params.half_window <= 31,
+            "KLT windows are at most 63 px (half_window ≤ 31)"
+        );
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2 (checked just above). Same results either way
@@ -97,9 +102,11 @@ impl Template {
     fn new_lanes(pyramid: &Pyramid, uv: Vector2<f64>, levels: usize, params: &KltParams) -> Self {
         let h = params.half_window;
         let side = 2 * h + 1;
+        let pw = padded(side);
         let n = side * side;
+        let np = side * pw;
         let levels = levels.min(pyramid.len()).max(1);
-        let mut data = vec![0f32; 3 * n * levels];
+        let mut data = vec![0f32; 3 * np * levels];
         let mut info = Vec::with_capacity(levels);
         let ext = side + 2;
         let mut s = vec![0f32; ext * ext];
@@ -114,17 +121,17 @@ impl Template {
                 ext,
                 &mut s,
             );
-            let block = &mut data[3 * n * l..3 * n * (l + 1)];
-            let (t, g) = block.split_at_mut(n);
-            let (gx, gy) = g.split_at_mut(n);
+            let block = &mut data[3 * np * l..3 * np * (l + 1)];
+            let (t, g) = block.split_at_mut(np);
+            let (gx, gy) = g.split_at_mut(np);
             for i in 0..side {
                 let up = &s[i * ext + 1..i * ext + 1 + side];
                 let mid = &s[(i + 1) * ext..(i + 1) * ext + side + 2];
                 let down = &s[(i + 2) * ext + 1..(i + 2) * ext + 1 + side];
                 let (tr, gxr, gyr) = (
-                    &mut t[i * side..(i + 1) * side],
-                    &mut gx[i * side..(i + 1) * side],
-                    &mut gy[i * side..(i + 1) * side],
+                    &mut t[i * pw..i * pw + side],
+                    &mut gx[i * pw..i * pw + side],
+                    &mut gy[i * pw..i * pw + side],
                 );
                 for j in 0..side {
                     tr[j] = mid[j + 1];
@@ -132,14 +139,16 @@ impl Template {
                     gyr[j] = 0.5 * (down[j] - up[j]);
                 }
             }
-            let sum_t = lane_sum(t, |_| 1.0);
+            let sum_t = lane_sum(t);
             let mean = sum_t / n as f32;
-            for v in t.iter_mut() {
-                *v -= mean;
+            for row in t.chunks_exact_mut(pw) {
+                for v in &mut row[..side] {
+                    *v -= mean;
+                }
             }
             let var = lane_dot(t, t) / n as f32;
             let (a, b, c) = (lane_dot(gx, gx), lane_dot(gx, gy), lane_dot(gy, gy));
-            let sum_g = [lane_sum(gx, |_| 1.0), lane_sum(gy, |_| 1.0)];
+            let sum_g = [lane_sum(gx), lane_sum(gy)];
             let sum_g_t = [lane_dot(gx, t), lane_dot(gy, t)];
             let det = a * c - b * b;
             let tr = a + c;
@@ -166,16 +175,6 @@ impl Template {
             half_window: h,
             data,
             info,
-        }
-    }
-
-    /// A template of the finest level only (for refinement against a fixed reference).
-    pub fn finest(&self) -> Template {
-        let n = (2 * self.half_window + 1).pow(2);
-        Template {
-            half_window: self.half_window,
-            data: self.data[..3 * n].to_vec(),
-            info: self.info[..1].to_vec(),
         }
     }
 
@@ -231,14 +230,15 @@ pub fn track(
     let h = template.half_window;
     let side = 2 * h + 1;
     let n = side * side;
+    let np = side * padded(side);
     let top = top_level.min(template.levels() - 1).min(target.len() - 1);
     let mut q = to_level(guess, top);
     for l in (0..=top).rev() {
         let info = template.info[l];
         let img = target.plane(l);
         if info.valid {
-            let block = &template.data[3 * n * l..3 * n * (l + 1)];
-            let (gx, gy) = (&block[n..2 * n], &block[2 * n..]);
+            let block = &template.data[3 * np * l..3 * np * (l + 1)];
+            let (gx, gy) = (&block[np..2 * np], &block[2 * np..]);
             let eps = if l == 0 {
                 params.epsilon_px
             } else {
@@ -300,61 +300,21 @@ pub fn track(
     Ok(q)
 }
 
-/// Normalized cross-correlation of the template's finest patch with the window of `target`'s
-/// level 0 centred at `uv` (1 = identical up to gain and offset).
-pub fn ncc(template: &Template, target: &Pyramid, uv: Vector2<f64>) -> f32 {
-    let h = template.half_window;
-    let side = 2 * h + 1;
-    let n = side * side;
-    let info = template.info[0];
-    let t = &template.data[..n];
-    let mut s = vec![0f32; n];
-    sample_grid(
-        &target.plane(0),
-        uv.x - h as f64,
-        uv.y - h as f64,
-        side,
-        side,
-        &mut s,
-    );
-    let mean = lane_sum(&s, |_| 1.0) / n as f32;
-    let var = lane_dot(&s, &s) / n as f32 - mean * mean;
-    if var <= 1e-6 || info.sigma <= 1e-6 {
-        return 0.0;
-    }
-    // Σ (T − T̄)(I − Ī) = Σ (T − T̄) I, since Σ (T − T̄) = 0.
-    lane_dot(t, &s) / (n as f32 * info.sigma * var.sqrt())
-}
-
 /// `[Σ I, Σ I², Σ gx·I, Σ gy·I]` over the `side × side` window with top-left sample at `(x, y)`.
 ///
-/// On x86-64 with AVX2 the same source is compiled for 256-bit registers. Both builds perform
-/// the same IEEE operations in the same order per lane (no fused multiply–adds), so the results
-/// are bit-identical whichever runs.
+/// On x86-64 with AVX the rows run through [`window_rows_avx`]: the same IEEE operations in the
+/// same order per lane as the portable code, so the results are bit-identical whichever runs.
 fn window_sums(img: &Plane<'_>, x: f64, y: f64, side: usize, gx: &[f32], gy: &[f32]) -> [f32; 4] {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports AVX2 (checked just above).
-        return unsafe { window_sums_avx2(img, x, y, side, gx, gy) };
-    }
     window_sums_lanes(img, x, y, side, gx, gy)
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn window_sums_avx2(
-    img: &Plane<'_>,
-    x: f64,
-    y: f64,
-    side: usize,
-    gx: &[f32],
-    gy: &[f32],
-) -> [f32; 4] {
-    window_sums_lanes(img, x, y, side, gx, gy)
+/// Row length of a padded window: the side rounded up to whole eight-value lanes.
+fn padded(side: usize) -> usize {
+    side.div_ceil(LANES) * LANES
 }
 
-/// The portable body of [`window_sums`]: bilinear, one pass, eight lanes per row; replicated
-/// border near the edges.
+/// The body of [`window_sums`]: bilinear, one pass over padded rows (padding masked out), eight
+/// lanes; replicated border near the edges.
 #[inline(always)]
 fn window_sums_lanes(
     img: &Plane<'_>,
@@ -364,91 +324,236 @@ fn window_sums_lanes(
     gx: &[f32],
     gy: &[f32],
 ) -> [f32; 4] {
+    let pw = padded(side);
+    let mut mask = [0f32; 64];
+    mask[..side].fill(1.0);
+    let mask = &mask[..pw];
     let (fx0, fy0) = (x.floor(), y.floor());
     let (ix, iy) = (fx0 as i64, fy0 as i64);
     let (w, h) = (img.width as i64, img.height as i64);
-    if !(ix >= 0 && iy >= 0 && ix + (side as i64) < w && iy + (side as i64) < h) {
-        let mut s = vec![0f32; side * side];
-        sample_grid(img, x, y, side, side, &mut s);
-        return [
-            lane_sum(&s, |_| 1.0),
-            lane_dot(&s, &s),
-            lane_dot(gx, &s),
-            lane_dot(gy, &s),
-        ];
-    }
-    let (fx, fy) = ((x - fx0) as f32, (y - fy0) as f32);
-    let (w00, w01, w10, w11) = (
-        (1.0 - fx) * (1.0 - fy),
-        fx * (1.0 - fy),
-        (1.0 - fx) * fy,
-        fx * fy,
-    );
-    let (ix, iy, wu) = (ix as usize, iy as usize, w as usize);
-    let data = &img.data;
     let mut acc = [[0f32; LANES]; 4];
-    let mut tail = [0f32; 4];
-    let full = side / LANES * LANES;
-    for r in 0..side {
-        let a = &data[(iy + r) * wu + ix..(iy + r) * wu + ix + side + 1];
-        let b = &data[(iy + r + 1) * wu + ix..(iy + r + 1) * wu + ix + side + 1];
-        let (gxr, gyr) = (&gx[r * side..(r + 1) * side], &gy[r * side..(r + 1) * side]);
-        let (a0, a1, b0, b1) = (&a[..full], &a[1..full + 1], &b[..full], &b[1..full + 1]);
-        let rows = a0
-            .chunks_exact(LANES)
-            .zip(a1.chunks_exact(LANES))
-            .zip(b0.chunks_exact(LANES).zip(b1.chunks_exact(LANES)))
-            .zip(
-                gxr[..full]
-                    .chunks_exact(LANES)
-                    .zip(gyr[..full].chunks_exact(LANES)),
-            );
-        for (((a0, a1), (b0, b1)), (g0, g1)) in rows {
-            for k in 0..LANES {
-                let v = w00 * a0[k] + w01 * a1[k] + w10 * b0[k] + w11 * b1[k];
-                acc[0][k] += v;
-                acc[1][k] += v * v;
-                acc[2][k] += g0[k] * v;
-                acc[3][k] += g1[k] * v;
+    if !(ix >= 0 && iy >= 0 && ix + (pw as i64) < w && iy + (side as i64) < h) {
+        let mut buf = [0f32; 64 * 64];
+        let s = &mut buf[..side * pw];
+        sample_grid(img, x, y, pw, side, s);
+        for r in 0..side {
+            for c in (0..pw).step_by(LANES) {
+                let k = r * pw + c;
+                let v = lane(&s[k..]);
+                value_lane(
+                    v,
+                    lane(&mask[c..]),
+                    lane(&gx[k..]),
+                    lane(&gy[k..]),
+                    &mut acc,
+                );
             }
         }
-        for j in full..side {
-            let v = w00 * a[j] + w01 * a[j + 1] + w10 * b[j] + w11 * b[j + 1];
-            tail[0] += v;
-            tail[1] += v * v;
-            tail[2] += gxr[j] * v;
-            tail[3] += gyr[j] * v;
+    } else {
+        let (fx, fy) = ((x - fx0) as f32, (y - fy0) as f32);
+        let (w00, w01, w10, w11) = (
+            (1.0 - fx) * (1.0 - fy),
+            fx * (1.0 - fy),
+            (1.0 - fx) * fy,
+            fx * fy,
+        );
+        let (ix, iy, wu) = (ix as usize, iy as usize, w as usize);
+        let data = img.data;
+        let wts = [w00, w01, w10, w11];
+        // The fast-path condition keeps every read inside the plane.
+        assert!((iy + side) * wu + ix + pw < data.len());
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx") && !portable_only() {
+            // SAFETY: AVX is present (checked) and every load is in bounds (asserted above;
+            // `mask`, `gx`, `gy` hold `pw` and `side × pw` values).
+            acc = unsafe { window_rows_avx(data, wu, ix, iy, side, pw, mask, gx, gy, wts) };
+            return [
+                reduce(acc[0]),
+                reduce(acc[1]),
+                reduce(acc[2]),
+                reduce(acc[3]),
+            ];
+        }
+        for r in 0..side {
+            let a = &data[(iy + r) * wu + ix..(iy + r) * wu + ix + pw + 1];
+            let b = &data[(iy + r + 1) * wu + ix..(iy + r + 1) * wu + ix + pw + 1];
+            for c in (0..pw).step_by(LANES) {
+                let k = r * pw + c;
+                bilinear_lane(
+                    lane(&a[c..]),
+                    lane(&a[c + 1..]),
+                    lane(&b[c..]),
+                    lane(&b[c + 1..]),
+                    lane(&mask[c..]),
+                    lane(&gx[k..]),
+                    lane(&gy[k..]),
+                    wts,
+                    &mut acc,
+                );
+            }
         }
     }
     [
-        reduce(acc[0]) + tail[0],
-        reduce(acc[1]) + tail[1],
-        reduce(acc[2]) + tail[2],
-        reduce(acc[3]) + tail[3],
+        reduce(acc[0]),
+        reduce(acc[1]),
+        reduce(acc[2]),
+        reduce(acc[3]),
     ]
 }
 
-/// Σ f(i)·x_i over eight fixed lanes (f is a per-element weight, usually 1).
-#[inline(always)]
-fn lane_sum(x: &[f32], f: impl Fn(usize) -> f32) -> f32 {
-    let mut acc = [0f32; LANES];
-    let chunks = x.len() / LANES;
-    for c in 0..chunks {
-        for k in 0..LANES {
-            acc[k] += x[c * LANES + k] * f(c * LANES + k);
+/// [`bilinear_lane`] over the window's rows with AVX registers: the same IEEE operations in the
+/// same order per lane (multiplies and adds, no fused multiply–add), so bit-identical results.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn window_rows_avx(
+    data: &[f32],
+    wu: usize,
+    ix: usize,
+    iy: usize,
+    side: usize,
+    pw: usize,
+    mask: &[f32],
+    gx: &[f32],
+    gy: &[f32],
+    w: [f32; 4],
+) -> [[f32; LANES]; 4] {
+    use std::arch::x86_64::*;
+    let (w0, w1, w2, w3) = (
+        _mm256_set1_ps(w[0]),
+        _mm256_set1_ps(w[1]),
+        _mm256_set1_ps(w[2]),
+        _mm256_set1_ps(w[3]),
+    );
+    let (mut s0, mut s1, mut s2, mut s3) = (
+        _mm256_setzero_ps(),
+        _mm256_setzero_ps(),
+        _mm256_setzero_ps(),
+        _mm256_setzero_ps(),
+    );
+    let p = data.as_ptr();
+    for r in 0..side {
+        let ra = (iy + r) * wu + ix;
+        let rb = ra + wu;
+        for c in (0..pw).step_by(LANES) {
+            // SAFETY: in bounds by the caller's contract.
+            unsafe {
+                let a0 = _mm256_loadu_ps(p.add(ra + c));
+                let a1 = _mm256_loadu_ps(p.add(ra + c + 1));
+                let b0 = _mm256_loadu_ps(p.add(rb + c));
+                let b1 = _mm256_loadu_ps(p.add(rb + c + 1));
+                let v = _mm256_add_ps(
+                    _mm256_add_ps(
+                        _mm256_add_ps(_mm256_mul_ps(w0, a0), _mm256_mul_ps(w1, a1)),
+                        _mm256_mul_ps(w2, b0),
+                    ),
+                    _mm256_mul_ps(w3, b1),
+                );
+                let m = _mm256_loadu_ps(mask.as_ptr().add(c));
+                let vm = _mm256_mul_ps(v, m);
+                s0 = _mm256_add_ps(s0, vm);
+                s1 = _mm256_add_ps(s1, _mm256_mul_ps(vm, vm));
+                let g0 = _mm256_loadu_ps(gx.as_ptr().add(r * pw + c));
+                let g1 = _mm256_loadu_ps(gy.as_ptr().add(r * pw + c));
+                s2 = _mm256_add_ps(s2, _mm256_mul_ps(g0, v));
+                s3 = _mm256_add_ps(s3, _mm256_mul_ps(g1, v));
+            }
         }
     }
-    let mut tail = 0f32;
-    for (i, v) in x.iter().enumerate().skip(chunks * LANES) {
-        tail += v * f(i);
+    let mut out = [[0f32; LANES]; 4];
+    // SAFETY: each destination holds eight f32.
+    unsafe {
+        _mm256_storeu_ps(out[0].as_mut_ptr(), s0);
+        _mm256_storeu_ps(out[1].as_mut_ptr(), s1);
+        _mm256_storeu_ps(out[2].as_mut_ptr(), s2);
+        _mm256_storeu_ps(out[3].as_mut_ptr(), s3);
     }
-    reduce(acc) + tail
+    out
 }
 
-/// Σ x_i·y_i over eight fixed lanes.
+/// Tests force the portable path to compare it with the vectorized one.
+#[cfg(test)]
+fn portable_only() -> bool {
+    PORTABLE.with(|p| p.get())
+}
+
+#[cfg(not(test))]
+#[inline(always)]
+fn portable_only() -> bool {
+    false
+}
+
+#[cfg(test)]
+thread_local! {
+    static PORTABLE: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// The eight values of `s` from its start.
+#[inline(always)]
+fn lane(s: &[f32]) -> [f32; LANES] {
+    s[..LANES].try_into().expect("eight values")
+}
+
+/// Accumulates eight bilinear samples (corners `a0 a1 / b0 b1`, weights `w`) into
+/// `[Σ I, Σ I², Σ gx·I, Σ gy·I]` lanes; `m` masks the padding out of the first two.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn bilinear_lane(
+    a0: [f32; LANES],
+    a1: [f32; LANES],
+    b0: [f32; LANES],
+    b1: [f32; LANES],
+    m: [f32; LANES],
+    g0: [f32; LANES],
+    g1: [f32; LANES],
+    w: [f32; 4],
+    acc: &mut [[f32; LANES]; 4],
+) {
+    let mut v = [0f32; LANES];
+    for k in 0..LANES {
+        v[k] = w[0] * a0[k] + w[1] * a1[k] + w[2] * b0[k] + w[3] * b1[k];
+    }
+    value_lane(v, m, g0, g1, acc);
+}
+
+/// Accumulates eight sampled values (see [`bilinear_lane`]).
+#[inline(always)]
+fn value_lane(
+    v: [f32; LANES],
+    m: [f32; LANES],
+    g0: [f32; LANES],
+    g1: [f32; LANES],
+    acc: &mut [[f32; LANES]; 4],
+) {
+    for k in 0..LANES {
+        let vm = v[k] * m[k];
+        acc[0][k] += vm;
+        acc[1][k] += vm * vm;
+        acc[2][k] += g0[k] * v[k];
+        acc[3][k] += g1[k] * v[k];
+    }
+}
+
+/// Σ x_i over eight fixed lanes (as [`lane_dot`] with ones: multiplying by one is exact).
+#[inline(always)]
+fn lane_sum(x: &[f32]) -> f32 {
+    static ONES: [f32; 64 * 64] = [1.0; 64 * 64];
+    lane_dot(x, &ONES[..x.len()])
+}
+
+/// Σ x_i·y_i over eight fixed lanes (`acc[i mod 8] += x_i·y_i`, then [`reduce`]); AVX when
+/// present, with the same operations per lane.
 #[inline(always)]
 fn lane_dot(x: &[f32], y: &[f32]) -> f32 {
-    debug_assert_eq!(x.len(), y.len());
+    assert_eq!(x.len(), y.len());
+    #[cfg(target_arch = "x86_64")]
+    if x.len().is_multiple_of(LANES)
+        && std::arch::is_x86_feature_detected!("avx")
+        && !portable_only()
+    {
+        // SAFETY: AVX is present (checked) and both slices hold a multiple of eight values.
+        return reduce(unsafe { lane_dot_avx(x, y) });
+    }
     let mut acc = [0f32; LANES];
     let (xc, yc) = (x.chunks_exact(LANES), y.chunks_exact(LANES));
     let (xr, yr) = (xc.remainder(), yc.remainder());
@@ -462,6 +567,26 @@ fn lane_dot(x: &[f32], y: &[f32]) -> f32 {
         tail += a * b;
     }
     reduce(acc) + tail
+}
+
+/// The lanes of [`lane_dot`] with AVX registers (`x.len() == y.len()`, a multiple of eight).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn lane_dot_avx(x: &[f32], y: &[f32]) -> [f32; LANES] {
+    use std::arch::x86_64::*;
+    let mut acc = _mm256_setzero_ps();
+    for c in (0..x.len()).step_by(LANES) {
+        // SAFETY: `c + 8 ≤ len` for both slices (the caller's contract).
+        unsafe {
+            let a = _mm256_loadu_ps(x.as_ptr().add(c));
+            let b = _mm256_loadu_ps(y.as_ptr().add(c));
+            acc = _mm256_add_ps(acc, _mm256_mul_ps(a, b));
+        }
+    }
+    let mut out = [0f32; LANES];
+    // SAFETY: `out` holds eight f32.
+    unsafe { _mm256_storeu_ps(out.as_mut_ptr(), acc) };
+    out
 }
 
 #[inline(always)]
@@ -502,16 +627,57 @@ pub(crate) fn sample_grid(
             }
         }
     } else {
-        let px = |xx: i64, yy: i64| data[(yy.clamp(0, h - 1) * w + xx.clamp(0, w - 1)) as usize];
+        // Border: clamped column indices computed once, then the same arithmetic per row.
+        let mut xs = [0usize; 80];
+        let xs = &mut xs[..cols + 1];
+        for (j, x) in xs.iter_mut().enumerate() {
+            *x = (ix + j as i64).clamp(0, w - 1) as usize;
+        }
         for r in 0..rows {
-            let yy = iy + r as i64;
+            let y0 = (iy + r as i64).clamp(0, h - 1) as usize * wu;
+            let y1 = (iy + r as i64 + 1).clamp(0, h - 1) as usize * wu;
+            let o = &mut out[r * cols..(r + 1) * cols];
             for j in 0..cols {
-                let xx = ix + j as i64;
-                out[r * cols + j] = w00 * px(xx, yy)
-                    + w01 * px(xx + 1, yy)
-                    + w10 * px(xx, yy + 1)
-                    + w11 * px(xx + 1, yy + 1);
+                o[j] = w00 * data[y0 + xs[j]]
+                    + w01 * data[y0 + xs[j + 1]]
+                    + w10 * data[y1 + xs[j]]
+                    + w11 * data[y1 + xs[j + 1]];
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frontend::ImageView;
+
+    /// The vectorized window sums equal the portable ones bit for bit.
+    #[test]
+    fn vectorized_and_portable_window_sums_are_identical() {
+        let (w, h) = (96u32, 80u32);
+        let data: Vec<u8> = (0..w * h)
+            .map(|i| ((i * 2_654_435_761u32) >> 24) as u8)
+            .collect();
+        let pyr = Pyramid::build(&ImageView::packed(w, h, &data).unwrap(), 0);
+        let params = KltParams::default();
+        let t = Template::new(&pyr, Vector2::new(40.3, 37.6), 1, &params);
+        let side = 2 * params.half_window + 1;
+        let np = side * padded(side);
+        let (gx, gy) = (&t.data[np..2 * np], &t.data[2 * np..3 * np]);
+        for (x, y) in [(20.25, 18.5), (31.7, 40.05), (50.0, 30.99)] {
+            let fast = window_sums(&pyr.plane(0), x, y, side, gx, gy);
+            let fast_dot = lane_dot(gx, gy);
+            PORTABLE.with(|p| p.set(true));
+            let slow = window_sums(&pyr.plane(0), x, y, side, gx, gy);
+            let slow_dot = lane_dot(gx, gy);
+            PORTABLE.with(|p| p.set(false));
+            assert_eq!(
+                fast.map(f32::to_bits),
+                slow.map(f32::to_bits),
+                "at ({x}, {y})"
+            );
+            assert_eq!(fast_dot.to_bits(), slow_dot.to_bits());
         }
     }
 }

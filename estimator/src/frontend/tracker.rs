@@ -23,7 +23,7 @@ use nalgebra::{UnitQuaternion, Vector2, Vector3};
 use super::affine::AffineAnchor;
 use super::checks::{StereoGeometry, build_pyramid, median2, predict};
 use super::config::{TrackerConfig, TrackerError};
-use super::corners::{CornerParams, CornerScratch, Occupancy, detect};
+use super::corners::{CornerParams, CornerScratch, Occupancy, detect_on_level};
 use super::image::{ImageView, Pyramid};
 use super::klt::{Template, track};
 use super::ransac::{RansacParams, ransac_fundamental};
@@ -120,7 +120,7 @@ struct Track {
     age: u32,
     template: Template,
     /// The patch of the first observation (or of the last re-anchoring) and its warp.
-    anchor: Option<AffineAnchor>,
+    anchor: Option<Box<AffineAnchor>>,
     matches: Vec<(usize, Vector2<f64>)>,
     /// Last frame's stereo disparities `(camera, match − uv)`: this frame's starting guesses.
     hints: Vec<(usize, Vector2<f64>)>,
@@ -289,12 +289,12 @@ impl FeatureTracker {
             if cfg.anchor_refinement {
                 let refined = anchor
                     .as_mut()
-                    .and_then(|a| a.refine(&self.cur, q, cfg.max_iterations, cfg.epsilon_px));
+                    .and_then(|a| a.refine(&self.cur, q, cfg.epsilon_px));
                 match refined {
                     Some(r) if (r - q).norm() <= cfg.anchor_max_shift_px => q = r,
                     _ => {
                         report.reanchored += 1;
-                        anchor = AffineAnchor::new(&self.cur, q, klt.half_window);
+                        anchor = AffineAnchor::new(&self.cur, q, klt.half_window).map(Box::new);
                     }
                 }
             }
@@ -384,9 +384,11 @@ impl FeatureTracker {
                 border_px: cfg.border_px,
                 grid: cfg.grid,
             };
-            let level0 = self.cur.level(0).view();
-            let found = detect(
-                &level0,
+            let level = cfg.detect_level.min(self.cur.len() - 1);
+            let found = detect_on_level(
+                &self.cur.level(level).view(),
+                level,
+                &self.cur.level(0).view(),
                 &existing,
                 cfg.max_features - tracks.len(),
                 &params,
@@ -404,7 +406,7 @@ impl FeatureTracker {
                     age: 1,
                     anchor: cfg
                         .anchor_refinement
-                        .then(|| AffineAnchor::new(&self.cur, uv, klt.half_window))
+                        .then(|| AffineAnchor::new(&self.cur, uv, klt.half_window).map(Box::new))
                         .flatten(),
                     template,
                     matches: Vec::new(),
@@ -433,7 +435,14 @@ impl FeatureTracker {
                     report.stereo_tried += 1;
                     let hint = t.hints.iter().find(|h| h.0 == c).map(|h| h.1);
                     let guess = t.uv + hint.unwrap_or(prior);
-                    let Ok(q) = track(&t.template, &self.other, guess, cfg.max_level, &klt) else {
+                    // Last frame's disparity is within a few pixels of this one's: the two finest
+                    // levels suffice (±20 px); new tracks search the whole pyramid.
+                    let top = if hint.is_some() {
+                        cfg.max_level.min(1)
+                    } else {
+                        cfg.max_level
+                    };
+                    let Ok(q) = track(&t.template, &self.other, guess, top, &klt) else {
                         continue;
                     };
                     if cfg.flow_back {
