@@ -7,22 +7,25 @@ use scenarios::report::{self, Report};
 use scenarios::run::{RunOptions, run};
 use scenarios::spec::Scenario;
 
-// Bounds with margin over what was measured (see each comment; seed 1 unless named).
-/// Track error median: measured 0.065 px over 8 s.
-const TRACK_MEDIAN_PX: f64 = 0.15;
-/// Track error p95: measured 0.30 px.
-const TRACK_P95_PX: f64 = 0.6;
-/// Wrong tracks (> 2 px) the estimator gets: measured 0.3 %.
+// Bounds: what was measured (seed 1 unless named, llvmpipe GL), with the margin stated.
+/// Track error median: measured 0.134 px over 8 s; bound 1.5× (the target, 0.2 px).
+const TRACK_MEDIAN_PX: f64 = 0.2;
+/// Track error p95: measured 0.52 px; bound 1.35× (the target, 0.7 px).
+const TRACK_P95_PX: f64 = 0.7;
+/// Wrong tracks (> 2 px) the estimator gets: measured 0.41 %; bound ≈ 2.5×.
 const WRONG_AFTER: f64 = 0.01;
-/// ATE over the first 8 s: measured 0.0028 m over 6 s.
-const ATE_8S_M: f64 = 0.01;
-/// `(scenario, seconds, fewest features, ATE bound m)` of the short catalog slices.
+/// ATE over the first 8 s: measured 0.0019 m; bound 3×.
+const ATE_8S_M: f64 = 0.006;
+/// `(scenario, seconds, fewest features, ATE bound m)` of the short catalog slices. Measured:
+/// exposure jump 10 s (the jump at 8 s) min 150 features, ATE 0.0019 m; blur 4 s 150, 0.0030 m;
+/// fast rotation 6 s 150, 0.0012 m; texture-poor hall 20 s 65, 0.0103 m; V2_02 replay 6 s
+/// (seed 4) 150, 0.0029 m. Bounds: 50 features (the floor) or 120, ATE 3×.
 const SHORT: &[(&str, f64, usize, f64)] = &[
-    ("room_figure8_exposure_jump_rendered", 10.0, 50, 0.02),
-    ("room_figure8_blur_rendered", 4.0, 50, 0.02),
-    ("room_fast_rotation_rendered", 6.0, 50, 0.03),
-    ("hall_poor_wall_rendered", 20.0, 50, 0.1),
-    ("room_replay_v2_02_rendered", 6.0, 50, 0.03),
+    ("room_figure8_exposure_jump_rendered", 10.0, 120, 0.006),
+    ("room_figure8_blur_rendered", 4.0, 120, 0.01),
+    ("room_fast_rotation_rendered", 6.0, 120, 0.004),
+    ("hall_poor_wall_rendered", 20.0, 50, 0.031),
+    ("room_replay_v2_02_rendered", 6.0, 120, 0.009),
 ];
 
 fn run_report(name: &str, seconds: Option<f64>) -> (Report, Vec<u8>) {

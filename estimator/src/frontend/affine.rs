@@ -8,8 +8,9 @@
 //! the accumulation: the anchor never changes, and the warp absorbs the deformation.
 //!
 //! The alignment samples every second row and column of the window (`STRIDE`): the same
-//! extent and gradients, a quarter of the work; the sub-pixel precision stays well below the
-//! deformation it removes (tested against known warps).
+//! extent and gradients, a quarter of the work. Measured on the rendered room (seed 1, 6 s):
+//! track error median / p95 0.127 / 0.51 px at stride 2 against 0.067 / 0.27 px at stride 1,
+//! for 3.7 against 4.9 ms per stereo pair, with the same trajectory error (2.1–2.3 mm).
 
 use nalgebra::{Matrix2, Matrix6, Vector2, Vector6};
 
