@@ -24,6 +24,7 @@ pub mod faults;
 pub mod imu;
 pub mod motion;
 pub mod render;
+mod render_worker;
 pub mod rng;
 pub mod scene;
 pub mod stream;

@@ -10,6 +10,7 @@ use crate::faults::FaultTimeline;
 use crate::imu::{ImuBias, ImuSim};
 use crate::motion::{Kinematics, TruthBuffer};
 use crate::render::{CameraImage, DepthImage, GrayImage, ImageFrame, RenderError, Renderer};
+use crate::render_worker::{RenderJob, RenderWorker};
 use crate::scene::Landmark;
 use estimator::frontend::FeatureFrame;
 use estimator::geometry::Pose;
@@ -59,6 +60,23 @@ pub struct GroundTruth {
     pub accel_bias: Vector3<f64>,
 }
 
+/// Images of a pending frame.
+#[derive(Debug)]
+enum PendingImages {
+    /// Made without rendering (black frames).
+    Ready(ImageFrame),
+    /// Submitted to the render thread.
+    Rendering,
+}
+
+/// A frame waiting to be emitted.
+#[derive(Debug)]
+struct PendingFrame {
+    frame: FeatureFrame,
+    /// Images to emit first (rendered streams; `None` once emitted).
+    images: Option<PendingImages>,
+}
+
 /// The merged measurement stream of a [`crate::World`] (see [`crate::World::stream`]).
 #[derive(Debug)]
 pub struct Stream {
@@ -72,13 +90,12 @@ pub struct Stream {
     imu_queue: VecDeque<ImuSample>,
     /// True biases of generated samples (trimmed to the retention window).
     biases: VecDeque<ImuBias>,
-    /// The next frame to emit (after faults).
-    frame: Option<FeatureFrame>,
-    /// The renderer of a rendered stream.
-    renderer: Option<Renderer>,
-    /// Images of the pending frame, emitted before it.
-    images: Option<ImageFrame>,
-    /// Time spent rendering the pending images (s).
+    /// Frames to emit (after faults), oldest first; a rendered stream keeps one more than it
+    /// emits, its images already rendering.
+    pending: VecDeque<PendingFrame>,
+    /// The renderer of a rendered stream, on its own thread.
+    worker: Option<RenderWorker>,
+    /// Time spent rendering the last emitted images (s).
     render_s: f64,
     /// The first rendering error; the stream ends there.
     error: Option<RenderError>,
@@ -106,9 +123,8 @@ impl Stream {
             retention_ns,
             imu_queue: VecDeque::new(),
             biases: VecDeque::new(),
-            frame: None,
-            renderer: None,
-            images: None,
+            pending: VecDeque::new(),
+            worker: None,
             render_s: 0.0,
             error: None,
             imu_done: false,
@@ -117,15 +133,12 @@ impl Stream {
         }
     }
 
-    /// Makes this a rendered stream: every delivered frame is preceded by its images.
+    /// Makes this a rendered stream: every delivered frame is preceded by its images. The
+    /// renderer moves to its own thread and renders each capture one frame ahead.
     pub(crate) fn with_renderer(mut self, renderer: Renderer) -> Self {
-        self.renderer = Some(renderer);
+        let cameras = self.rig.as_ref().map_or(0, |r| r.config().cameras.len());
+        self.worker = Some(RenderWorker::spawn(renderer, cameras));
         self
-    }
-
-    /// The renderer of a rendered stream.
-    pub fn renderer(&self) -> Option<&Renderer> {
-        self.renderer.as_ref()
     }
 
     /// Wall-clock time spent rendering the most recently emitted images (s; for timing
@@ -160,9 +173,11 @@ impl Stream {
         true
     }
 
-    /// Makes sure a frame is pending unless the rig has passed the end.
+    /// Makes sure a frame is pending unless the rig has passed the end; a rendered stream also
+    /// keeps the next frame pending with its render job submitted.
     fn fill_frame(&mut self) {
-        while self.frame.is_none() && !self.rig_done {
+        let want = if self.worker.is_some() { 2 } else { 1 };
+        while self.pending.len() < want && !self.rig_done {
             let Some(rig) = self.rig.as_mut() else {
                 self.rig_done = true;
                 return;
@@ -173,73 +188,98 @@ impl Stream {
             }
             let period = rig.config().period_ns();
             let (t_cap, f) = rig.next_frame(&mut self.truth);
-            self.frame = self.faults.apply_frame(f, t_cap, period);
-            if let (Some(frame), Some(_)) = (&self.frame, &self.renderer) {
-                let (t_ns, frame_index) = (frame.t_ns, (t_cap / period) as u64);
+            let Some(frame) = self.faults.apply_frame(f, t_cap, period) else {
+                continue;
+            };
+            let images = self.worker.is_some().then(|| {
+                let frame_index = (t_cap / period) as u64;
                 let live: Vec<usize> = frame.cameras.iter().map(|c| c.cam_id).collect();
-                match self.render(t_cap, t_ns, frame_index, &live) {
-                    Ok(images) => self.images = Some(images),
-                    Err(e) => {
-                        self.error = Some(e);
-                        self.frame = None;
-                        self.rig_done = true;
-                        self.imu_done = true;
-                        self.imu_queue.clear();
-                    }
-                }
-            }
+                self.submit_render(t_cap, frame.t_ns, frame_index, live)
+            });
+            self.pending.push_back(PendingFrame { frame, images });
         }
     }
 
-    /// Renders the cameras `live` for the capture at true time `t_cap` (black images during a
-    /// blackout with black frames).
-    fn render(
+    /// Starts rendering the cameras `live` for the capture at true time `t_cap` (black images
+    /// during a blackout with black frames, made here).
+    fn submit_render(
         &mut self,
         t_cap: i64,
         t_ns: i64,
         frame_index: u64,
-        live: &[usize],
-    ) -> Result<ImageFrame, RenderError> {
-        let start = std::time::Instant::now();
-        let renderer = self.renderer.as_mut().expect("rendered stream");
-        let out = if self.faults.black_frames_at(t_cap) {
-            Ok(ImageFrame {
-                t_ns,
-                t_capture_ns: t_cap,
-                cameras: live
-                    .iter()
-                    .map(|&c| {
-                        let (w, h) = renderer.image_size(c);
-                        CameraImage {
-                            cam_id: c,
-                            image: GrayImage::black(w, h),
-                            // Nothing seen.
-                            depth: renderer.config().depth.then(|| DepthImage {
-                                width: w,
-                                height: h,
-                                data: vec![0.0; (w as usize) * (h as usize)],
-                            }),
-                        }
-                    })
-                    .collect(),
-            })
-        } else {
-            let poses: Vec<_> = renderer
-                .exposure_offsets_ns()
+        live: Vec<usize>,
+    ) -> PendingImages {
+        let worker = self.worker.as_ref().expect("rendered stream");
+        if self.faults.black_frames_at(t_cap) {
+            let cameras = live
                 .iter()
-                .map(|o| {
-                    let k = self
-                        .truth
-                        .kinematics(t_cap + o)
-                        .or_else(|| self.truth.kinematics(t_cap))
-                        .expect("ground truth at a capture time");
-                    k.pose
+                .map(|&c| {
+                    let (w, h) = worker.image_sizes[c];
+                    CameraImage {
+                        cam_id: c,
+                        image: GrayImage::black(w, h),
+                        // Nothing seen.
+                        depth: worker.depth.then(|| DepthImage {
+                            width: w,
+                            height: h,
+                            data: vec![0.0; (w as usize) * (h as usize)],
+                        }),
+                    }
                 })
                 .collect();
-            renderer.render(t_cap, t_ns, frame_index, &poses, live)
-        };
-        self.render_s = start.elapsed().as_secs_f64();
-        out
+            return PendingImages::Ready(ImageFrame {
+                t_ns,
+                t_capture_ns: t_cap,
+                cameras,
+            });
+        }
+        let offsets = worker.exposure_offsets_ns.clone();
+        let poses_w_b = offsets
+            .iter()
+            .map(|o| {
+                let k = self
+                    .truth
+                    .kinematics(t_cap + o)
+                    .or_else(|| self.truth.kinematics(t_cap))
+                    .expect("ground truth at a capture time");
+                k.pose
+            })
+            .collect();
+        let worker = self.worker.as_ref().expect("rendered stream");
+        worker.submit(RenderJob {
+            t_capture_ns: t_cap,
+            stamp_ns: t_ns,
+            frame_index,
+            poses_w_b,
+            live,
+        });
+        PendingImages::Rendering
+    }
+
+    /// The images of the oldest pending frame (waits for its render job); a render error ends
+    /// the stream.
+    fn take_images(&mut self, slot: PendingImages) -> Option<ImageFrame> {
+        match slot {
+            PendingImages::Ready(images) => {
+                self.render_s = 0.0;
+                Some(images)
+            }
+            PendingImages::Rendering => {
+                let (out, seconds) = self.worker.as_ref()?.receive();
+                self.render_s = seconds;
+                match out {
+                    Ok(images) => Some(images),
+                    Err(e) => {
+                        self.error = Some(e);
+                        self.pending.clear();
+                        self.rig_done = true;
+                        self.imu_done = true;
+                        self.imu_queue.clear();
+                        None
+                    }
+                }
+            }
+        }
     }
 
     fn fill_imu(&mut self) {
@@ -254,9 +294,17 @@ impl Stream {
             .saturating_sub(self.retention_ns)
             .min(self.imu.needs_from_ns())
             .min(
-                self.rig
-                    .as_ref()
-                    .map_or(i64::MAX, |r| r.next_capture_ns() - self.truth.step_ns()),
+                self.pending
+                    .front()
+                    .map(|p| p.frame.t_ns - self.truth.step_ns())
+                    .into_iter()
+                    .chain(
+                        self.rig
+                            .as_ref()
+                            .map(|r| r.next_capture_ns() - self.truth.step_ns()),
+                    )
+                    .min()
+                    .unwrap_or(i64::MAX),
             );
         self.truth.trim(keep_from);
         while self.biases.len() > 2 && self.biases[1].t_ns <= keep_from {
@@ -320,7 +368,7 @@ impl Iterator for Stream {
         self.fill_imu();
         self.fill_frame();
         let imu_t = self.imu_queue.front().map(|s| s.t_ns);
-        let frame_t = self.frame.as_ref().map(|f| f.t_ns);
+        let frame_t = self.pending.front().map(|p| p.frame.t_ns);
         let frame_first = match (imu_t, frame_t) {
             (None, None) => return None,
             (Some(a), Some(b)) => b < a,
@@ -329,10 +377,10 @@ impl Iterator for Stream {
         };
         let out = if !frame_first {
             Measurement::Imu(self.imu_queue.pop_front()?)
-        } else if let Some(images) = self.images.take() {
-            Measurement::Images(images)
+        } else if let Some(slot) = self.pending.front_mut()?.images.take() {
+            Measurement::Images(self.take_images(slot)?)
         } else {
-            Measurement::Frame(self.frame.take()?)
+            Measurement::Frame(self.pending.pop_front()?.frame)
         };
         self.last_emitted_ns = self.last_emitted_ns.max(out.t_ns());
         self.trim();
