@@ -194,9 +194,10 @@ impl AffineAnchor {
                 // Non-negative (the corners were checked): truncation is the floor.
                 let (iu, iv) = (u as usize, v as usize);
                 let (fx, fy) = (u - iu as f32, v - iv as f32);
-                let base = iv * w + iu;
+                let base = plane.index(iu as isize, iv as isize);
+                let st = plane.stride;
                 let val = (1.0 - fy) * ((1.0 - fx) * data[base] + fx * data[base + 1])
-                    + fy * ((1.0 - fx) * data[base + w] + fx * data[base + w + 1]);
+                    + fy * ((1.0 - fx) * data[base + st] + fx * data[base + st + 1]);
                 let k = r * cols + q;
                 let (gx, gy) = (self.gx[k], self.gy[k]);
                 s1 += val;

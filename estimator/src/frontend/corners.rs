@@ -358,14 +358,19 @@ fn response_at(img: &ImageView<'_>, x: usize, y: usize) -> f32 {
     (0.5 * ((xx + yy) - (d * d + 4.0 * xy * xy).sqrt()) / (64.0 * 9.0)).max(0.0)
 }
 
-/// Points on a grid of `min_distance`-sized cells, for O(1) minimum-distance queries.
+/// Points on a grid of `min_distance`-sized cells, for O(1) minimum-distance queries. Each cell
+/// is a linked list through one flat array: no allocation per cell.
 #[derive(Debug)]
 pub(crate) struct Occupancy {
     cell: f64,
     cols: usize,
     rows: usize,
     r2: f64,
-    cells: Vec<Vec<Vector2<f64>>>,
+    /// First point of each cell (`u32::MAX`: empty).
+    head: Vec<u32>,
+    /// Next point in the same cell.
+    next: Vec<u32>,
+    points: Vec<Vector2<f64>>,
 }
 
 impl Occupancy {
@@ -379,7 +384,9 @@ impl Occupancy {
             cols,
             rows,
             r2: min_distance * min_distance,
-            cells: vec![Vec::new(); cols * rows],
+            head: vec![u32::MAX; cols * rows],
+            next: Vec::new(),
+            points: Vec::new(),
         }
     }
 
@@ -392,7 +399,10 @@ impl Occupancy {
     /// Adds a point.
     pub(crate) fn insert(&mut self, p: Vector2<f64>) {
         let (cx, cy) = self.cell_of(&p);
-        self.cells[cy * self.cols + cx].push(p);
+        let c = cy * self.cols + cx;
+        self.next.push(self.head[c]);
+        self.head[c] = self.points.len() as u32;
+        self.points.push(p);
     }
 
     /// True if a point lies closer than the minimum distance to `p`.
@@ -400,11 +410,12 @@ impl Occupancy {
         let (cx, cy) = self.cell_of(p);
         for y in cy.saturating_sub(1)..=(cy + 1).min(self.rows - 1) {
             for x in cx.saturating_sub(1)..=(cx + 1).min(self.cols - 1) {
-                if self.cells[y * self.cols + x]
-                    .iter()
-                    .any(|q| (q - p).norm_squared() < self.r2)
-                {
-                    return true;
+                let mut i = self.head[y * self.cols + x];
+                while i != u32::MAX {
+                    if (self.points[i as usize] - p).norm_squared() < self.r2 {
+                        return true;
+                    }
+                    i = self.next[i as usize];
                 }
             }
         }

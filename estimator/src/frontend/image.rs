@@ -244,15 +244,29 @@ pub struct Pyramid {
     planes: Vec<Vec<f32>>,
 }
 
-/// One pyramid level as `f32` grey levels.
+/// Replicated border around every [`Plane`] (px): windows of up to 21 px near the image edge
+/// are sampled without bounds branches.
+pub const PLANE_BORDER: usize = 16;
+
+/// One pyramid level as `f32` grey levels, with a replicated border of [`PLANE_BORDER`] px.
 #[derive(Clone, Copy, Debug)]
 pub struct Plane<'a> {
-    /// Width (px).
+    /// Width (px, without the border).
     pub width: u32,
-    /// Height (px).
+    /// Height (px, without the border).
     pub height: u32,
-    /// `width × height` values, row-major.
+    /// Row stride of `data` (`width + 2·PLANE_BORDER`).
+    pub stride: usize,
+    /// `(height + 2·PLANE_BORDER) × stride` values, row-major, border included.
     pub data: &'a [f32],
+}
+
+impl Plane<'_> {
+    /// Index in `data` of pixel `(x, y)`, for `x, y ≥ −PLANE_BORDER`.
+    #[inline(always)]
+    pub fn index(&self, x: isize, y: isize) -> usize {
+        (y + PLANE_BORDER as isize) as usize * self.stride + (x + PLANE_BORDER as isize) as usize
+    }
 }
 
 impl Pyramid {
@@ -309,9 +323,17 @@ impl Pyramid {
         }
         self.planes.resize_with(self.levels.len(), Vec::new);
         self.planes.truncate(self.levels.len());
+        let b = PLANE_BORDER;
         for (plane, level) in self.planes.iter_mut().zip(&self.levels) {
+            let (w, h) = (level.width as usize, level.height as usize);
             plane.clear();
-            plane.extend(level.data.iter().map(|&v| v as f32));
+            plane.reserve((w + 2 * b) * (h + 2 * b));
+            for y in 0..h + 2 * b {
+                let src = &level.data[y.saturating_sub(b).min(h - 1) * w..][..w];
+                plane.extend(std::iter::repeat_n(src[0] as f32, b));
+                plane.extend(src.iter().map(|&v| v as f32));
+                plane.extend(std::iter::repeat_n(src[w - 1] as f32, b));
+            }
         }
     }
 
@@ -321,6 +343,7 @@ impl Pyramid {
         Plane {
             width: level.width,
             height: level.height,
+            stride: level.width as usize + 2 * PLANE_BORDER,
             data: &self.planes[l],
         }
     }

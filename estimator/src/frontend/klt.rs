@@ -16,7 +16,7 @@
 
 use nalgebra::Vector2;
 
-use super::image::{Plane, Pyramid};
+use super::image::{PLANE_BORDER, Plane, Pyramid};
 
 /// Lucas–Kanade settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -331,8 +331,9 @@ fn window_sums_lanes(
     let (fx0, fy0) = (x.floor(), y.floor());
     let (ix, iy) = (fx0 as i64, fy0 as i64);
     let (w, h) = (img.width as i64, img.height as i64);
+    let bd = PLANE_BORDER as i64;
     let mut acc = [[0f32; LANES]; 4];
-    if !(ix >= 0 && iy >= 0 && ix + (pw as i64) < w && iy + (side as i64) < h) {
+    if !(ix >= -bd && iy >= -bd && ix + (pw as i64) < w + bd && iy + (side as i64) < h + bd) {
         let mut buf = [0f32; 64 * 64];
         let s = &mut buf[..side * pw];
         sample_grid(img, x, y, pw, side, s);
@@ -357,16 +358,17 @@ fn window_sums_lanes(
             (1.0 - fx) * fy,
             fx * fy,
         );
-        let (ix, iy, wu) = (ix as usize, iy as usize, w as usize);
         let data = img.data;
+        let stride = img.stride;
+        let origin = img.index(ix as isize, iy as isize);
         let wts = [w00, w01, w10, w11];
-        // The fast-path condition keeps every read inside the plane.
-        assert!((iy + side) * wu + ix + pw < data.len());
+        // The fast-path condition keeps every read inside the bordered plane.
+        assert!(origin + side * stride + pw < data.len());
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx") && !portable_only() {
             // SAFETY: AVX is present (checked) and every load is in bounds (asserted above;
             // `mask`, `gx`, `gy` hold `pw` and `side × pw` values).
-            acc = unsafe { window_rows_avx(data, wu, ix, iy, side, pw, mask, gx, gy, wts) };
+            acc = unsafe { window_rows_avx(data, stride, origin, side, pw, mask, gx, gy, wts) };
             return [
                 reduce(acc[0]),
                 reduce(acc[1]),
@@ -375,8 +377,8 @@ fn window_sums_lanes(
             ];
         }
         for r in 0..side {
-            let a = &data[(iy + r) * wu + ix..(iy + r) * wu + ix + pw + 1];
-            let b = &data[(iy + r + 1) * wu + ix..(iy + r + 1) * wu + ix + pw + 1];
+            let a = &data[origin + r * stride..origin + r * stride + pw + 1];
+            let b = &data[origin + (r + 1) * stride..origin + (r + 1) * stride + pw + 1];
             for c in (0..pw).step_by(LANES) {
                 let k = r * pw + c;
                 bilinear_lane(
@@ -408,9 +410,8 @@ fn window_sums_lanes(
 #[allow(clippy::too_many_arguments)]
 unsafe fn window_rows_avx(
     data: &[f32],
-    wu: usize,
-    ix: usize,
-    iy: usize,
+    stride: usize,
+    origin: usize,
     side: usize,
     pw: usize,
     mask: &[f32],
@@ -433,8 +434,8 @@ unsafe fn window_rows_avx(
     );
     let p = data.as_ptr();
     for r in 0..side {
-        let ra = (iy + r) * wu + ix;
-        let rb = ra + wu;
+        let ra = origin + r * stride;
+        let rb = ra + stride;
         for c in (0..pw).step_by(LANES) {
             // SAFETY: in bounds by the caller's contract.
             unsafe {
@@ -616,26 +617,29 @@ pub(crate) fn sample_grid(
     let (w, h) = (img.width as i64, img.height as i64);
     let (ix, iy) = (ix as i64, iy as i64);
     let data = &img.data;
-    let wu = w as usize;
-    if ix >= 0 && iy >= 0 && ix + (cols as i64) < w && iy + (rows as i64) < h {
-        let (ix, iy) = (ix as usize, iy as usize);
+    let bd = PLANE_BORDER as i64;
+    let stride = img.stride;
+    if ix >= -bd && iy >= -bd && ix + (cols as i64) < w + bd && iy + (rows as i64) < h + bd {
+        let origin = img.index(ix as isize, iy as isize);
         for (r, o) in out.chunks_exact_mut(cols).take(rows).enumerate() {
-            let a = &data[(iy + r) * wu + ix..(iy + r) * wu + ix + cols + 1];
-            let b = &data[(iy + r + 1) * wu + ix..(iy + r + 1) * wu + ix + cols + 1];
+            let a = &data[origin + r * stride..origin + r * stride + cols + 1];
+            let b = &data[origin + (r + 1) * stride..origin + (r + 1) * stride + cols + 1];
             for j in 0..cols {
                 o[j] = w00 * a[j] + w01 * a[j + 1] + w10 * b[j] + w11 * b[j + 1];
             }
         }
     } else {
-        // Border: clamped column indices computed once, then the same arithmetic per row.
+        // Far outside: clamped column indices computed once, then the same arithmetic per row
+        // (the replicated border holds the same values).
         let mut xs = [0usize; 80];
         let xs = &mut xs[..cols + 1];
         for (j, x) in xs.iter_mut().enumerate() {
-            *x = (ix + j as i64).clamp(0, w - 1) as usize;
+            *x = img.index((ix + j as i64).clamp(0, w - 1) as isize, 0) - img.index(0, 0);
         }
+        let row0 = img.index(0, 0);
         for r in 0..rows {
-            let y0 = (iy + r as i64).clamp(0, h - 1) as usize * wu;
-            let y1 = (iy + r as i64 + 1).clamp(0, h - 1) as usize * wu;
+            let y0 = row0 + (iy + r as i64).clamp(0, h - 1) as usize * stride;
+            let y1 = row0 + (iy + r as i64 + 1).clamp(0, h - 1) as usize * stride;
             let o = &mut out[r * cols..(r + 1) * cols];
             for j in 0..cols {
                 o[j] = w00 * data[y0 + xs[j]]
