@@ -10,9 +10,10 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use estimator::camera::CameraModel;
+use estimator::estimator::EstimatorConfig;
 use estimator::frontend::{
-    CameraImageView, FeatureFrame, FeatureTracker, ImageView, TrackerCamera, TrackerConfig,
-    TrackerError,
+    CameraImageView, FeatureFrame, FeatureTracker, ImageError, ImageView, TrackerCamera,
+    TrackerConfig, TrackerError,
 };
 use estimator::geometry::{Pose, so3_exp};
 use estimator::imu::ImuSample;
@@ -68,21 +69,10 @@ impl ImageFrontend {
         images: &ImageFrame,
         T_w_b_true: Option<&Pose>,
     ) -> Result<(FeatureFrame, f64), TrackerError> {
-        let views = images
-            .cameras
-            .iter()
-            .map(|c| {
-                ImageView::packed(c.image.width, c.image.height, &c.image.data)
-                    .map(|image| CameraImageView {
-                        cam_id: c.cam_id,
-                        image,
-                    })
-                    .map_err(|e| TrackerError::Config {
-                        field: "image",
-                        message: e.to_string(),
-                    })
-            })
-            .collect::<Result<Vec<_>, _>>()?;
+        let views = image_views(images).map_err(|e| TrackerError::Config {
+            field: "image",
+            message: e.to_string(),
+        })?;
         let rotation = self.gyro.take();
         let frame = self.tracker.track(&views, images.t_ns, rotation)?;
         let seconds = self.tracker.report().times.total_s;
@@ -123,6 +113,34 @@ impl ImageFrontend {
     pub fn stats(&self) -> FrontendStats {
         self.eval.stats()
     }
+}
+
+/// Borrowed views of a rendered frame's images, for [`FeatureTracker::track`].
+pub fn image_views(frame: &ImageFrame) -> Result<Vec<CameraImageView<'_>>, ImageError> {
+    frame
+        .cameras
+        .iter()
+        .map(|c| {
+            ImageView::packed(c.image.width, c.image.height, &c.image.data).map(|image| {
+                CameraImageView {
+                    cam_id: c.cam_id,
+                    image,
+                }
+            })
+        })
+        .collect()
+}
+
+/// The tracker's view of the estimator's cameras (the same models and extrinsics).
+pub fn tracker_cameras(config: &EstimatorConfig) -> Vec<TrackerCamera> {
+    config
+        .cameras
+        .iter()
+        .map(|c| TrackerCamera {
+            model: c.model.clone(),
+            T_b_c: c.T_b_c,
+        })
+        .collect()
 }
 
 /// Body rotation since the last frame from raw gyroscope samples (midpoint of consecutive

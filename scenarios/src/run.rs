@@ -7,7 +7,6 @@
 use std::time::Instant;
 
 use estimator::estimator::{Estimate, Estimator, Status};
-use estimator::frontend::TrackerCamera;
 use sim::World;
 use sim::stream::{GroundTruth, Measurement, Stream};
 
@@ -304,14 +303,7 @@ pub fn image_frontend(
     est_cfg: &estimator::estimator::EstimatorConfig,
     cfg: estimator::frontend::TrackerConfig,
 ) -> Result<ImageFrontend, RunError> {
-    let cameras = est_cfg
-        .cameras
-        .iter()
-        .map(|c| TrackerCamera {
-            model: c.model.clone(),
-            T_b_c: c.T_b_c,
-        })
-        .collect();
+    let cameras = crate::frontend::tracker_cameras(est_cfg);
     let true_t_b_c = world
         .config()
         .rig

@@ -12,7 +12,7 @@
 use std::collections::{BTreeMap, VecDeque};
 use std::time::Instant;
 
-use estimator::frontend::{CameraImageView, FeatureTracker, ImageView, TrackerCamera};
+use estimator::frontend::FeatureTracker;
 use image::{Rgb, RgbImage};
 use nalgebra::Vector2;
 use sim::render::ImageFrame;
@@ -73,15 +73,7 @@ pub fn render_tracks(
             ..Default::default()
         }
     });
-    let cameras = scenario
-        .estimator_config()?
-        .cameras
-        .iter()
-        .map(|c| TrackerCamera {
-            model: c.model.clone(),
-            T_b_c: c.T_b_c,
-        })
-        .collect();
+    let cameras = crate::frontend::tracker_cameras(&scenario.estimator_config()?);
     let frontend_err = |e: &dyn std::fmt::Display| RunError::Frontend {
         file: scenario.file_label(),
         message: e.to_string(),
@@ -126,18 +118,7 @@ pub fn render_tracks(
             .render(t_cap, t_cap - rig.td_ns, k as u64, &poses, &live)
             .map_err(|e| RunError::sim(scenario, e))?;
         render_s += start.elapsed().as_secs_f64();
-        let views = frame
-            .cameras
-            .iter()
-            .map(|c| {
-                ImageView::packed(c.image.width, c.image.height, &c.image.data)
-                    .map(|image| CameraImageView {
-                        cam_id: c.cam_id,
-                        image,
-                    })
-                    .map_err(|e| frontend_err(&e))
-            })
-            .collect::<Result<Vec<_>, _>>()?;
+        let views = crate::frontend::image_views(&frame).map_err(|e| frontend_err(&e))?;
         // The true body rotation since the last capture stands in for the gyroscope.
         let rotation = prev_q.map(|p: nalgebra::UnitQuaternion<f64>| p.inverse() * q);
         let start = Instant::now();
