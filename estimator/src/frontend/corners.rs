@@ -46,6 +46,7 @@ pub struct CornerScratch {
     candidates: Vec<(f32, u32)>,
     ring: Vec<i32>,
     vsum: Vec<i32>,
+    hmax: Vec<u32>,
 }
 
 /// The Shi–Tomasi response (minimum eigenvalue per pixel of the 3×3 block, Sobel gradients
@@ -202,7 +203,6 @@ pub fn detect(
     }
     scratch.response.clear();
     scratch.response.resize(w * h, 0.0);
-    let mut runs = Vec::new();
     for by in 0..bh {
         let mut bx = 0;
         while bx < bw {
@@ -223,41 +223,18 @@ pub fn detect(
                 &mut scratch.ring,
                 &mut scratch.vsum,
             );
-            runs.push((x0, x1, y0, y1));
         }
     }
-    let resp = &scratch.response;
-    let max = resp.iter().copied().fold(0f32, f32::max);
-    let threshold = (params.quality_level as f32 * max).max(params.min_response as f32);
     let b = (params.border_px as usize).max(2);
-    scratch.candidates.clear();
-    for &(x0, x1, y0, y1) in &runs {
-        for y in y0.max(b)..y1.min(h.saturating_sub(b)) {
-            let (up, row, down) = (
-                &resp[(y - 1) * w..y * w],
-                &resp[y * w..(y + 1) * w],
-                &resp[(y + 1) * w..(y + 2) * w],
-            );
-            for x in x0.max(b)..x1.min(w.saturating_sub(b)) {
-                let v = row[x];
-                if v < threshold || v <= 0.0 {
-                    continue;
-                }
-                // Local maximum over the 3×3 neighbourhood (ties: keep; order decides).
-                let is_max = v >= row[x - 1]
-                    && v >= row[x + 1]
-                    && v >= up[x - 1]
-                    && v >= up[x]
-                    && v >= up[x + 1]
-                    && v >= down[x - 1]
-                    && v >= down[x]
-                    && v >= down[x + 1];
-                if is_max {
-                    scratch.candidates.push((v, (y * w + x) as u32));
-                }
-            }
-        }
-    }
+    local_maxima(
+        &scratch.response,
+        w,
+        h,
+        b,
+        params,
+        &mut scratch.hmax,
+        &mut scratch.candidates,
+    );
     scratch
         .candidates
         .sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
@@ -356,6 +333,87 @@ fn response_at(img: &ImageView<'_>, x: usize, y: usize) -> f32 {
     let (xx, xy, yy) = (s[0] as f32, s[1] as f32, s[2] as f32);
     let d = xx - yy;
     (0.5 * ((xx + yy) - (d * d + 4.0 * xy * xy).sqrt()) / (64.0 * 9.0)).max(0.0)
+}
+
+/// Appends to `out` every pixel (more than `border` from the edge) whose response reaches the
+/// threshold (`quality_level` × the strongest response, at least `min_response`) and is the
+/// maximum of its 3×3 neighbourhood (ties kept), as `(response, index)`. Responses are
+/// non-negative, so their bit patterns order like the values: the maxima are separable integer
+/// max filters, which vectorize (AVX2 when present; the same results either way).
+fn local_maxima(
+    resp: &[f32],
+    w: usize,
+    h: usize,
+    border: usize,
+    params: &CornerParams,
+    hmax: &mut Vec<u32>,
+    out: &mut Vec<(f32, u32)>,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2 (checked just above).
+        return unsafe { local_maxima_avx2(resp, w, h, border, params, hmax, out) };
+    }
+    local_maxima_portable(resp, w, h, border, params, hmax, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn local_maxima_avx2(
+    resp: &[f32],
+    w: usize,
+    h: usize,
+    border: usize,
+    params: &CornerParams,
+    hmax: &mut Vec<u32>,
+    out: &mut Vec<(f32, u32)>,
+) {
+    local_maxima_portable(resp, w, h, border, params, hmax, out)
+}
+
+#[inline(always)]
+fn local_maxima_portable(
+    resp: &[f32],
+    w: usize,
+    h: usize,
+    border: usize,
+    params: &CornerParams,
+    hmax: &mut Vec<u32>,
+    out: &mut Vec<(f32, u32)>,
+) {
+    out.clear();
+    if w < 3 || h < 3 {
+        return;
+    }
+    let max = resp.iter().map(|v| v.to_bits()).fold(0u32, u32::max);
+    let threshold = (params.quality_level as f32 * f32::from_bits(max))
+        .max(params.min_response as f32)
+        .max(f32::MIN_POSITIVE)
+        .to_bits();
+    hmax.clear();
+    hmax.resize(w * h, 0);
+    for (src, dst) in resp.chunks_exact(w).zip(hmax.chunks_exact_mut(w)) {
+        for x in 1..w - 1 {
+            dst[x] = src[x - 1]
+                .to_bits()
+                .max(src[x].to_bits())
+                .max(src[x + 1].to_bits());
+        }
+    }
+    for y in border..h.saturating_sub(border) {
+        let (up, mid, down) = (
+            &hmax[(y - 1) * w..y * w],
+            &hmax[y * w..(y + 1) * w],
+            &hmax[(y + 1) * w..(y + 2) * w],
+        );
+        let row = &resp[y * w..(y + 1) * w];
+        for x in border..w.saturating_sub(border) {
+            let v = row[x].to_bits();
+            if v >= threshold && v >= up[x].max(mid[x]).max(down[x]) {
+                out.push((row[x], (y * w + x) as u32));
+            }
+        }
+    }
 }
 
 /// Points on a grid of `min_distance`-sized cells, for O(1) minimum-distance queries. Each cell
