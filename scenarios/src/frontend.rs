@@ -76,29 +76,6 @@ impl ImageFrontend {
         let rotation = self.gyro.take();
         let frame = self.tracker.track(&views, images.t_ns, rotation)?;
         let seconds = self.tracker.report().times.total_s;
-        if std::env::var("FE_DEBUG").is_ok() {
-            let r = self.tracker.report();
-            let t = r.times;
-            eprintln!(
-                "FE pyr {:.2} temp {:.2} ransac {:.2} det {:.2} stereo {:.2} total {:.2} | in {} lost {} fb {} rs {} crowd {} det {} st {}/{} fb {} epi {}",
-                t.pyramids_s * 1e3,
-                t.temporal_s * 1e3,
-                t.ransac_s * 1e3,
-                t.detect_s * 1e3,
-                t.stereo_s * 1e3,
-                t.total_s * 1e3,
-                r.tracks_in,
-                r.klt_lost,
-                r.flow_back_rejected,
-                r.ransac_rejected.len(),
-                r.crowded,
-                r.detected,
-                r.stereo_matched,
-                r.stereo_tried,
-                r.stereo_flow_back_rejected,
-                r.stereo_epipolar_rejected
-            );
-        }
         if let Some(pose) = T_w_b_true {
             self.eval.add(
                 &frame,
@@ -270,15 +247,10 @@ impl TrackEvaluation {
                     let x = self.ray_point(p, &f.uv, T_w_b);
                     self.anchors.insert(f.feature_id, x);
                 }
-                Some(Some(x)) => match self.error(p, &f.uv, x, T_w_b) {
-                    Some(e) => {
-                        if std::env::var("FE_AGE").is_ok() {
-                            eprintln!("AGE {} {:.4}", f.feature_id, e);
-                        }
-                        self.track_errors.push(e)
-                    }
-                    None => self.track_errors.push(f64::INFINITY),
-                },
+                Some(Some(x)) => {
+                    let e = self.error(p, &f.uv, x, T_w_b);
+                    self.track_errors.push(e.unwrap_or(f64::INFINITY));
+                }
                 Some(None) => self.unverifiable += 1,
             }
         }

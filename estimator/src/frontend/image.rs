@@ -96,15 +96,6 @@ impl<'a> ImageView<'a> {
             data,
         }
     }
-
-    /// Mean grey level.
-    pub fn mean(&self) -> f64 {
-        let mut sum = 0u64;
-        for y in 0..self.height as usize {
-            sum += self.row(y).iter().map(|&p| p as u64).sum::<u64>();
-        }
-        sum as f64 / (self.width as f64 * self.height as f64)
-    }
 }
 
 /// A tightly packed 8-bit grey image.

@@ -194,11 +194,6 @@ pub fn to_level(uv: Vector2<f64>, l: usize) -> Vector2<f64> {
     uv / (1u32 << l) as f64
 }
 
-/// Level `l` coordinates → level 0.
-pub fn from_level(uv: Vector2<f64>, l: usize) -> Vector2<f64> {
-    uv * (1u32 << l) as f64
-}
-
 /// Why a point was not tracked.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TrackFailure {
