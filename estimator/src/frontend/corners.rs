@@ -125,12 +125,7 @@ fn response_band_portable(
         let (xx, rest) = slot.split_at_mut(n);
         let (xy, yy) = rest.split_at_mut(n);
         for i in 0..n {
-            let x = c0 + i;
-            let gx = (r0[x + 1] as i32 - r0[x - 1] as i32)
-                + 2 * (r1[x + 1] as i32 - r1[x - 1] as i32)
-                + (r2[x + 1] as i32 - r2[x - 1] as i32);
-            let gy = (r2[x - 1] as i32 + 2 * r2[x] as i32 + r2[x + 1] as i32)
-                - (r0[x - 1] as i32 + 2 * r0[x] as i32 + r0[x + 1] as i32);
+            let (gx, gy) = sobel(r0, r1, r2, c0 + i);
             xx[i] = gx * gx;
             xy[i] = gx * gy;
             yy[i] = gy * gy;
@@ -138,7 +133,6 @@ fn response_band_portable(
     };
     products(y0 - 1, &mut ring[0..3 * n]);
     products(y0, &mut ring[3 * n..6 * n]);
-    let scale = 1.0 / (64.0 * 9.0);
     for y in y0..y1 {
         let slot = (y + 1 - (y0 - 1)) % 3;
         products(y + 1, &mut ring[slot * 3 * n..(slot + 1) * 3 * n]);
@@ -155,8 +149,7 @@ fn response_band_portable(
             let xx = (sxx[k] + sxx[k + 1] + sxx[k + 2]) as f32;
             let xy = (sxy[k] + sxy[k + 1] + sxy[k + 2]) as f32;
             let yy = (syy[k] + syy[k + 1] + syy[k + 2]) as f32;
-            let d = xx - yy;
-            *o = (0.5 * ((xx + yy) - (d * d + 4.0 * xy * xy).sqrt()) * scale).max(0.0);
+            *o = min_eigen_response(xx, xy, yy);
         }
     }
 }
@@ -320,19 +313,33 @@ fn response_at(img: &ImageView<'_>, x: usize, y: usize) -> f32 {
     for yy in y - 1..=y + 1 {
         let (r0, r1, r2) = (img.row(yy - 1), img.row(yy), img.row(yy + 1));
         for xx in x - 1..=x + 1 {
-            let gx = (r0[xx + 1] as i32 - r0[xx - 1] as i32)
-                + 2 * (r1[xx + 1] as i32 - r1[xx - 1] as i32)
-                + (r2[xx + 1] as i32 - r2[xx - 1] as i32);
-            let gy = (r2[xx - 1] as i32 + 2 * r2[xx] as i32 + r2[xx + 1] as i32)
-                - (r0[xx - 1] as i32 + 2 * r0[xx] as i32 + r0[xx + 1] as i32);
+            let (gx, gy) = sobel(r0, r1, r2, xx);
             s[0] += gx * gx;
             s[1] += gx * gy;
             s[2] += gy * gy;
         }
     }
-    let (xx, xy, yy) = (s[0] as f32, s[1] as f32, s[2] as f32);
+    min_eigen_response(s[0] as f32, s[1] as f32, s[2] as f32)
+}
+
+/// Sobel gradients `(gx, gy)` at column `x` of the middle row of three.
+#[inline(always)]
+fn sobel(r0: &[u8], r1: &[u8], r2: &[u8], x: usize) -> (i32, i32) {
+    let gx = (r0[x + 1] as i32 - r0[x - 1] as i32)
+        + 2 * (r1[x + 1] as i32 - r1[x - 1] as i32)
+        + (r2[x + 1] as i32 - r2[x - 1] as i32);
+    let gy = (r2[x - 1] as i32 + 2 * r2[x] as i32 + r2[x + 1] as i32)
+        - (r0[x - 1] as i32 + 2 * r0[x] as i32 + r0[x + 1] as i32);
+    (gx, gy)
+}
+
+/// The smaller eigenvalue of the 3×3-summed structure tensor `[[xx, xy], [xy, yy]]` of Sobel
+/// gradients, per pixel and in grey levels (Sobel's gain of 8 removed), never negative.
+#[inline(always)]
+fn min_eigen_response(xx: f32, xy: f32, yy: f32) -> f32 {
+    const SCALE: f32 = 1.0 / (64.0 * 9.0);
     let d = xx - yy;
-    (0.5 * ((xx + yy) - (d * d + 4.0 * xy * xy).sqrt()) / (64.0 * 9.0)).max(0.0)
+    (0.5 * ((xx + yy) - (d * d + 4.0 * xy * xy).sqrt()) * SCALE).max(0.0)
 }
 
 /// Appends to `out` every pixel (more than `border` from the edge) whose response reaches the
