@@ -58,17 +58,7 @@ pub fn render_at(
     seed: Option<u64>,
 ) -> Result<RenderedAt, crate::run::RunError> {
     use crate::run::RunError;
-    let world = world_at(scenario, at_s, seed)?;
-    let mut cfg = scenario.render_settings()?;
-    cfg.depth = true;
-    let mut renderer = world
-        .renderer(&cfg)
-        .map_err(|e| RunError::sim(scenario, e))?;
-    let rig = world
-        .config()
-        .rig
-        .clone()
-        .expect("a renderer implies a rig");
+    let (world, mut renderer, rig) = renderer_at(scenario, at_s, seed, true)?;
     let t_ns = (at_s * 1e9).round() as i64;
     let mut stream = world.stream();
     let poses = renderer
@@ -93,8 +83,30 @@ pub fn render_at(
     })
 }
 
+/// The scenario's world at `at_s` ([`world_at`]) with a renderer of the scenario's settings
+/// (depth images when `depth`) and its camera rig.
+pub(crate) fn renderer_at(
+    scenario: &crate::spec::Scenario,
+    at_s: f64,
+    seed: Option<u64>,
+    depth: bool,
+) -> Result<(sim::World, sim::render::Renderer, sim::camera::RigConfig), crate::run::RunError> {
+    let world = world_at(scenario, at_s, seed)?;
+    let mut cfg = scenario.render_settings()?;
+    cfg.depth = depth;
+    let renderer = world
+        .renderer(&cfg)
+        .map_err(|e| crate::run::RunError::sim(scenario, e))?;
+    let rig = world
+        .config()
+        .rig
+        .clone()
+        .expect("a renderer implies a rig");
+    Ok((world, renderer, rig))
+}
+
 /// The scenario's world (`seed` instead of the scenario's), checking that `at_s` lies in the run.
-pub(crate) fn world_at(
+fn world_at(
     scenario: &crate::spec::Scenario,
     at_s: f64,
     seed: Option<u64>,

@@ -65,7 +65,7 @@ pub fn render_tracks(
     at_s: f64,
     seed: Option<u64>,
 ) -> Result<TracksImage, RunError> {
-    let world = crate::images::world_at(scenario, at_s, seed)?;
+    let (world, mut renderer, rig) = crate::images::renderer_at(scenario, at_s, seed, false)?;
     let world_seed = world.config().seed;
     let tracker_cfg = scenario.tracker_config(world_seed)?.unwrap_or_else(|| {
         estimator::frontend::TrackerConfig {
@@ -79,16 +79,6 @@ pub fn render_tracks(
         message: e.to_string(),
     };
     let mut tracker = FeatureTracker::new(tracker_cfg, cameras).map_err(|e| frontend_err(&e))?;
-    let mut cfg = scenario.render_settings()?;
-    cfg.depth = false;
-    let mut renderer = world
-        .renderer(&cfg)
-        .map_err(|e| RunError::sim(scenario, e))?;
-    let rig = world
-        .config()
-        .rig
-        .clone()
-        .expect("a renderer implies a rig");
     let period = rig.period_ns();
     let at_ns = (at_s * 1e9).round() as i64;
     let from_ns = (at_ns - (HISTORY_S * 1e9).round() as i64).max(0);
