@@ -14,7 +14,7 @@
 
 use nalgebra::{Matrix2, Matrix6, Vector2, Vector6};
 
-use super::image::{Plane, Pyramid};
+use super::image::{PLANE_BORDER, Plane, Pyramid};
 use super::klt::sample_grid;
 
 /// Every `STRIDE`-th row and column of the window takes part in the alignment.
@@ -117,10 +117,11 @@ impl AffineAnchor {
         epsilon_px: f64,
     ) -> Option<Vector2<f64>> {
         let plane = target.plane(0);
+        let mut patch = LocalPatch::default();
         let mut a = self.a;
         let mut c = guess;
         for _ in 0..MAX_ITERATIONS {
-            let (sum_i, sum_ii, sd_i) = self.sums(&plane, &a, &c)?;
+            let (sum_i, sum_ii, sd_i) = self.sums(&plane, &mut patch, &a, &c)?;
             let n = self.t.len() as f64;
             let mean_i = sum_i / n;
             let var_i = sum_ii / n - mean_i * mean_i;
@@ -160,6 +161,7 @@ impl AffineAnchor {
     fn sums(
         &self,
         plane: &Plane<'_>,
+        patch: &mut LocalPatch,
         a: &Matrix2<f64>,
         c: &Vector2<f64>,
     ) -> Option<(f64, f64, Vector6<f64>)> {
@@ -168,13 +170,18 @@ impl AffineAnchor {
         let cols = side.div_ceil(STRIDE);
         let (w, hgt) = (plane.width as usize, plane.height as usize);
         let hf = h as f64;
-        // Corners of the warped window must lie inside (bilinear needs one more pixel).
+        // Corners of the warped window must lie inside (bilinear needs one more pixel); every
+        // sample lies in their bounding box.
+        let (mut lo, mut hi) = (Vector2::repeat(f64::INFINITY), Vector2::repeat(0.0f64));
         for (x, y) in [(-hf, -hf), (hf, -hf), (-hf, hf), (hf, hf)] {
             let u = c + a * Vector2::new(x, y);
             if !(u.x >= 0.0 && u.y >= 0.0 && u.x < (w - 1) as f64 && u.y < (hgt - 1) as f64) {
                 return None;
             }
+            lo = lo.inf(&u);
+            hi = hi.sup(&u);
         }
+        patch.cover(plane, lo, hi);
         let (a00, a01, a10, a11) = (
             a[(0, 0)] as f32,
             a[(0, 1)] as f32,
@@ -182,7 +189,8 @@ impl AffineAnchor {
             a[(1, 1)] as f32,
         );
         let (cx, cy) = (c.x as f32, c.y as f32);
-        let data = plane.data;
+        let (x0, y0) = (patch.x0 as f32, patch.y0 as f32);
+        let (data, st) = (&patch.data[..], patch.width);
         let (mut s1, mut s2) = (0f32, 0f32);
         let mut sd = [0f32; 6];
         for (r, i) in (0..side).step_by(STRIDE).enumerate() {
@@ -191,11 +199,16 @@ impl AffineAnchor {
             for (q, j) in (0..side).step_by(STRIDE).enumerate() {
                 let x = j as f32 - h as f32;
                 let (u, v) = (rx + a00 * x, ry + a10 * x);
-                // Non-negative (the corners were checked): truncation is the floor.
+                // Patch coordinates: exact (an integer is subtracted), non-negative (the patch
+                // holds the corners' bounding box with a margin), so truncation is the floor.
+                let (u, v) = (u - x0, v - y0);
                 let (iu, iv) = (u as usize, v as usize);
                 let (fx, fy) = (u - iu as f32, v - iv as f32);
-                let base = plane.index(iu as isize, iv as isize);
-                let st = plane.stride;
+                debug_assert!(
+                    iu + 1 < st && iv + 1 < patch.height,
+                    "sample outside the patch"
+                );
+                let base = iv * st + iu;
                 let val = (1.0 - fy) * ((1.0 - fx) * data[base] + fx * data[base + 1])
                     + fy * ((1.0 - fx) * data[base + st] + fx * data[base + st + 1]);
                 let k = r * cols + q;
@@ -216,6 +229,52 @@ impl AffineAnchor {
             s2 as f64,
             Vector6::from_iterator(sd.iter().map(|&v| v as f64)),
         ))
+    }
+}
+
+/// Level-0 grey levels as `f32` over a rectangle around the warped window, so the
+/// per-sample bilinear reads need no conversions; re-cut only when the window leaves it.
+#[derive(Default)]
+struct LocalPatch {
+    x0: i64,
+    y0: i64,
+    width: usize,
+    height: usize,
+    data: Vec<f32>,
+}
+
+impl LocalPatch {
+    /// Margin (px) cut around the window's bounding box, so the next iterations' small moves
+    /// stay inside.
+    const MARGIN: i64 = 2;
+
+    /// Makes the patch contain pixels `⌊lo⌋ − 1 ..= ⌊hi⌋ + 2` (bilinear reads one more pixel;
+    /// one more for the rounding of the `f32` sample positions).
+    fn cover(&mut self, plane: &Plane<'_>, lo: Vector2<f64>, hi: Vector2<f64>) {
+        let (lx, ly) = (lo.x.floor() as i64 - 1, lo.y.floor() as i64 - 1);
+        let (hx, hy) = (hi.x.floor() as i64 + 2, hi.y.floor() as i64 + 2);
+        let inside = !self.data.is_empty()
+            && lx >= self.x0
+            && ly >= self.y0
+            && hx < self.x0 + self.width as i64
+            && hy < self.y0 + self.height as i64;
+        if inside {
+            return;
+        }
+        // The plane's replicated border covers the margin beyond the image edge.
+        let b = PLANE_BORDER as i64;
+        let x0 = (lx - Self::MARGIN).max(-b);
+        let y0 = (ly - Self::MARGIN).max(-b);
+        let x1 = (hx + Self::MARGIN).min(plane.width as i64 - 1 + b);
+        let y1 = (hy + Self::MARGIN).min(plane.height as i64 - 1 + b);
+        let (w, h) = ((x1 - x0 + 1) as usize, (y1 - y0 + 1) as usize);
+        self.data.clear();
+        for y in y0..=y1 {
+            let at = plane.index(x0 as isize, y as isize);
+            self.data
+                .extend(plane.data[at..at + w].iter().map(|&v| v as f32));
+        }
+        (self.x0, self.y0, self.width, self.height) = (x0, y0, w, h);
     }
 }
 

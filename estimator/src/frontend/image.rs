@@ -140,56 +140,12 @@ impl OwnedImage {
 
     #[inline(always)]
     fn half_into_inline(src: &ImageView<'_>, out: &mut OwnedImage) {
-        let (sw, sh) = (src.width as usize, src.height as usize);
-        let (w, h) = (sw.div_ceil(2), sh.div_ceil(2));
-        // Vertical pass on the rows needed, then horizontal, per output row.
-        let mut col = vec![0u16; sw];
-        let mut hrow: Vec<u32> = Vec::with_capacity(sw);
-        let data = &mut out.data;
-        data.clear();
-        data.resize(w * h, 0);
-        let clamp_row = |y: isize| src.row(y.clamp(0, sh as isize - 1) as usize);
-        for (oy, out) in data.chunks_exact_mut(w).enumerate() {
-            let y = 2 * oy as isize;
-            let (r0, r1, r2, r3, r4) = (
-                clamp_row(y - 2),
-                clamp_row(y - 1),
-                clamp_row(y),
-                clamp_row(y + 1),
-                clamp_row(y + 2),
-            );
-            for x in 0..sw {
-                col[x] = r0[x] as u16
-                    + 4 * r1[x] as u16
-                    + 6 * r2[x] as u16
-                    + 4 * r3[x] as u16
-                    + r4[x] as u16;
-            }
-            // Horizontal pass at every column (vectorizes), then every second one is kept.
-            hrow.clear();
-            hrow.resize(sw, 0);
-            if sw >= 5 {
-                for x in 2..sw - 2 {
-                    hrow[x] = col[x - 2] as u32
-                        + 4 * col[x - 1] as u32
-                        + 6 * col[x] as u32
-                        + 4 * col[x + 1] as u32
-                        + col[x + 2] as u32;
-                }
-            }
-            let at = |x: isize| col[x.clamp(0, sw as isize - 1) as usize] as u32;
-            for (ox, o) in out.iter_mut().enumerate() {
-                let x = 2 * ox as isize;
-                let s = if x >= 2 && x + 2 < sw as isize {
-                    hrow[x as usize]
-                } else {
-                    at(x - 2) + 4 * at(x - 1) + 6 * at(x) + 4 * at(x + 1) + at(x + 2)
-                };
-                *o = ((s + 128) >> 8) as u8;
-            }
-        }
-        out.width = w as u32;
-        out.height = h as u32;
+        let (w, h) = (src.width.div_ceil(2), src.height.div_ceil(2));
+        out.data.clear();
+        out.data.resize(w as usize * h as usize, 0);
+        half_rows(src, &mut out.data, w as usize, 0);
+        out.width = w;
+        out.height = h;
     }
 
     /// Global histogram equalization (for exposure changes): grey levels remapped through the
@@ -226,20 +182,128 @@ impl OwnedImage {
     }
 }
 
-/// An image pyramid: level 0 is the full image, each further level half the size of the one
-/// before ([`OwnedImage::half_of`]).
-#[derive(Clone, Debug, Default)]
-pub struct Pyramid {
-    levels: Vec<OwnedImage>,
-    /// The same levels as `f32` grey levels (what KLT samples: no conversions in its loops).
-    planes: Vec<Vec<f32>>,
+/// The binomial half-size kernel of [`OwnedImage::half_of`], writing output row `oy` at
+/// `out[origin + oy·stride..][..⌈w/2⌉]`.
+#[inline(always)]
+fn half_rows(src: &ImageView<'_>, out: &mut [u8], stride: usize, origin: usize) {
+    let (sw, sh) = (src.width as usize, src.height as usize);
+    let (w, h) = (sw.div_ceil(2), sh.div_ceil(2));
+    // Vertical pass on the rows needed, then horizontal, per output row.
+    let mut col = vec![0u16; sw];
+    let mut hrow = vec![0u32; sw];
+    let clamp_row = |y: isize| src.row(y.clamp(0, sh as isize - 1) as usize);
+    for oy in 0..h {
+        let out = &mut out[origin + oy * stride..][..w];
+        let y = 2 * oy as isize;
+        let (r0, r1, r2, r3, r4) = (
+            clamp_row(y - 2),
+            clamp_row(y - 1),
+            clamp_row(y),
+            clamp_row(y + 1),
+            clamp_row(y + 2),
+        );
+        for x in 0..sw {
+            col[x] = r0[x] as u16
+                + 4 * r1[x] as u16
+                + 6 * r2[x] as u16
+                + 4 * r3[x] as u16
+                + r4[x] as u16;
+        }
+        // Horizontal pass at every column (vectorizes), then every second one is kept.
+        if sw >= 5 {
+            for x in 2..sw - 2 {
+                hrow[x] = col[x - 2] as u32
+                    + 4 * col[x - 1] as u32
+                    + 6 * col[x] as u32
+                    + 4 * col[x + 1] as u32
+                    + col[x + 2] as u32;
+            }
+        }
+        let at = |x: isize| col[x.clamp(0, sw as isize - 1) as usize] as u32;
+        for (ox, o) in out.iter_mut().enumerate() {
+            let x = 2 * ox as isize;
+            let s = if x >= 2 && x + 2 < sw as isize {
+                hrow[x as usize]
+            } else {
+                at(x - 2) + 4 * at(x - 1) + 6 * at(x) + 4 * at(x + 1) + at(x + 2)
+            };
+            *o = ((s + 128) >> 8) as u8;
+        }
+    }
 }
 
-/// Replicated border around every [`Plane`] (px): windows of up to 21 px near the image edge
-/// are sampled without bounds branches.
+/// An image pyramid: level 0 is the full image, each further level half the size of the one
+/// before ([`OwnedImage::half_of`]). Every level is stored with a replicated border of
+/// [`PLANE_BORDER`] px, so KLT windows near the image edge need no bounds branches.
+#[derive(Clone, Debug, Default)]
+pub struct Pyramid {
+    levels: Vec<BorderedLevel>,
+}
+
+/// One level: `width × height` grey levels inside a replicated border.
+#[derive(Clone, Debug, Default)]
+struct BorderedLevel {
+    width: u32,
+    height: u32,
+    /// `(height + 2·PLANE_BORDER) × (width + 2·PLANE_BORDER)` bytes, row-major.
+    data: Vec<u8>,
+}
+
+impl BorderedLevel {
+    fn stride(&self) -> usize {
+        self.width as usize + 2 * PLANE_BORDER
+    }
+
+    /// Index of the first interior pixel.
+    fn origin(&self) -> usize {
+        PLANE_BORDER * self.stride() + PLANE_BORDER
+    }
+
+    /// Sizes the buffer for a `width × height` interior.
+    fn resize(&mut self, width: u32, height: u32) {
+        self.width = width;
+        self.height = height;
+        let len = (height as usize + 2 * PLANE_BORDER) * self.stride();
+        self.data.resize(len, 0);
+    }
+
+    /// Copies the edge pixels of the interior into the border.
+    fn fill_border(&mut self) {
+        let (w, h, b, stride) = (
+            self.width as usize,
+            self.height as usize,
+            PLANE_BORDER,
+            self.stride(),
+        );
+        for y in b..b + h {
+            let row = &mut self.data[y * stride..(y + 1) * stride];
+            let (left, right) = (row[b], row[b + w - 1]);
+            row[..b].fill(left);
+            row[b + w..].fill(right);
+        }
+        for y in 0..b {
+            self.data
+                .copy_within(b * stride..(b + 1) * stride, y * stride);
+            self.data
+                .copy_within((b + h - 1) * stride..(b + h) * stride, (b + h + y) * stride);
+        }
+    }
+
+    fn view(&self) -> ImageView<'_> {
+        ImageView {
+            width: self.width,
+            height: self.height,
+            stride: self.stride(),
+            data: &self.data[self.origin()..],
+        }
+    }
+}
+
+/// Replicated border around every pyramid level (px): windows of up to 21 px near the image
+/// edge are sampled without bounds branches.
 pub const PLANE_BORDER: usize = 16;
 
-/// One pyramid level as `f32` grey levels, with a replicated border of [`PLANE_BORDER`] px.
+/// One pyramid level with its replicated border of [`PLANE_BORDER`] px: what KLT samples.
 #[derive(Clone, Copy, Debug)]
 pub struct Plane<'a> {
     /// Width (px, without the border).
@@ -248,8 +312,8 @@ pub struct Plane<'a> {
     pub height: u32,
     /// Row stride of `data` (`width + 2·PLANE_BORDER`).
     pub stride: usize,
-    /// `(height + 2·PLANE_BORDER) × stride` values, row-major, border included.
-    pub data: &'a [f32],
+    /// `(height + 2·PLANE_BORDER) × stride` grey levels, row-major, border included.
+    pub data: &'a [u8],
 }
 
 impl Plane<'_> {
@@ -273,8 +337,8 @@ impl Pyramid {
     pub fn rebuild(&mut self, image: &ImageView<'_>, max_level: usize) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2 (checked). Integer arithmetic and exact
-            // conversions: the same values either way.
+            // SAFETY: the CPU supports AVX2 (checked). Integer arithmetic: the same values
+            // either way.
             return unsafe { self.rebuild_avx2(image, max_level) };
         }
         self.rebuild_inline(image, max_level)
@@ -295,47 +359,34 @@ impl Pyramid {
             count += 1;
             (w, h) = (w.div_ceil(2), h.div_ceil(2));
         }
-        self.levels.resize_with(count, || OwnedImage {
-            width: 0,
-            height: 0,
-            data: Vec::new(),
-        });
+        self.levels.resize_with(count, BorderedLevel::default);
         self.levels.truncate(count);
         let first = &mut self.levels[0];
-        first.width = image.width();
-        first.height = image.height();
-        first.data.clear();
+        first.resize(image.width(), image.height());
+        let (stride, origin, w0) = (first.stride(), first.origin(), image.width() as usize);
         for y in 0..image.height() as usize {
-            first.data.extend_from_slice(image.row(y));
+            first.data[origin + y * stride..][..w0].copy_from_slice(image.row(y));
         }
+        first.fill_border();
         for l in 1..count {
             let (done, rest) = self.levels.split_at_mut(l);
-            OwnedImage::half_into_inline(&done[l - 1].view(), &mut rest[0]);
-        }
-        self.planes.resize_with(self.levels.len(), Vec::new);
-        self.planes.truncate(self.levels.len());
-        let b = PLANE_BORDER;
-        for (plane, level) in self.planes.iter_mut().zip(&self.levels) {
-            let (w, h) = (level.width as usize, level.height as usize);
-            plane.clear();
-            plane.reserve((w + 2 * b) * (h + 2 * b));
-            for y in 0..h + 2 * b {
-                let src = &level.data[y.saturating_sub(b).min(h - 1) * w..][..w];
-                plane.extend(std::iter::repeat_n(src[0] as f32, b));
-                plane.extend(src.iter().map(|&v| v as f32));
-                plane.extend(std::iter::repeat_n(src[w - 1] as f32, b));
-            }
+            let src = done[l - 1].view();
+            let next = &mut rest[0];
+            next.resize(src.width.div_ceil(2), src.height.div_ceil(2));
+            let (stride, origin) = (next.stride(), next.origin());
+            half_rows(&src, &mut next.data, stride, origin);
+            next.fill_border();
         }
     }
 
-    /// Level `l` as `f32` values.
+    /// Level `l` with its border, for sampling.
     pub fn plane(&self, l: usize) -> Plane<'_> {
         let level = &self.levels[l];
         Plane {
             width: level.width,
             height: level.height,
-            stride: level.width as usize + 2 * PLANE_BORDER,
-            data: &self.planes[l],
+            stride: level.stride(),
+            data: &level.data,
         }
     }
 
@@ -349,9 +400,9 @@ impl Pyramid {
         self.levels.is_empty()
     }
 
-    /// Level `l` (0 = full size).
-    pub fn level(&self, l: usize) -> &OwnedImage {
-        &self.levels[l]
+    /// Level `l` (0 = full size), without its border.
+    pub fn level(&self, l: usize) -> ImageView<'_> {
+        self.levels[l].view()
     }
 }
 
@@ -394,8 +445,18 @@ mod tests {
         let p = Pyramid::build(&ImageView::packed(100, 60, &big).unwrap(), 5);
         // 100×60 → 50×30 → 25×15 (< 16 tall: no further level).
         assert_eq!(p.len(), 3);
-        assert_eq!((p.level(2).width, p.level(2).height), (25, 15));
-        assert!(p.level(2).data.iter().all(|&v| v == 7));
+        assert_eq!((p.level(2).width(), p.level(2).height()), (25, 15));
+        assert!((0..15).all(|y| p.level(2).row(y).iter().all(|&v| v == 7)));
+        // The border replicates the edge pixels.
+        let ramp = ImageView::packed(8, 8, &data).unwrap();
+        let plane = Pyramid::build(&ramp, 0);
+        let plane = plane.plane(0);
+        let at = |x: isize, y: isize| plane.data[plane.index(x, y)];
+        assert_eq!(at(-16, -16), data[0]);
+        assert_eq!(at(23, -3), data[7]);
+        assert_eq!(at(-5, 20), data[56]);
+        assert_eq!(at(3, 9), data[7 * 8 + 3]);
+        assert_eq!(at(4, 5), data[5 * 8 + 4]);
     }
 
     #[test]

@@ -73,12 +73,33 @@ pub struct Template {
     /// padding is zero, so every row is a whole number of eight-value lanes).
     data: Vec<f32>,
     info: Vec<LevelInfo>,
+    /// Scratch: the sampled grid of the level being built.
+    grid: Vec<f32>,
 }
 
 impl Template {
     /// Samples the template around level-0 point `uv` of `pyramid` at levels
     /// `0..min(levels, pyramid.len())`.
     pub fn new(pyramid: &Pyramid, uv: Vector2<f64>, levels: usize, params: &KltParams) -> Self {
+        let mut template = Self {
+            half_window: params.half_window,
+            data: Vec::new(),
+            info: Vec::new(),
+            grid: Vec::new(),
+        };
+        template.resample(pyramid, uv, levels, params);
+        template
+    }
+
+    /// [`Template::new`] into this template's buffers (no allocation once they are large
+    /// enough).
+    pub fn resample(
+        &mut self,
+        pyramid: &Pyramid,
+        uv: Vector2<f64>,
+        levels: usize,
+        params: &KltParams,
+    ) {
         assert!(
             params.half_window <= 31,
             "KLT windows are at most 63 px (half_window ≤ 31)"
@@ -87,29 +108,50 @@ impl Template {
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2 (checked just above). Same results either way
             // (see `window_sums`).
-            return unsafe { Self::new_avx2(pyramid, uv, levels, params) };
+            return unsafe { self.resample_avx2(pyramid, uv, levels, params) };
         }
-        Self::new_lanes(pyramid, uv, levels, params)
+        self.resample_lanes(pyramid, uv, levels, params)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn new_avx2(pyramid: &Pyramid, uv: Vector2<f64>, levels: usize, params: &KltParams) -> Self {
-        Self::new_lanes(pyramid, uv, levels, params)
+    fn resample_avx2(
+        &mut self,
+        pyramid: &Pyramid,
+        uv: Vector2<f64>,
+        levels: usize,
+        params: &KltParams,
+    ) {
+        self.resample_lanes(pyramid, uv, levels, params)
     }
 
     #[inline(always)]
-    fn new_lanes(pyramid: &Pyramid, uv: Vector2<f64>, levels: usize, params: &KltParams) -> Self {
+    fn resample_lanes(
+        &mut self,
+        pyramid: &Pyramid,
+        uv: Vector2<f64>,
+        levels: usize,
+        params: &KltParams,
+    ) {
         let h = params.half_window;
         let side = 2 * h + 1;
         let pw = padded(side);
         let n = side * side;
         let np = side * pw;
         let levels = levels.min(pyramid.len()).max(1);
-        let mut data = vec![0f32; 3 * np * levels];
-        let mut info = Vec::with_capacity(levels);
-        let ext = side + 2;
-        let mut s = vec![0f32; ext * ext];
+        self.half_window = h;
+        // Every value, padding included, is written below: no clearing needed.
+        self.data.resize(3 * np * levels, 0.0);
+        self.info.clear();
+        let (data, info) = (&mut self.data, &mut self.info);
+        let mut mask = [0f32; 64];
+        mask[..side].fill(1.0);
+        // Sampled grid: the window and one more pixel on each side (for the central
+        // differences), in whole lanes.
+        let (sw, rows) = (pw + LANES, side + 2);
+        // Every value is written by `sample_grid`: no clearing needed.
+        self.grid.resize(sw * rows, 0.0);
+        let s = &mut self.grid[..];
         for l in 0..levels {
             let p = to_level(uv, l);
             let img = pyramid.plane(l);
@@ -117,28 +159,14 @@ impl Template {
                 &img,
                 p.x - (h + 1) as f64,
                 p.y - (h + 1) as f64,
-                ext,
-                ext,
-                &mut s,
+                sw,
+                rows,
+                s,
             );
             let block = &mut data[3 * np * l..3 * np * (l + 1)];
             let (t, g) = block.split_at_mut(np);
             let (gx, gy) = g.split_at_mut(np);
-            for i in 0..side {
-                let up = &s[i * ext + 1..i * ext + 1 + side];
-                let mid = &s[(i + 1) * ext..(i + 1) * ext + side + 2];
-                let down = &s[(i + 2) * ext + 1..(i + 2) * ext + 1 + side];
-                let (tr, gxr, gyr) = (
-                    &mut t[i * pw..i * pw + side],
-                    &mut gx[i * pw..i * pw + side],
-                    &mut gy[i * pw..i * pw + side],
-                );
-                for j in 0..side {
-                    tr[j] = mid[j + 1];
-                    gxr[j] = 0.5 * (mid[j + 2] - mid[j]);
-                    gyr[j] = 0.5 * (down[j] - up[j]);
-                }
-            }
+            template_rows(s, sw, side, pw, &mask[..pw], t, gx, gy);
             let sum_t = lane_sum(t);
             let mean = sum_t / n as f32;
             for row in t.chunks_exact_mut(pw) {
@@ -170,11 +198,6 @@ impl Template {
                 mean,
                 valid,
             });
-        }
-        Self {
-            half_window: h,
-            data,
-            info,
         }
     }
 
@@ -287,12 +310,133 @@ pub fn track(
     let m = h as f64;
     if !(q.x >= m
         && q.y >= m
-        && q.x <= (img.width - 1) as f64 - m
-        && q.y <= (img.height - 1) as f64 - m)
+        && q.x <= (img.width() - 1) as f64 - m
+        && q.y <= (img.height() - 1) as f64 - m)
     {
         return Err(TrackFailure::OutOfImage);
     }
     Ok(q)
+}
+
+/// Template rows from the sampled grid `s` (`sw` columns, `side + 2` rows): grey levels and
+/// central-difference gradients of the `side × side` window, `pw` values per row, the padding
+/// columns zero (`mask`).
+#[allow(clippy::too_many_arguments)]
+fn template_rows(
+    s: &[f32],
+    sw: usize,
+    side: usize,
+    pw: usize,
+    mask: &[f32],
+    t: &mut [f32],
+    gx: &mut [f32],
+    gy: &mut [f32],
+) {
+    assert!(s.len() >= sw * (side + 2) && sw >= pw + 2 && mask.len() >= pw);
+    assert!(t.len() >= side * pw && gx.len() >= side * pw && gy.len() >= side * pw);
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") && !portable_only() {
+        // SAFETY: AVX is present (checked); every access is in bounds (asserted above).
+        unsafe { template_rows_avx(s, sw, side, pw, mask, t, gx, gy) };
+        return;
+    }
+    for i in 0..side {
+        let (up, mid, down) = (&s[i * sw + 1..], &s[(i + 1) * sw..], &s[(i + 2) * sw + 1..]);
+        for j in 0..pw {
+            let k = i * pw + j;
+            t[k] = mid[j + 1] * mask[j];
+            gx[k] = 0.5 * (mid[j + 2] - mid[j]) * mask[j];
+            gy[k] = 0.5 * (down[j] - up[j]) * mask[j];
+        }
+    }
+}
+
+/// [`template_rows`] in AVX registers: the same operations in the same order.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn template_rows_avx(
+    s: &[f32],
+    sw: usize,
+    side: usize,
+    pw: usize,
+    mask: &[f32],
+    t: &mut [f32],
+    gx: &mut [f32],
+    gy: &mut [f32],
+) {
+    use std::arch::x86_64::*;
+    let half = _mm256_set1_ps(0.5);
+    let sp = s.as_ptr();
+    for i in 0..side {
+        for c in (0..pw).step_by(LANES) {
+            // SAFETY: in bounds by the caller's assertions.
+            unsafe {
+                let m = _mm256_loadu_ps(mask.as_ptr().add(c));
+                let mid = sp.add((i + 1) * sw + c);
+                let (m0, m1, m2) = (
+                    _mm256_loadu_ps(mid),
+                    _mm256_loadu_ps(mid.add(1)),
+                    _mm256_loadu_ps(mid.add(2)),
+                );
+                let u = _mm256_loadu_ps(sp.add(i * sw + 1 + c));
+                let d = _mm256_loadu_ps(sp.add((i + 2) * sw + 1 + c));
+                let k = i * pw + c;
+                _mm256_storeu_ps(t.as_mut_ptr().add(k), _mm256_mul_ps(m1, m));
+                let g = _mm256_mul_ps(_mm256_mul_ps(half, _mm256_sub_ps(m2, m0)), m);
+                _mm256_storeu_ps(gx.as_mut_ptr().add(k), g);
+                let g = _mm256_mul_ps(_mm256_mul_ps(half, _mm256_sub_ps(d, u)), m);
+                _mm256_storeu_ps(gy.as_mut_ptr().add(k), g);
+            }
+        }
+    }
+}
+
+/// Bilinear rows of [`sample_grid`]'s fast path in AVX2 registers, `cols` a multiple of eight:
+/// the same operations in the same order as the portable loop.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn bilinear_rows_avx2(
+    data: &[u8],
+    stride: usize,
+    origin: usize,
+    cols: usize,
+    rows: usize,
+    w: [f32; 4],
+    out: &mut [f32],
+) {
+    use std::arch::x86_64::*;
+    let (w0, w1, w2, w3) = (
+        _mm256_set1_ps(w[0]),
+        _mm256_set1_ps(w[1]),
+        _mm256_set1_ps(w[2]),
+        _mm256_set1_ps(w[3]),
+    );
+    let p = data.as_ptr();
+    for r in 0..rows {
+        let (ra, rb) = (origin + r * stride, origin + (r + 1) * stride);
+        for c in (0..cols).step_by(LANES) {
+            // SAFETY: in bounds by the caller's checks.
+            unsafe {
+                let load = |i: usize| {
+                    _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(
+                        p.add(i) as *const __m128i
+                    )))
+                };
+                let v = _mm256_add_ps(
+                    _mm256_add_ps(
+                        _mm256_add_ps(
+                            _mm256_mul_ps(w0, load(ra + c)),
+                            _mm256_mul_ps(w1, load(ra + c + 1)),
+                        ),
+                        _mm256_mul_ps(w2, load(rb + c)),
+                    ),
+                    _mm256_mul_ps(w3, load(rb + c + 1)),
+                );
+                _mm256_storeu_ps(out.as_mut_ptr().add(r * cols + c), v);
+            }
+        }
+    }
 }
 
 /// `[Σ I, Σ I², Σ gx·I, Σ gy·I]` over the `side × side` window with top-left sample at `(x, y)`.
@@ -360,8 +504,8 @@ fn window_sums_lanes(
         // The fast-path condition keeps every read inside the bordered plane.
         assert!(origin + side * stride + pw < data.len());
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx") && !portable_only() {
-            // SAFETY: AVX is present (checked) and every load is in bounds (asserted above;
+        if std::arch::is_x86_feature_detected!("avx2") && !portable_only() {
+            // SAFETY: AVX2 is present (checked) and every load is in bounds (asserted above;
             // `mask`, `gx`, `gy` hold `pw` and `side × pw` values).
             acc = unsafe { window_rows_avx(data, stride, origin, side, pw, mask, gx, gy, wts) };
             return [
@@ -377,10 +521,10 @@ fn window_sums_lanes(
             for c in (0..pw).step_by(LANES) {
                 let k = r * pw + c;
                 bilinear_lane(
-                    lane(&a[c..]),
-                    lane(&a[c + 1..]),
-                    lane(&b[c..]),
-                    lane(&b[c + 1..]),
+                    byte_lane(&a[c..]),
+                    byte_lane(&a[c + 1..]),
+                    byte_lane(&b[c..]),
+                    byte_lane(&b[c + 1..]),
                     lane(&mask[c..]),
                     lane(&gx[k..]),
                     lane(&gy[k..]),
@@ -401,10 +545,10 @@ fn window_sums_lanes(
 /// [`bilinear_lane`] over the window's rows with AVX registers: the same IEEE operations in the
 /// same order per lane (multiplies and adds, no fused multiply–add), so bit-identical results.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx")]
+#[target_feature(enable = "avx2")]
 #[allow(clippy::too_many_arguments)]
 unsafe fn window_rows_avx(
-    data: &[f32],
+    data: &[u8],
     stride: usize,
     origin: usize,
     side: usize,
@@ -434,10 +578,16 @@ unsafe fn window_rows_avx(
         for c in (0..pw).step_by(LANES) {
             // SAFETY: in bounds by the caller's contract.
             unsafe {
-                let a0 = _mm256_loadu_ps(p.add(ra + c));
-                let a1 = _mm256_loadu_ps(p.add(ra + c + 1));
-                let b0 = _mm256_loadu_ps(p.add(rb + c));
-                let b1 = _mm256_loadu_ps(p.add(rb + c + 1));
+                // Eight grey levels → eight exact f32.
+                let load = |i: usize| {
+                    _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(
+                        p.add(i) as *const __m128i
+                    )))
+                };
+                let a0 = load(ra + c);
+                let a1 = load(ra + c + 1);
+                let b0 = load(rb + c);
+                let b1 = load(rb + c + 1);
                 let v = _mm256_add_ps(
                     _mm256_add_ps(
                         _mm256_add_ps(_mm256_mul_ps(w0, a0), _mm256_mul_ps(w1, a1)),
@@ -488,6 +638,12 @@ thread_local! {
 #[inline(always)]
 fn lane(s: &[f32]) -> [f32; LANES] {
     s[..LANES].try_into().expect("eight values")
+}
+
+/// The first eight grey levels of `s` as `f32` (exact).
+#[inline(always)]
+fn byte_lane(s: &[u8]) -> [f32; LANES] {
+    std::array::from_fn(|i| s[i] as f32)
 }
 
 /// Accumulates eight bilinear samples (corners `a0 a1 / b0 b1`, weights `w`) into
@@ -616,11 +772,27 @@ pub(crate) fn sample_grid(
     let stride = img.stride;
     if ix >= -bd && iy >= -bd && ix + (cols as i64) < w + bd && iy + (rows as i64) < h + bd {
         let origin = img.index(ix as isize, iy as isize);
+        #[cfg(target_arch = "x86_64")]
+        if cols.is_multiple_of(LANES)
+            && std::arch::is_x86_feature_detected!("avx2")
+            && !portable_only()
+        {
+            // The last eight-byte load ends at byte `cols` of row `rows` (as the portable loop).
+            assert!(origin + rows * stride + cols < data.len() && out.len() >= rows * cols);
+            // SAFETY: AVX2 is present (checked); every access is in bounds (asserted).
+            unsafe {
+                bilinear_rows_avx2(data, stride, origin, cols, rows, [w00, w01, w10, w11], out)
+            };
+            return;
+        }
         for (r, o) in out.chunks_exact_mut(cols).take(rows).enumerate() {
             let a = &data[origin + r * stride..origin + r * stride + cols + 1];
             let b = &data[origin + (r + 1) * stride..origin + (r + 1) * stride + cols + 1];
             for j in 0..cols {
-                o[j] = w00 * a[j] + w01 * a[j + 1] + w10 * b[j] + w11 * b[j + 1];
+                o[j] = w00 * a[j] as f32
+                    + w01 * a[j + 1] as f32
+                    + w10 * b[j] as f32
+                    + w11 * b[j + 1] as f32;
             }
         }
     } else {
@@ -637,10 +809,10 @@ pub(crate) fn sample_grid(
             let y1 = row0 + (iy + r as i64 + 1).clamp(0, h - 1) as usize * stride;
             let o = &mut out[r * cols..(r + 1) * cols];
             for j in 0..cols {
-                o[j] = w00 * data[y0 + xs[j]]
-                    + w01 * data[y0 + xs[j + 1]]
-                    + w10 * data[y1 + xs[j]]
-                    + w11 * data[y1 + xs[j + 1]];
+                o[j] = w00 * data[y0 + xs[j]] as f32
+                    + w01 * data[y0 + xs[j + 1]] as f32
+                    + w10 * data[y1 + xs[j]] as f32
+                    + w11 * data[y1 + xs[j + 1]] as f32;
             }
         }
     }
@@ -677,6 +849,49 @@ mod tests {
                 "at ({x}, {y})"
             );
             assert_eq!(fast_dot.to_bits(), slow_dot.to_bits());
+        }
+    }
+
+    /// Templates built by the vectorized sampling and gradients equal the portable ones bit for
+    /// bit, at every level, and resampling into used buffers equals building afresh.
+    #[test]
+    fn vectorized_and_portable_templates_are_identical() {
+        let (w, h) = (160u32, 120u32);
+        let data: Vec<u8> = (0..w * h)
+            .map(|i| ((i * 2_654_435_761u32) >> 24) as u8)
+            .collect();
+        let pyr = Pyramid::build(&ImageView::packed(w, h, &data).unwrap(), 2);
+        let params = KltParams::default();
+        let bits = |t: &Template| -> Vec<u32> {
+            let info = t.info.iter().flat_map(|i| {
+                [
+                    i.h_inv[0],
+                    i.h_inv[1],
+                    i.h_inv[2],
+                    i.sum_g[0],
+                    i.sum_g_t[1],
+                    i.sigma,
+                    i.mean,
+                ]
+            });
+            t.data
+                .iter()
+                .copied()
+                .chain(info)
+                .map(f32::to_bits)
+                .collect()
+        };
+        let mut reused = Template::new(&pyr, Vector2::new(80.0, 60.0), 3, &params);
+        // Inside, and near the edges (the sampling's slow path).
+        for (x, y) in [(60.3, 57.6), (81.71, 40.05), (12.5, 110.2), (150.9, 3.3)] {
+            let uv = Vector2::new(x, y);
+            let fast = Template::new(&pyr, uv, 3, &params);
+            PORTABLE.with(|p| p.set(true));
+            let slow = Template::new(&pyr, uv, 3, &params);
+            PORTABLE.with(|p| p.set(false));
+            assert_eq!(bits(&fast), bits(&slow), "at ({x}, {y})");
+            reused.resample(&pyr, uv, 3, &params);
+            assert_eq!(bits(&fast), bits(&reused), "resampled at ({x}, {y})");
         }
     }
 }

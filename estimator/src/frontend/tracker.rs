@@ -298,7 +298,9 @@ impl FeatureTracker {
                     }
                 }
             }
-            let template = Template::new(&self.cur, q, levels, &klt);
+            // The old template is done with: its buffers take the new one.
+            let mut template = t.template;
+            template.resample(&self.cur, q, levels, &klt);
             if cfg.flow_back {
                 let back = track(&template, &self.prev, t.uv, 0, &klt);
                 if !back.is_ok_and(|b| (b - t.uv).norm() <= cfg.flow_back_px) {
@@ -386,9 +388,9 @@ impl FeatureTracker {
             };
             let level = cfg.detect_level.min(self.cur.len() - 1);
             let found = detect_on_level(
-                &self.cur.level(level).view(),
+                &self.cur.level(level),
                 level,
-                &self.cur.level(0).view(),
+                &self.cur.level(0),
                 &existing,
                 cfg.max_features - tracks.len(),
                 &params,
@@ -431,6 +433,7 @@ impl FeatureTracker {
                 let tol = cfg.epipolar_px / self.focal[p_cam].min(self.focal[c]);
                 let prior = self.disparity[c];
                 let mut disparities = Vec::new();
+                let mut back_t: Option<Template> = None;
                 for t in tracks.iter_mut() {
                     report.stereo_tried += 1;
                     let hint = t.hints.iter().find(|h| h.0 == c).map(|h| h.1);
@@ -446,8 +449,14 @@ impl FeatureTracker {
                         continue;
                     };
                     if cfg.flow_back {
-                        let back_t = Template::new(&self.other, q, 1, &klt);
-                        let back = track(&back_t, &self.cur, t.uv, 0, &klt);
+                        let back_t = match back_t.as_mut() {
+                            Some(b) => {
+                                b.resample(&self.other, q, 1, &klt);
+                                b
+                            }
+                            None => back_t.insert(Template::new(&self.other, q, 1, &klt)),
+                        };
+                        let back = track(back_t, &self.cur, t.uv, 0, &klt);
                         if !back.is_ok_and(|b| (b - t.uv).norm() <= cfg.flow_back_px) {
                             report.stereo_flow_back_rejected += 1;
                             continue;
