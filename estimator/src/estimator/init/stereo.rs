@@ -1,0 +1,112 @@
+//! Stereo+IMU initialization from the visually solved window (metric scale from stereo).
+
+use std::sync::Arc;
+
+use nalgebra::{UnitQuaternion, Vector3};
+
+use super::alignment::{align_velocities_and_gravity, estimate_gyro_bias};
+use crate::estimator::config::EstimatorConfig;
+use crate::estimator::window::{BlockRef, Prior, Window, WindowFrame};
+use crate::factors::PriorFactor;
+use crate::geometry::Pose;
+use crate::imu::Preintegration;
+use crate::problem::{Euclidean, PoseManifold};
+
+/// Aligns the visually solved window with the IMU: the gyroscope bias from the visual rotations,
+/// then velocities and gravity by linear alignment; the world is rotated so that gravity is −z
+/// (minimal rotation, origin at the oldest frame) and the window gets the initial prior. Returns
+/// `false` when an interval is missing or a step fails; the states are then untouched (the
+/// intervals may have been re-linearized at the estimated gyroscope bias).
+pub(in crate::estimator) fn initialize_stereo_inertial(
+    window: &mut Window,
+    config: &EstimatorConfig,
+) -> bool {
+    let poses: Vec<Pose> = window.frames.iter().map(|f| f.pose).collect();
+    if window.frames.iter().skip(1).any(|f| f.preint.is_none()) {
+        return false;
+    }
+    let intervals: Vec<&Preintegration> = window
+        .frames
+        .iter()
+        .skip(1)
+        .filter_map(|f| f.preint.as_ref())
+        .collect();
+    let Some(bg) = estimate_gyro_bias(&poses, &intervals) else {
+        return false;
+    };
+    let ba = Vector3::zeros();
+    for f in window.frames.iter_mut().skip(1) {
+        if let Some(p) = &mut f.preint {
+            p.repropagate(ba, bg);
+        }
+    }
+    let intervals: Vec<&Preintegration> = window
+        .frames
+        .iter()
+        .skip(1)
+        .filter_map(|f| f.preint.as_ref())
+        .collect();
+    let Some((vel, g)) = align_velocities_and_gravity(&poses, &intervals, &ba, &bg, crate::GRAVITY)
+    else {
+        return false;
+    };
+    // Rotate the world so that gravity points along −z (minimal rotation).
+    let Some(r_align) = UnitQuaternion::rotation_between(&g, &crate::gravity_w()) else {
+        return false;
+    };
+    let origin = window.frames[0].pose.p;
+    for (f, v) in window.frames.iter_mut().zip(vel) {
+        f.pose = Pose::new(r_align * f.pose.q, r_align * (f.pose.p - origin));
+        f.v = r_align * v;
+        f.ba = ba;
+        f.bg = bg;
+    }
+    // Landmarks are anchored in camera frames: unaffected. The prior starts as a bias prior
+    // on the oldest frame (no earlier prior exists: vision-only frames carry none).
+    window.prior = initial_prior(&window.frames[0], config);
+    true
+}
+
+/// The initial prior on frame `first`: its position and yaw (the four directions no sensor
+/// observes, pinned with `gauge_sigma` so that the solver never wanders along them) and its
+/// biases (`initial_ba_sigma`, `initial_bg_sigma` around their current estimates).
+/// Marginalization carries it forward.
+pub(in crate::estimator) fn initial_prior(
+    first: &WindowFrame,
+    config: &EstimatorConfig,
+) -> Option<Prior> {
+    let sb0: Vec<f64> = first
+        .v
+        .iter()
+        .chain(first.ba.iter())
+        .chain(first.bg.iter())
+        .copied()
+        .collect();
+    // Rows: position (3), yaw (1), ba (3), bg (3); columns: pose tangent (6), speed-bias (9).
+    let (rows, cols) = (10, 15);
+    let mut jac = vec![0.0; rows * cols];
+    let w_gauge = 1.0 / config.gauge_sigma;
+    for i in 0..3 {
+        jac[i * cols + i] = w_gauge;
+    }
+    // Yaw of R·Exp(δθ) about world z: e_zᵀ R δθ.
+    let r = first.pose.q.to_rotation_matrix().into_inner();
+    for c in 0..3 {
+        jac[3 * cols + 3 + c] = w_gauge * r[(2, c)];
+    }
+    for i in 0..3 {
+        jac[(4 + i) * cols + 6 + 3 + i] = 1.0 / config.initial_ba_sigma;
+        jac[(7 + i) * cols + 6 + 6 + i] = 1.0 / config.initial_bg_sigma;
+    }
+    let manifolds: Vec<Arc<dyn crate::problem::Manifold>> =
+        vec![Arc::new(PoseManifold), Arc::new(Euclidean::new(9))];
+    let points = vec![first.pose.to_array().to_vec(), sb0];
+    PriorFactor::new(manifolds, points, jac, vec![0.0; rows])
+        .ok()
+        .map(|f| {
+            (
+                Arc::new(f),
+                vec![BlockRef::Pose(first.seq), BlockRef::SpeedBias(first.seq)],
+            )
+        })
+}

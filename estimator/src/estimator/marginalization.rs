@@ -1,0 +1,94 @@
+//! Marginalization policy: which factors and states go into the prior when a frame leaves the
+//! window (VINS-Fusion's two cases). The Schur complement itself is
+//! [`crate::problem::marginalization::marginalize`], a pure function of the problem.
+
+use std::sync::Arc;
+
+use super::window::{BlockRef, Built, Prior, Window};
+use crate::problem::marginalization::{MarginalizationOptions, marginalize};
+use crate::problem::{BlockId, ResidualId};
+
+/// The new prior when the oldest frame leaves with the IMU active: its pose and speed-bias, the
+/// landmarks anchored in it, and every factor touching them (the IMU factor to the next frame,
+/// the old prior, those landmarks' reprojections) are marginalized. Without the IMU there is no
+/// prior (vision only: the oldest remaining pose fixes the gauge).
+pub(super) fn prior_without_oldest(
+    window: &Window,
+    built: &Built,
+    imu_active: bool,
+) -> Option<Prior> {
+    if !imu_active {
+        return None;
+    }
+    let oldest = window.frames[0].seq;
+    let pose = built.block(BlockRef::Pose(oldest)).expect("pose");
+    let mut remove = vec![pose];
+    remove.extend(built.block(BlockRef::SpeedBias(oldest)));
+    let mut residuals: Vec<ResidualId> = built
+        .imu
+        .iter()
+        .filter(|(_, k)| *k == 1)
+        .map(|(r, _)| *r)
+        .collect();
+    if let Some(r) = built.prior
+        && remove
+            .iter()
+            .any(|b| built.problem.residual_blocks(r).contains(b))
+    {
+        residuals.push(r);
+    }
+    // Landmarks anchored in the oldest frame (sorted ids: membership by binary search).
+    let mut anchored: Vec<u64> = Vec::new();
+    for (id, lm) in &built.landmarks {
+        if window.features.tracks[id].obs[0].seq == oldest {
+            remove.push(*lm);
+            anchored.push(*id);
+        }
+    }
+    anchored.sort_unstable();
+    residuals.extend(
+        built
+            .visual
+            .iter()
+            .filter(|(_, id)| anchored.binary_search(id).is_ok())
+            .map(|(r, _)| *r),
+    );
+    residuals.sort();
+    prior_from(built, &residuals, &remove)
+}
+
+/// The prior when the second-newest frame is dropped (not a keyframe): only the prior itself
+/// loses that frame's states, if it involves them; its measurements are discarded (VINS-Fusion)
+/// and its IMU interval merges into the newest frame's. `Some(current)` when nothing changes.
+pub(super) fn prior_without_second_newest(window: &Window, built: &Built) -> Option<Prior> {
+    let Some(r) = built.prior else {
+        return window.prior.clone();
+    };
+    let drop = window.frames[window.frames.len() - 2].seq;
+    let mut remove: Vec<BlockId> = Vec::new();
+    remove.extend(built.block(BlockRef::Pose(drop)));
+    remove.extend(built.block(BlockRef::SpeedBias(drop)));
+    remove.retain(|b| built.problem.residual_blocks(r).contains(b));
+    if remove.is_empty() {
+        return window.prior.clone();
+    }
+    prior_from(built, &[r], &remove)
+}
+
+/// Marginalizes `remove` out of `residuals`; `None` when that fails or leaves no information.
+fn prior_from(built: &Built, residuals: &[ResidualId], remove: &[BlockId]) -> Option<Prior> {
+    let mp = marginalize(
+        &built.problem,
+        residuals,
+        remove,
+        &MarginalizationOptions::default(),
+    )
+    .ok()?;
+    let refs: Vec<BlockRef> = mp
+        .blocks
+        .iter()
+        .map(|b| built.refs.iter().find(|(_, x)| x == b).map(|(r, _)| *r))
+        .collect::<Option<Vec<_>>>()
+        .unwrap_or_default();
+    (refs.len() == mp.blocks.len() && mp.rank > 0).then(|| (Arc::new(mp.factor), refs))
+}

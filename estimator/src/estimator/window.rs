@@ -1,0 +1,425 @@
+//! The sliding window: the states it holds (frames with pose, velocity and biases, feature
+//! tracks with their anchors' inverse depths, extrinsics, time offset, the marginalization
+//! prior), how they become one nonlinear least-squares problem ([`Window::build`]), how the
+//! solved values return ([`Window::write_back`]), and how frames leave it
+//! ([`Window::remove_oldest`], [`Window::remove_second_newest`]). What goes into the prior when a
+//! frame leaves is decided in [`super::marginalization`].
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+
+use nalgebra::Vector3;
+
+use super::config::EstimatorConfig;
+use super::features::FeatureManager;
+use crate::factors::{
+    ImuFactor, PriorFactor, ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam,
+    ProjectionTwoFrameTwoCam,
+};
+use crate::geometry::Pose;
+use crate::imu::Preintegration;
+use crate::problem::{
+    BlockId, BlockKind, Euclidean, Factor, LossFunction, PoseManifold, Problem, ResidualId,
+};
+
+/// A frame's state in the window.
+#[derive(Clone, Debug)]
+pub(super) struct WindowFrame {
+    pub seq: u64,
+    pub t_ns: i64,
+    pub pose: Pose,
+    pub v: Vector3<f64>,
+    pub ba: Vector3<f64>,
+    pub bg: Vector3<f64>,
+    /// IMU interval from the previous window frame to this one.
+    pub preint: Option<Preintegration>,
+}
+
+/// A parameter block of the window, independent of any one `Problem`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum BlockRef {
+    Pose(u64),
+    SpeedBias(u64),
+    Extrinsic(usize),
+    Td,
+}
+
+/// The marginalization prior and the window states it constrains, in its block order.
+pub(super) type Prior = (Arc<PriorFactor>, Vec<BlockRef>);
+
+/// A window problem and the map from its blocks back to the window's states.
+pub(super) struct Built {
+    pub problem: Problem,
+    pub refs: Vec<(BlockRef, BlockId)>,
+    pub landmarks: Vec<(u64, BlockId)>,
+    /// (IMU factor, index of its later frame in the window).
+    pub imu: Vec<(ResidualId, usize)>,
+    /// (residual, track id).
+    pub visual: Vec<(ResidualId, u64)>,
+    pub prior: Option<ResidualId>,
+}
+
+impl Built {
+    /// The problem block of a window state, if it is in the problem.
+    pub fn block(&self, r: BlockRef) -> Option<BlockId> {
+        self.refs.iter().find(|(x, _)| *x == r).map(|(_, b)| *b)
+    }
+}
+
+/// What the window's problem needs besides the states: settings and per-camera weights.
+pub(super) struct ProblemSettings<'a> {
+    pub config: &'a EstimatorConfig,
+    /// Effective focal length of each camera (px).
+    pub focal: &'a [f64],
+    /// Robust loss of the reprojection factors.
+    pub huber: &'a Arc<dyn LossFunction>,
+}
+
+/// The states of the sliding window (one owner: everything the solver estimates lives here).
+#[derive(Clone)]
+pub(super) struct Window {
+    /// Frames, oldest first (seq increasing).
+    pub frames: VecDeque<WindowFrame>,
+    /// Feature tracks over the window's frames.
+    pub features: FeatureManager,
+    /// The marginalization prior.
+    pub prior: Option<Prior>,
+    /// `T_b_c` of each camera.
+    pub extrinsics: Vec<Pose>,
+    /// Camera-IMU time offset (s).
+    pub td: f64,
+}
+
+impl Window {
+    /// An empty window with the given extrinsics and time offset.
+    pub fn new(extrinsics: Vec<Pose>, td: f64) -> Self {
+        Self {
+            frames: VecDeque::new(),
+            features: FeatureManager::default(),
+            prior: None,
+            extrinsics,
+            td,
+        }
+    }
+
+    /// Index in the window of frame `seq`.
+    pub fn frame_index(&self, seq: u64) -> Option<usize> {
+        self.frames.iter().position(|f| f.seq == seq)
+    }
+
+    /// `T_w_c` of camera `cam` at window frame `idx`.
+    pub fn camera_pose(&self, idx: usize, cam: usize) -> Pose {
+        self.frames[idx].pose.compose(&self.extrinsics[cam])
+    }
+
+    /// World position of a track's landmark.
+    pub fn track_world_point(&self, id: u64) -> Option<Vector3<f64>> {
+        let t = self.features.tracks.get(&id)?;
+        let d = t.inv_depth?;
+        let m = t.obs[0].meas[0]?;
+        let fi = self.frame_index(t.obs[0].seq)?;
+        let p_c = Vector3::new(m.point.x, m.point.y, 1.0) / d;
+        Some(self.camera_pose(fi, 0).transform(&p_c))
+    }
+
+    /// Builds the window problem at the current estimates: poses (and speed-biases when
+    /// `imu_active`), extrinsics, time offset, the prior, IMU factors and the reprojection
+    /// factors of every triangulated track (landmarks as inverse-depth blocks).
+    pub fn build(&self, settings: &ProblemSettings<'_>, imu_active: bool) -> Built {
+        let config = settings.config;
+        let mut problem = Problem::new();
+        let mut refs = Vec::new();
+        let pose_m: Arc<PoseManifold> = Arc::new(PoseManifold);
+        let sb_m = Arc::new(Euclidean::new(9));
+        let one = Arc::new(Euclidean::new(1));
+        for f in &self.frames {
+            let b = problem
+                .add_block(&f.pose.to_array(), pose_m.clone(), BlockKind::State)
+                .expect("finite pose");
+            refs.push((BlockRef::Pose(f.seq), b));
+            if imu_active {
+                let sb: Vec<f64> =
+                    f.v.iter()
+                        .chain(f.ba.iter())
+                        .chain(f.bg.iter())
+                        .copied()
+                        .collect();
+                let b = problem
+                    .add_block(&sb, sb_m.clone(), BlockKind::State)
+                    .expect("finite");
+                refs.push((BlockRef::SpeedBias(f.seq), b));
+            }
+        }
+        for (i, e) in self.extrinsics.iter().enumerate() {
+            let b = problem
+                .add_block(&e.to_array(), pose_m.clone(), BlockKind::State)
+                .expect("finite");
+            problem.set_constant(b, !config.estimate_extrinsics);
+            refs.push((BlockRef::Extrinsic(i), b));
+        }
+        let td_block = problem
+            .add_block(&[self.td], one.clone(), BlockKind::State)
+            .expect("finite");
+        problem.set_constant(td_block, !config.estimate_td);
+        refs.push((BlockRef::Td, td_block));
+        let mut built = Built {
+            problem,
+            refs,
+            landmarks: Vec::new(),
+            imu: Vec::new(),
+            visual: Vec::new(),
+            prior: None,
+        };
+        if !imu_active {
+            // Vision only: the oldest pose fixes the gauge.
+            let b = built
+                .block(BlockRef::Pose(self.frames[0].seq))
+                .expect("exists");
+            built.problem.set_constant(b, true);
+        }
+
+        // Prior.
+        if let Some((factor, blocks)) = &self.prior {
+            let ids: Option<Vec<BlockId>> = blocks.iter().map(|r| built.block(*r)).collect();
+            if let Some(ids) = ids {
+                let f: Arc<dyn Factor> = factor.clone();
+                built.prior = built.problem.add_factor(f, None, &ids).ok();
+            }
+        }
+
+        // IMU.
+        if imu_active {
+            for k in 1..self.frames.len() {
+                let (a, b) = (&self.frames[k - 1], &self.frames[k]);
+                let Some(p) = &b.preint else { continue };
+                let Ok(factor) = ImuFactor::new(p) else {
+                    continue;
+                };
+                let ids = [
+                    built.block(BlockRef::Pose(a.seq)).expect("pose"),
+                    built.block(BlockRef::SpeedBias(a.seq)).expect("sb"),
+                    built.block(BlockRef::Pose(b.seq)).expect("pose"),
+                    built.block(BlockRef::SpeedBias(b.seq)).expect("sb"),
+                ];
+                let r = built
+                    .problem
+                    .add_factor(Arc::new(factor), None, &ids)
+                    .expect("sizes match");
+                built.imu.push((r, k));
+            }
+        }
+        self.add_visual_factors(&mut built, settings, td_block);
+        built
+    }
+
+    /// The reprojection factors of every triangulated track seen long enough.
+    fn add_visual_factors(
+        &self,
+        built: &mut Built,
+        settings: &ProblemSettings<'_>,
+        td_block: BlockId,
+    ) {
+        let config = settings.config;
+        let one = Arc::new(Euclidean::new(1));
+        let ex = [
+            built.block(BlockRef::Extrinsic(0)).expect("ex0"),
+            built.block(BlockRef::Extrinsic(1)).expect("ex1"),
+        ];
+        let weights = [
+            settings.focal[0] / config.cameras[0].pixel_sigma,
+            settings.focal[1] / config.cameras[1].pixel_sigma,
+        ];
+        // Pose block of each window frame, by seq (frames are in seq order).
+        let pose_ids: Vec<(u64, BlockId)> = self
+            .frames
+            .iter()
+            .filter_map(|f| built.block(BlockRef::Pose(f.seq)).map(|b| (f.seq, b)))
+            .collect();
+        let pose_block = |seq: u64| {
+            pose_ids
+                .binary_search_by_key(&seq, |(s, _)| *s)
+                .ok()
+                .map(|i| pose_ids[i].1)
+        };
+        for (id, track) in &self.features.tracks {
+            let Some(inv_depth) = track.inv_depth else {
+                continue;
+            };
+            if track.obs.len() < config.min_track_frames || track.measurement_count() < 2 {
+                continue;
+            }
+            let anchor = &track.obs[0];
+            let Some(obs_i) = anchor.meas[0] else {
+                continue;
+            };
+            let Some(pose_i) = pose_block(anchor.seq) else {
+                continue;
+            };
+            let lm = built
+                .problem
+                .add_block(&[inv_depth], one.clone(), BlockKind::Landmark)
+                .expect("finite");
+            built.landmarks.push((*id, lm));
+            let loss = Some(settings.huber.clone());
+            if let Some(obs_b) = anchor.meas[1] {
+                let f = ProjectionOneFrameTwoCam {
+                    obs_a: obs_i,
+                    obs_b,
+                    weight: weights[1],
+                };
+                let r = built
+                    .problem
+                    .add_factor(Arc::new(f), loss.clone(), &[ex[0], ex[1], lm, td_block])
+                    .expect("sizes");
+                built.visual.push((r, *id));
+            }
+            for o in &track.obs[1..] {
+                let Some(pose_j) = pose_block(o.seq) else {
+                    continue;
+                };
+                if let Some(obs_j) = o.meas[0] {
+                    let f = ProjectionTwoFrameOneCam {
+                        obs_i,
+                        obs_j,
+                        weight: weights[0],
+                    };
+                    let r = built
+                        .problem
+                        .add_factor(
+                            Arc::new(f),
+                            loss.clone(),
+                            &[pose_i, pose_j, ex[0], lm, td_block],
+                        )
+                        .expect("sizes");
+                    built.visual.push((r, *id));
+                }
+                if let Some(obs_j) = o.meas[1] {
+                    let f = ProjectionTwoFrameTwoCam {
+                        obs_i,
+                        obs_j,
+                        weight: weights[1],
+                    };
+                    let r = built
+                        .problem
+                        .add_factor(
+                            Arc::new(f),
+                            loss.clone(),
+                            &[pose_i, pose_j, ex[0], ex[1], lm, td_block],
+                        )
+                        .expect("sizes");
+                    built.visual.push((r, *id));
+                }
+            }
+        }
+    }
+
+    /// Copies the solved values back into the window; landmarks outside the configured depth
+    /// range lose their depth, and preintegrations are re-linearized when the biases moved.
+    pub fn write_back(&mut self, built: &Built, config: &EstimatorConfig) {
+        for f in self.frames.iter_mut() {
+            if let Some(b) = built.block(BlockRef::Pose(f.seq)) {
+                f.pose = Pose::from_slice(built.problem.values(b));
+            }
+            if let Some(b) = built.block(BlockRef::SpeedBias(f.seq)) {
+                let v = built.problem.values(b);
+                f.v = Vector3::new(v[0], v[1], v[2]);
+                f.ba = Vector3::new(v[3], v[4], v[5]);
+                f.bg = Vector3::new(v[6], v[7], v[8]);
+            }
+        }
+        for (i, e) in self.extrinsics.iter_mut().enumerate() {
+            if let Some(b) = built.block(BlockRef::Extrinsic(i)) {
+                *e = Pose::from_slice(built.problem.values(b));
+            }
+        }
+        if let Some(b) = built.block(BlockRef::Td) {
+            self.td = built.problem.values(b)[0];
+        }
+        for (id, b) in &built.landmarks {
+            let d = built.problem.values(*b)[0];
+            if let Some(t) = self.features.tracks.get_mut(id) {
+                let depth = 1.0 / d;
+                t.inv_depth =
+                    (d.is_finite() && depth >= config.min_depth_m && depth <= config.max_depth_m)
+                        .then_some(d);
+            }
+        }
+        // Keep the preintegrations' linearization points close to the estimates.
+        let (tba, tbg) = (config.repropagate_ba, config.repropagate_bg);
+        for k in 1..self.frames.len() {
+            let (ba, bg) = (self.frames[k - 1].ba, self.frames[k - 1].bg);
+            if let Some(p) = &mut self.frames[k].preint {
+                p.repropagate_if_needed(ba, bg, tba, tbg);
+            }
+        }
+    }
+
+    /// Removes the oldest frame and returns it. Tracks anchored in it: when `in_prior` (their
+    /// landmark and observations went into the prior) the track ends here, so a later sighting
+    /// of the same feature starts a new track; otherwise they are re-anchored in their next
+    /// left view, keeping their world point when its depth there is in range.
+    pub fn remove_oldest(&mut self, in_prior: bool, config: &EstimatorConfig) -> WindowFrame {
+        let removed_seq = self.frames[0].seq;
+        let ids: Vec<u64> = self.features.tracks.keys().copied().collect();
+        for id in ids {
+            if self.features.tracks[&id].obs[0].seq != removed_seq {
+                continue;
+            }
+            if in_prior {
+                self.features.tracks.remove(&id);
+                continue;
+            }
+            let world = self.track_world_point(id);
+            let t = self.features.tracks.get_mut(&id).expect("exists");
+            t.obs.remove(0);
+            while t.obs.first().is_some_and(|o| o.meas[0].is_none()) {
+                t.obs.remove(0);
+            }
+            if t.obs.is_empty() {
+                self.features.tracks.remove(&id);
+                continue;
+            }
+            t.inv_depth = None;
+            let new_anchor = t.obs[0].seq;
+            if let (Some(p_w), Some(fi)) = (world, self.frame_index(new_anchor)) {
+                let z = self.camera_pose(fi, 0).inverse().transform(&p_w).z;
+                if z >= config.min_depth_m && z <= config.max_depth_m {
+                    self.features.tracks.get_mut(&id).expect("exists").inv_depth = Some(1.0 / z);
+                }
+            }
+        }
+        self.frames.pop_front().expect("non-empty window")
+    }
+
+    /// Removes the second-newest frame and returns it: its IMU interval is merged into the
+    /// newest frame's (the returned frame keeps none), its observations leave their tracks (a track that loses its anchor is
+    /// re-anchored and re-triangulated).
+    pub fn remove_second_newest(&mut self) -> WindowFrame {
+        let n = self.frames.len();
+        let mut dropped = self.frames.remove(n - 2).expect("exists");
+        let drop = dropped.seq;
+        let newest = self.frames.back_mut().expect("exists");
+        if let (Some(mut a), Some(b)) = (dropped.preint.take(), newest.preint.take()) {
+            newest.preint = a.merge(&b).is_ok().then_some(a);
+        }
+        let ids: Vec<u64> = self.features.tracks.keys().copied().collect();
+        for id in ids {
+            let t = self.features.tracks.get_mut(&id).expect("exists");
+            let Some(k) = t.obs.iter().position(|o| o.seq == drop) else {
+                continue;
+            };
+            t.obs.remove(k);
+            if k == 0 {
+                // The anchor left: re-triangulate from what remains.
+                while t.obs.first().is_some_and(|o| o.meas[0].is_none()) {
+                    t.obs.remove(0);
+                }
+                t.inv_depth = None;
+            }
+            if t.obs.is_empty() {
+                self.features.tracks.remove(&id);
+            }
+        }
+        dropped
+    }
+}
