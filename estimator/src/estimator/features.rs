@@ -17,16 +17,57 @@ pub(crate) struct Observation {
     pub uv: [Option<Vector2<f64>>; 2],
 }
 
-/// A feature tracked across frames, anchored at its first observation by the left camera.
+impl Observation {
+    /// The lowest camera with a measurement.
+    pub fn first_camera(&self) -> Option<usize> {
+        self.meas.iter().position(Option::is_some)
+    }
+}
+
+/// A feature tracked across frames, anchored at its first observation by camera `anchor_cam`
+/// (any camera of the rig: the left one while it works, whichever sees the feature first
+/// otherwise).
 #[derive(Clone, Debug)]
 pub(crate) struct Track {
-    /// Observations in frame order; the first has a left-camera measurement.
+    /// Observations in frame order; the first has a measurement by `anchor_cam`.
     pub obs: Vec<Observation>,
-    /// Inverse depth along the anchor's left-camera ray, once triangulated.
+    /// The camera whose ray through the first observation carries the inverse depth.
+    pub anchor_cam: usize,
+    /// Inverse depth along the anchor camera's ray, once triangulated.
     pub inv_depth: Option<f64>,
 }
 
 impl Track {
+    /// The anchor's measurement.
+    pub fn anchor_measurement(&self) -> Option<FeatureMeasurement> {
+        self.obs.first()?.meas[self.anchor_cam]
+    }
+
+    /// Drops leading observations until one can anchor the track: by the current anchor
+    /// camera if any remains, else by the lowest camera of the first observation that has a
+    /// measurement. Returns `false` when no observation is left.
+    pub fn reanchor(&mut self) -> bool {
+        let cam = self.anchor_cam;
+        if self.obs.iter().any(|o| o.meas[cam].is_some()) {
+            while self.obs.first().is_some_and(|o| o.meas[cam].is_none()) {
+                self.obs.remove(0);
+            }
+        } else {
+            while self
+                .obs
+                .first()
+                .is_some_and(|o| o.meas.iter().all(Option::is_none))
+            {
+                self.obs.remove(0);
+            }
+            match self.obs.first().and_then(Observation::first_camera) {
+                Some(c) => self.anchor_cam = c,
+                None => self.obs.clear(),
+            }
+        }
+        !self.obs.is_empty()
+    }
+
     /// Number of measurements (both cameras) in the window.
     pub fn measurement_count(&self) -> usize {
         self.obs
@@ -53,12 +94,13 @@ impl FeatureManager {
                     t.obs.push(o);
                 }
                 None => {
-                    // A track starts with a left-camera observation.
-                    if o.meas[0].is_some() {
+                    // A track is anchored in the lowest camera that sees it first.
+                    if let Some(anchor_cam) = o.first_camera() {
                         self.tracks.insert(
                             id,
                             Track {
                                 obs: vec![o],
+                                anchor_cam,
                                 inv_depth: None,
                             },
                         );
@@ -69,27 +111,71 @@ impl FeatureManager {
         continued
     }
 
-    /// The previous left-camera measurement of `id` (frame seq, point), if any.
-    pub fn last_left(&self, id: u64) -> Option<(u64, Vector2<f64>)> {
+    /// The previous measurement of `id` by camera `cam` (frame seq, point), if any.
+    pub fn last_in(&self, id: u64, cam: usize) -> Option<(u64, Vector2<f64>)> {
         let t = self.tracks.get(&id)?;
         t.obs
             .iter()
             .rev()
-            .find_map(|o| o.meas[0].map(|m| (o.seq, m.point)))
+            .find_map(|o| o.meas[cam].map(|m| (o.seq, m.point)))
     }
 
-    /// Average left-camera parallax (normalized units) between frames `a` and `b` over tracks
-    /// seen in both; `None` when no track is.
-    pub fn parallax(&self, a: u64, b: u64) -> Option<f64> {
+    /// Average parallax (normalized units) of camera `cam` between frames `a` and `b` over
+    /// tracks it sees in both; `None` when no track is.
+    pub fn parallax(&self, a: u64, b: u64, cam: usize) -> Option<f64> {
         let (mut sum, mut n) = (0.0, 0usize);
         for t in self.tracks.values() {
-            let pa = t.obs.iter().find(|o| o.seq == a).and_then(|o| o.meas[0]);
-            let pb = t.obs.iter().find(|o| o.seq == b).and_then(|o| o.meas[0]);
+            let pa = t.obs.iter().find(|o| o.seq == a).and_then(|o| o.meas[cam]);
+            let pb = t.obs.iter().find(|o| o.seq == b).and_then(|o| o.meas[cam]);
             if let (Some(pa), Some(pb)) = (pa, pb) {
                 sum += (pa.point - pb.point).norm();
                 n += 1;
             }
         }
         (n > 0).then(|| sum / n as f64)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn obs(seq: u64, left: bool, right: bool) -> Observation {
+        let m = |on: bool| on.then(|| FeatureMeasurement::new(Vector2::new(0.1, -0.2)));
+        Observation {
+            seq,
+            meas: [m(left), m(right)],
+            uv: [None, None],
+        }
+    }
+
+    /// A feature first seen by the right camera only is anchored there (the left camera may
+    /// be dead); one seen by both is anchored in the left.
+    #[test]
+    fn tracks_anchor_in_the_lowest_camera_that_sees_them() {
+        let mut fm = FeatureManager::default();
+        fm.add_frame(vec![(1, obs(0, false, true)), (2, obs(0, true, true))]);
+        assert_eq!(fm.tracks[&1].anchor_cam, 1);
+        assert_eq!(fm.tracks[&2].anchor_cam, 0);
+        assert_eq!(fm.last_in(1, 1).map(|(s, _)| s), Some(0));
+        assert_eq!(fm.last_in(1, 0), None);
+    }
+
+    /// Re-anchoring keeps the anchor camera while it has a view left, and moves to the other
+    /// camera only when it has none.
+    #[test]
+    fn reanchoring_prefers_the_same_camera() {
+        let mut t = Track {
+            obs: vec![obs(1, false, true), obs(2, true, true), obs(3, false, true)],
+            anchor_cam: 0,
+            inv_depth: None,
+        };
+        assert!(t.reanchor());
+        assert_eq!((t.obs[0].seq, t.anchor_cam), (2, 0));
+        t.obs.remove(0);
+        assert!(t.reanchor());
+        assert_eq!((t.obs[0].seq, t.anchor_cam), (3, 1));
+        t.obs[0].meas = [None, None];
+        assert!(!t.reanchor());
     }
 }

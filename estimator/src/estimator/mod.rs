@@ -368,7 +368,16 @@ impl Estimator {
         } else {
             let a = self.window.frames[n - 3].seq;
             let b = self.window.frames[n - 2].seq;
-            match self.window.features.parallax(a, b) {
+            // Parallax in the lowest camera that delivered this frame (the left one while it
+            // works).
+            let cam = frame
+                .cameras
+                .iter()
+                .filter(|c| c.cam_id < 2 && !c.features.is_empty())
+                .map(|c| c.cam_id)
+                .min()
+                .unwrap_or(0);
+            match self.window.features.parallax(a, b, cam) {
                 Some(p) => p * self.focal[0] >= self.config.keyframe_parallax_px,
                 None => true,
             }
@@ -494,8 +503,8 @@ impl Estimator {
                     uv: [None, None],
                 });
                 let mut velocity = Vector2::zeros();
-                if cf.cam_id == 0
-                    && let Some((prev_seq, prev_pt)) = self.window.features.last_left(f.feature_id)
+                if let Some((prev_seq, prev_pt)) =
+                    self.window.features.last_in(f.feature_id, cf.cam_id)
                     && let Some(pf) = self.window.frames.iter().find(|w| w.seq == prev_seq)
                 {
                     let dt = (t_ns - pf.t_ns) as f64 * 1e-9;

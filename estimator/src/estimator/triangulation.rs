@@ -6,10 +6,10 @@ use super::config::EstimatorConfig;
 use super::window::Window;
 use crate::geometry::Pose;
 
-/// Triangulates tracks without depth: from every camera view of the track in the window (DLT),
-/// keeping those whose anchor depth is in range and that reproject onto all their
-/// observations within 5× `outlier_reprojection_px`. `focal`: effective focal length of each
-/// camera (px).
+/// Triangulates tracks without depth from every camera view of the track in the window (DLT),
+/// keeping those whose depth along the anchor camera's ray is in range and that reproject onto
+/// all their observations within 5× `outlier_reprojection_px`. `focal`: effective focal length
+/// of each camera (px).
 pub(super) fn triangulate_tracks(window: &mut Window, config: &EstimatorConfig, focal: &[f64]) {
     let ids: Vec<u64> = window
         .features
@@ -25,7 +25,7 @@ pub(super) fn triangulate_tracks(window: &mut Window, config: &EstimatorConfig, 
         let Some(ai) = window.frame_index(anchor.seq) else {
             continue;
         };
-        let anchor_cam = window.camera_pose(ai, 0);
+        let anchor_cam = window.camera_pose(ai, track.anchor_cam);
         for o in &track.obs {
             let Some(fi) = window.frame_index(o.seq) else {
                 continue;

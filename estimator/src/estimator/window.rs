@@ -116,10 +116,10 @@ impl Window {
     pub fn track_world_point(&self, id: u64) -> Option<Vector3<f64>> {
         let t = self.features.tracks.get(&id)?;
         let d = t.inv_depth?;
-        let m = t.obs[0].meas[0]?;
+        let m = t.anchor_measurement()?;
         let fi = self.frame_index(t.obs[0].seq)?;
         let p_c = Vector3::new(m.point.x, m.point.y, 1.0) / d;
-        Some(self.camera_pose(fi, 0).transform(&p_c))
+        Some(self.camera_pose(fi, t.anchor_cam).transform(&p_c))
     }
 
     /// Builds the window problem at the current estimates: poses (and speed-biases when
@@ -249,7 +249,8 @@ impl Window {
                 continue;
             }
             let anchor = &track.obs[0];
-            let Some(obs_i) = anchor.meas[0] else {
+            let a = track.anchor_cam;
+            let Some(obs_i) = anchor.meas[a] else {
                 continue;
             };
             let Some(pose_i) = pose_block(anchor.seq) else {
@@ -261,15 +262,19 @@ impl Window {
                 .expect("finite");
             built.landmarks.push((*id, lm));
             let loss = Some(settings.huber.clone());
-            if let Some(obs_b) = anchor.meas[1] {
+            // The other cameras in the anchor frame.
+            for c in (0..2).filter(|&c| c != a) {
+                let Some(obs_b) = anchor.meas[c] else {
+                    continue;
+                };
                 let f = ProjectionOneFrameTwoCam {
                     obs_a: obs_i,
                     obs_b,
-                    weight: weights[1],
+                    weight: weights[c],
                 };
                 let r = built
                     .problem
-                    .add_factor(Arc::new(f), loss.clone(), &[ex[0], ex[1], lm, td_block])
+                    .add_factor(Arc::new(f), loss.clone(), &[ex[a], ex[c], lm, td_block])
                     .expect("sizes");
                 built.visual.push((r, *id));
             }
@@ -277,37 +282,34 @@ impl Window {
                 let Some(pose_j) = pose_block(o.seq) else {
                     continue;
                 };
-                if let Some(obs_j) = o.meas[0] {
-                    let f = ProjectionTwoFrameOneCam {
-                        obs_i,
-                        obs_j,
-                        weight: weights[0],
+                for (c, obs_j) in o.meas.iter().enumerate() {
+                    let Some(obs_j) = *obs_j else {
+                        continue;
                     };
-                    let r = built
-                        .problem
-                        .add_factor(
+                    let r = if c == a {
+                        let f = ProjectionTwoFrameOneCam {
+                            obs_i,
+                            obs_j,
+                            weight: weights[c],
+                        };
+                        built.problem.add_factor(
                             Arc::new(f),
                             loss.clone(),
-                            &[pose_i, pose_j, ex[0], lm, td_block],
+                            &[pose_i, pose_j, ex[a], lm, td_block],
                         )
-                        .expect("sizes");
-                    built.visual.push((r, *id));
-                }
-                if let Some(obs_j) = o.meas[1] {
-                    let f = ProjectionTwoFrameTwoCam {
-                        obs_i,
-                        obs_j,
-                        weight: weights[1],
-                    };
-                    let r = built
-                        .problem
-                        .add_factor(
+                    } else {
+                        let f = ProjectionTwoFrameTwoCam {
+                            obs_i,
+                            obs_j,
+                            weight: weights[c],
+                        };
+                        built.problem.add_factor(
                             Arc::new(f),
                             loss.clone(),
-                            &[pose_i, pose_j, ex[0], ex[1], lm, td_block],
+                            &[pose_i, pose_j, ex[a], ex[c], lm, td_block],
                         )
-                        .expect("sizes");
-                    built.visual.push((r, *id));
+                    };
+                    built.visual.push((r.expect("sizes"), *id));
                 }
             }
         }
@@ -357,7 +359,8 @@ impl Window {
     /// Removes the oldest frame and returns it. Tracks anchored in it: when `in_prior` (their
     /// landmark and observations went into the prior) the track ends here, so a later sighting
     /// of the same feature starts a new track; otherwise they are re-anchored in their next
-    /// left view, keeping their world point when its depth there is in range.
+    /// view (by the same camera if it has one, see `Track::reanchor`), keeping their world
+    /// point when its depth there is in range.
     pub fn remove_oldest(&mut self, in_prior: bool, config: &EstimatorConfig) -> WindowFrame {
         let removed_seq = self.frames[0].seq;
         let ids: Vec<u64> = self.features.tracks.keys().copied().collect();
@@ -372,17 +375,14 @@ impl Window {
             let world = self.track_world_point(id);
             let t = self.features.tracks.get_mut(&id).expect("exists");
             t.obs.remove(0);
-            while t.obs.first().is_some_and(|o| o.meas[0].is_none()) {
-                t.obs.remove(0);
-            }
-            if t.obs.is_empty() {
+            if !t.reanchor() {
                 self.features.tracks.remove(&id);
                 continue;
             }
             t.inv_depth = None;
-            let new_anchor = t.obs[0].seq;
+            let (new_anchor, cam) = (t.obs[0].seq, t.anchor_cam);
             if let (Some(p_w), Some(fi)) = (world, self.frame_index(new_anchor)) {
-                let z = self.camera_pose(fi, 0).inverse().transform(&p_w).z;
+                let z = self.camera_pose(fi, cam).inverse().transform(&p_w).z;
                 if z >= config.min_depth_m && z <= config.max_depth_m {
                     self.features.tracks.get_mut(&id).expect("exists").inv_depth = Some(1.0 / z);
                 }
@@ -410,10 +410,8 @@ impl Window {
             };
             t.obs.remove(k);
             if k == 0 {
-                // The anchor left: re-triangulate from what remains.
-                while t.obs.first().is_some_and(|o| o.meas[0].is_none()) {
-                    t.obs.remove(0);
-                }
+                // The anchor left: re-anchor and re-triangulate from what remains.
+                t.reanchor();
                 t.inv_depth = None;
             }
             if t.obs.is_empty() {
