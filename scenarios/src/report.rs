@@ -191,7 +191,7 @@ pub struct TimingReport {
 pub struct EventReport {
     /// Time (s).
     pub t_s: f64,
-    /// `status_change` or `input_rejected`.
+    /// `status_change`, `input_rejected`, `suite_switch` or `prior_dropped`.
     pub kind: &'static str,
     /// Details.
     pub detail: String,
@@ -255,6 +255,10 @@ pub struct Report {
     pub rpe_delta_m: f64,
     /// Estimator resets.
     pub resets: usize,
+    /// Sensor-suite switches (a sensor went silent or came back; see `events`).
+    pub suite_switches: usize,
+    /// IMU samples excluded as spikes.
+    pub imu_samples_excluded: usize,
     /// Final gyroscope bias error (rad/s).
     pub gyro_bias_error_rad_s: Option<f64>,
     /// Final accelerometer bias error (m/s²).
@@ -288,6 +292,8 @@ impl Report {
             "ate_rot_rmse_deg" => self.ate_rot_rmse_deg,
             "rpe_trans_rmse_m" => self.rpe_trans_rmse_m,
             "resets" => Some(self.resets as f64),
+            "suite_switches" => Some(self.suite_switches as f64),
+            "imu_samples_excluded" => Some(self.imu_samples_excluded as f64),
             "tracking_fraction" => Some(self.tracking_fraction),
             "gyro_bias_error_rad_s" => self.gyro_bias_error_rad_s,
             "accel_bias_error_m_s2" => self.accel_bias_error_m_s2,
@@ -323,6 +329,10 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
                     ("status_change", format!("{from:?} -> {to:?}"))
                 }
                 EventKind::InputRejected(m) => ("input_rejected", m.clone()),
+                EventKind::SuiteSwitch { from, to, reason } => {
+                    ("suite_switch", format!("{from} -> {to} ({reason})"))
+                }
+                EventKind::PriorDropped => ("prior_dropped", String::new()),
             };
             EventReport {
                 t_s: e.t_ns as f64 * 1e-9,
@@ -355,6 +365,8 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
         rpe_trans_rmse_m: eval.rpe_trans_rmse_m(),
         rpe_delta_m: RPE_DELTA_M,
         resets: run.resets,
+        suite_switches: run.suite_switches,
+        imu_samples_excluded: run.imu_samples_excluded,
         gyro_bias_error_rad_s: eval.gyro_bias_error_rad_s,
         accel_bias_error_m_s2: eval.accel_bias_error_m_s2,
         timing_ms,
@@ -471,6 +483,14 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
         );
     }
     let _ = writeln!(s, "resets        {}", r.resets);
+    let _ = writeln!(
+        s,
+        "sensors       {} suite switches, {} IMU samples excluded as spikes",
+        r.suite_switches, r.imu_samples_excluded
+    );
+    for e in r.events.iter().filter(|e| e.kind == "suite_switch") {
+        let _ = writeln!(s, "  {:>8.2} s   {}", e.t_s, e.detail);
+    }
     if r.expectations.is_empty() {
         let _ = writeln!(s, "expectations  none");
     } else {

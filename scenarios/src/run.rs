@@ -6,7 +6,7 @@
 
 use std::time::Instant;
 
-use estimator::estimator::{Estimate, Estimator, Status};
+use estimator::estimator::{Estimate, Estimator, EventKind as EstimatorEventKind, Status};
 use sim::World;
 use sim::stream::{GroundTruth, Measurement, Stream};
 
@@ -59,6 +59,17 @@ pub enum EventKind {
     },
     /// The estimator rejected an input (the run goes on without it).
     InputRejected(String),
+    /// The sensors the estimator uses changed (`LiveSuite` names).
+    SuiteSwitch {
+        /// Before.
+        from: String,
+        /// After.
+        to: String,
+        /// Which sensor stopped or came back.
+        reason: String,
+    },
+    /// Marginalization failed and the estimator went on without its prior.
+    PriorDropped,
 }
 
 /// A timestamped event.
@@ -89,6 +100,10 @@ pub struct RunOutput {
     pub events: Vec<Event>,
     /// Estimator resets (the estimator has no reset yet: always 0).
     pub resets: usize,
+    /// Sensor-suite switches the estimator reported.
+    pub suite_switches: usize,
+    /// IMU samples the estimator excluded as spikes.
+    pub imu_samples_excluded: usize,
     /// The graphics adapter of a rendered scenario (`None` for feature-level ones).
     pub renderer: Option<String>,
     /// The image front end's statistics against ground truth (rendered scenarios tracked by
@@ -201,16 +216,27 @@ pub fn run(
         frames: Vec::new(),
         events: Vec::new(),
         resets: 0,
+        suite_switches: 0,
+        imu_samples_excluded: 0,
         renderer,
         frontend: None,
     };
     let mut render_s = 0.0;
     let mut status = estimator.status();
     let mut last_progress = -1.0;
-    while let Some(m) = stream.next() {
-        let t_ns = m.t_ns();
+    let mut finished = false;
+    while !finished {
+        let m = stream.next();
+        let t_ns = m.as_ref().map_or(end_ns, |m| m.t_ns());
         let (result, frontend_s, call_start) = match m {
-            Measurement::Images(images) => {
+            None => {
+                // End of the data: the estimator judges its last IMU samples and processes
+                // the frames still waiting for them.
+                finished = true;
+                let start = Instant::now();
+                (estimator.finish(), 0.0, start)
+            }
+            Some(Measurement::Images(images)) => {
                 render_s = stream.last_render_s();
                 let Some(fe) = frontend.as_mut() else {
                     continue;
@@ -227,7 +253,7 @@ pub fn run(
                 let start = Instant::now();
                 (estimator.push_frame(frame), frontend_s, start)
             }
-            Measurement::Imu(s) => {
+            Some(Measurement::Imu(s)) => {
                 out.imu_samples += 1;
                 if let Some(fe) = frontend.as_mut().filter(|_| uses_imu) {
                     fe.push_imu(&s);
@@ -235,8 +261,8 @@ pub fn run(
                 let start = Instant::now();
                 (estimator.push_imu(s), 0.0, start)
             }
-            Measurement::Frame(_) if frontend.is_some() => continue,
-            Measurement::Frame(f) => {
+            Some(Measurement::Frame(_)) if frontend.is_some() => continue,
+            Some(Measurement::Frame(f)) => {
                 out.frames_in += 1;
                 // Feature-level input: the frame is already the estimator's input.
                 let start = Instant::now();
@@ -246,6 +272,24 @@ pub fn run(
             }
         };
         let call_s = call_start.elapsed().as_secs_f64();
+        for e in estimator.take_events() {
+            let kind = match e.kind {
+                EstimatorEventKind::SuiteSwitch { from, to, reason } => {
+                    out.suite_switches += 1;
+                    EventKind::SuiteSwitch {
+                        from: from.to_string(),
+                        to: to.to_string(),
+                        reason,
+                    }
+                }
+                EstimatorEventKind::ImuSamplesExcluded { t_ns } => {
+                    out.imu_samples_excluded += t_ns.len();
+                    continue;
+                }
+                EstimatorEventKind::PriorDropped => EventKind::PriorDropped,
+            };
+            out.events.push(Event { t_ns: e.t_ns, kind });
+        }
         let estimates = match result {
             Ok(e) => e,
             Err(e) => {

@@ -655,6 +655,10 @@ pub struct ExpectationsSpec {
     pub rpe_trans_rmse_m: Option<Bound>,
     /// Estimator resets.
     pub resets: Option<Bound>,
+    /// Sensor-suite switches.
+    pub suite_switches: Option<Bound>,
+    /// IMU samples excluded as spikes.
+    pub imu_samples_excluded: Option<Bound>,
     /// Fraction of processed frames in tracking state.
     pub tracking_fraction: Option<Bound>,
     /// Final gyroscope bias error (rad/s).
@@ -681,6 +685,8 @@ impl ExpectationsSpec {
             ("ate_rot_rmse_deg", self.ate_rot_rmse_deg),
             ("rpe_trans_rmse_m", self.rpe_trans_rmse_m),
             ("resets", self.resets),
+            ("suite_switches", self.suite_switches),
+            ("imu_samples_excluded", self.imu_samples_excluded),
             ("tracking_fraction", self.tracking_fraction),
             ("gyro_bias_error_rad_s", self.gyro_bias_error_rad_s),
             ("accel_bias_error_m_s2", self.accel_bias_error_m_s2),

@@ -101,6 +101,17 @@ pub struct EstimatorConfig {
     /// the solution (all factors, landmarks and the prior included) through a dense
     /// factorization of the whole window system: a few milliseconds per frame, so off by default.
     pub compute_covariance: bool,
+    /// IMU spike rejection: a sample farther than this from the per-axis median of its
+    /// five-sample neighbourhood (two before, two after) on any gyroscope axis (rad/s) or
+    /// accelerometer axis (m/s², the second value) is excluded before preintegration (the
+    /// interval integrates across it). It costs two samples of latency. Smooth motion stays far
+    /// below the thresholds: the median follows it and 0.3 rad/s or 3 m/s² of change within
+    /// 10 ms (30 rad/s², 300 m/s³) is violent. `None`: every sample is used.
+    pub imu_spike_threshold: Option<(f64, f64)>,
+    /// A sensor silent for longer than this (s) is out of the live suite (a camera: no
+    /// features; the IMU: no samples); it is back with its next delivery. Only reporting: the
+    /// window always uses whatever measurements arrive.
+    pub sensor_timeout_s: f64,
 }
 
 impl EstimatorConfig {
@@ -142,6 +153,8 @@ impl EstimatorConfig {
             min_track_frames: 1,
             record_history: false,
             compute_covariance: false,
+            imu_spike_threshold: Some((1.0, 10.0)),
+            sensor_timeout_s: 0.5,
         }
     }
 }

@@ -1,4 +1,4 @@
-//! The IMU samples not yet consumed by a window interval.
+//! The IMU samples not yet consumed by a window interval, after spike rejection.
 
 use std::collections::VecDeque;
 
@@ -6,23 +6,101 @@ use nalgebra::Vector3;
 
 use crate::imu::{ImuError, ImuNoise, ImuSample, Preintegration};
 
+/// Samples after a sample that a spike test needs.
+const LOOKAHEAD: usize = 2;
+
 /// IMU samples in time order, cut into preintegrated intervals as frames arrive.
+///
+/// With a spike threshold each sample is judged once the two after it have arrived: it is
+/// excluded when it is farther than the threshold from the per-axis median of the five samples
+/// around it (the median ignores up to two outliers, and follows smooth motion).
 #[derive(Clone, Debug, Default)]
 pub(super) struct ImuBuffer {
+    /// Accepted samples.
     samples: VecDeque<ImuSample>,
+    /// The last raw samples: up to `LOOKAHEAD` judged ones (context) and the unjudged ones.
+    raw: VecDeque<ImuSample>,
+    /// Raw samples not yet judged (the newest ones of `raw`).
+    unjudged: usize,
+    /// `(gyroscope rad/s, accelerometer m/s²)` thresholds; `None`: no test, no latency.
+    spike_threshold: Option<(f64, f64)>,
+    /// Times of the samples excluded since the last [`ImuBuffer::take_excluded`].
+    excluded: Vec<i64>,
 }
 
 impl ImuBuffer {
-    /// Appends a sample; its time must follow the newest one's.
+    /// An empty buffer that excludes spikes above `spike_threshold` (see the type doc).
+    pub fn new(spike_threshold: Option<(f64, f64)>) -> Self {
+        Self {
+            spike_threshold,
+            ..Self::default()
+        }
+    }
+
+    /// Appends a sample; its time must follow the newest one's. With spike rejection the
+    /// sample is accepted (or excluded) `LOOKAHEAD` samples later.
     pub fn push(&mut self, sample: ImuSample) -> Result<(), ImuError> {
         self.check_next(&sample)?;
-        self.samples.push_back(sample);
+        let Some((gyro_max, accel_max)) = self.spike_threshold else {
+            self.samples.push_back(sample);
+            return Ok(());
+        };
+        self.raw.push_back(sample);
+        self.unjudged += 1;
+        if self.unjudged > LOOKAHEAD {
+            self.judge_oldest_unjudged(gyro_max, accel_max);
+        }
         Ok(())
+    }
+
+    /// Judges the samples still waiting for their look-ahead (at the end of the data), on the
+    /// neighbourhood there is.
+    pub fn flush(&mut self) {
+        if let Some((gyro_max, accel_max)) = self.spike_threshold {
+            while self.unjudged > 0 {
+                self.judge_oldest_unjudged(gyro_max, accel_max);
+            }
+        }
+    }
+
+    /// Accepts or excludes the oldest unjudged raw sample against the per-axis median of the
+    /// (up to) five raw samples around it.
+    fn judge_oldest_unjudged(&mut self, gyro_max: f64, accel_max: f64) {
+        let j = self.raw.len() - self.unjudged;
+        let lo = j.saturating_sub(2);
+        let hi = (j + LOOKAHEAD).min(self.raw.len() - 1);
+        let hood: Vec<&ImuSample> = self.raw.range(lo..=hi).collect();
+        let s = self.raw[j];
+        let far = |get: fn(&ImuSample) -> f64, max: f64| {
+            let mut v: Vec<f64> = hood.iter().map(|x| get(x)).collect();
+            v.sort_by(f64::total_cmp);
+            (get(&s) - v[v.len() / 2]).abs() > max
+        };
+        let spike = far(|x| x.gyro.x, gyro_max)
+            || far(|x| x.gyro.y, gyro_max)
+            || far(|x| x.gyro.z, gyro_max)
+            || far(|x| x.accel.x, accel_max)
+            || far(|x| x.accel.y, accel_max)
+            || far(|x| x.accel.z, accel_max);
+        if spike {
+            self.excluded.push(s.t_ns);
+        } else {
+            self.samples.push_back(s);
+        }
+        self.unjudged -= 1;
+        while self.raw.len() > LOOKAHEAD + self.unjudged {
+            self.raw.pop_front();
+        }
+    }
+
+    /// Times of the samples excluded as spikes since the last call.
+    pub fn take_excluded(&mut self) -> Vec<i64> {
+        std::mem::take(&mut self.excluded)
     }
 
     /// Whether `sample` may follow the newest sample.
     pub fn check_next(&self, sample: &ImuSample) -> Result<(), ImuError> {
-        match self.samples.back() {
+        match self.raw.back().or(self.samples.back()) {
             Some(last) if sample.t_ns <= last.t_ns => Err(ImuError::NonIncreasingTime {
                 t_ns: sample.t_ns,
                 prev_t_ns: last.t_ns,

@@ -14,6 +14,7 @@
 
 pub mod config;
 mod covariance;
+pub mod events;
 mod features;
 mod imu_buffer;
 mod init;
@@ -28,6 +29,7 @@ use std::time::Instant;
 use nalgebra::{DMatrix, UnitQuaternion, Vector2, Vector3};
 
 pub use config::{CameraConfig, EstimatorConfig, Suite};
+pub use events::{Event, EventKind, LiveSuite};
 use features::Observation;
 use imu_buffer::ImuBuffer;
 use window::{ProblemSettings, Window, WindowFrame};
@@ -65,6 +67,8 @@ pub struct Estimate {
     pub td_s: f64,
     /// Life-cycle status.
     pub status: Status,
+    /// The sensors in use at this frame.
+    pub live: LiveSuite,
     /// Whether the previous frame was kept as a keyframe.
     pub keyframe: bool,
     /// Landmarks used in the solve.
@@ -129,6 +133,17 @@ pub struct Estimator {
     finalized: Vec<(i64, Pose)>,
     known_start: Option<KnownStart>,
     pending_bias_prior: bool,
+    /// Sensor monitors: the last time (ns, IMU clock) each camera delivered features, and the
+    /// last IMU sample.
+    last_features_t: [Option<i64>; 2],
+    last_imu_t: Option<i64>,
+    /// Time of the first measurement (a sensor that has not delivered yet is silent only
+    /// `sensor_timeout_s` after it).
+    first_t: Option<i64>,
+    /// The sensors in use.
+    live: LiveSuite,
+    /// Events not yet taken.
+    events: Vec<Event>,
 }
 
 /// A known state for the first frame (see [`Estimator::start_from`]).
@@ -162,6 +177,18 @@ impl Estimator {
                 "initial bias sigmas must be > 0".into(),
             ));
         }
+        if let Some((g, a)) = config.imu_spike_threshold
+            && !(g.is_finite() && g > 0.0 && a.is_finite() && a > 0.0)
+        {
+            return Err(EstimatorError::Config(
+                "imu_spike_threshold: both thresholds must be finite and > 0".into(),
+            ));
+        }
+        if !(config.sensor_timeout_s.is_finite() && config.sensor_timeout_s > 0.0) {
+            return Err(EstimatorError::Config(
+                "sensor_timeout_s must be finite and > 0".into(),
+            ));
+        }
         if config.suite.uses_imu() && config.init_frames < 4 {
             return Err(EstimatorError::Config("init_frames must be ≥ 4".into()));
         }
@@ -180,6 +207,12 @@ impl Estimator {
             focal.push(0.5 * (j[(0, 0)] + j[(1, 1)]));
         }
         let extrinsics = config.cameras.iter().map(|c| c.T_b_c).collect();
+        let spike_threshold = config.imu_spike_threshold;
+        let live = if config.suite.uses_imu() {
+            LiveSuite::StereoImu
+        } else {
+            LiveSuite::Stereo
+        };
         let history = config.record_history.then(History::default);
         let huber: Arc<dyn LossFunction> = Arc::new(HuberLoss {
             delta: config.huber_sigma,
@@ -188,7 +221,7 @@ impl Estimator {
             window: Window::new(extrinsics, config.td_s),
             config,
             focal,
-            imu: ImuBuffer::default(),
+            imu: ImuBuffer::new(spike_threshold),
             pending: VecDeque::new(),
             next_seq: 0,
             status: Status::Initializing,
@@ -198,6 +231,11 @@ impl Estimator {
             finalized: Vec::new(),
             known_start: None,
             pending_bias_prior: false,
+            last_features_t: [None; 2],
+            last_imu_t: None,
+            first_t: None,
+            live,
+            events: Vec::new(),
         })
     }
 
@@ -235,6 +273,64 @@ impl Estimator {
         self.status
     }
 
+    /// The sensors in use.
+    pub fn live_suite(&self) -> LiveSuite {
+        self.live
+    }
+
+    /// Events since the last call, in order.
+    pub fn take_events(&mut self) -> Vec<Event> {
+        std::mem::take(&mut self.events)
+    }
+
+    /// Re-evaluates which sensors deliver at time `now_ns` (a sensor silent for longer than
+    /// `sensor_timeout_s` is out) and reports a switch when that changed.
+    fn monitor_sensors(&mut self, now_ns: i64) {
+        let timeout = (self.config.sensor_timeout_s * 1e9) as i64;
+        let first = *self.first_t.get_or_insert(now_ns);
+        let fresh = |t: Option<i64>| now_ns - t.unwrap_or(first) <= timeout;
+        let cameras = [
+            fresh(self.last_features_t[0]),
+            fresh(self.last_features_t[1]),
+        ];
+        let imu = self.config.suite.uses_imu() && fresh(self.last_imu_t);
+        let live = LiveSuite::from_live(cameras, imu);
+        if live == self.live {
+            return;
+        }
+        let was = self.live;
+        let before = |cam: usize| {
+            matches!(was, LiveSuite::StereoImu | LiveSuite::Stereo)
+                || matches!(was, LiveSuite::MonoImu { cam: c } | LiveSuite::Mono { cam: c } if c == cam)
+        };
+        let had_imu = matches!(
+            was,
+            LiveSuite::StereoImu | LiveSuite::MonoImu { .. } | LiveSuite::ImuOnly
+        );
+        let mut why = Vec::new();
+        for (cam, &now) in cameras.iter().enumerate() {
+            match (before(cam), now) {
+                (true, false) => why.push(format!("camera {cam} silent")),
+                (false, true) => why.push(format!("camera {cam} back")),
+                _ => {}
+            }
+        }
+        match (had_imu, imu) {
+            (true, false) => why.push("IMU silent".to_string()),
+            (false, true) => why.push("IMU back".to_string()),
+            _ => {}
+        }
+        self.events.push(Event {
+            t_ns: now_ns,
+            kind: EventKind::SuiteSwitch {
+                from: was,
+                to: live,
+                reason: why.join(", "),
+            },
+        });
+        self.live = live;
+    }
+
     /// Adds an IMU sample; returns estimates of frames that became processable.
     pub fn push_imu(&mut self, sample: ImuSample) -> Result<Vec<Estimate>, EstimatorError> {
         ImuSample::new(sample.t_ns, sample.gyro, sample.accel)?;
@@ -243,7 +339,29 @@ impl Estimator {
             return Ok(Vec::new());
         }
         self.imu.push(sample)?;
+        self.last_imu_t = Some(sample.t_ns);
+        self.report_excluded();
+        self.monitor_sensors(sample.t_ns);
         self.drain_pending()
+    }
+
+    /// Ends the data: the last IMU samples are judged (see
+    /// `EstimatorConfig::imu_spike_threshold`) and the frames they cover are processed.
+    pub fn finish(&mut self) -> Result<Vec<Estimate>, EstimatorError> {
+        self.imu.flush();
+        self.report_excluded();
+        self.drain_pending()
+    }
+
+    /// Reports the IMU samples excluded since the last call.
+    fn report_excluded(&mut self) {
+        let excluded = self.imu.take_excluded();
+        if let Some(&t) = excluded.first() {
+            self.events.push(Event {
+                t_ns: t,
+                kind: EventKind::ImuSamplesExcluded { t_ns: excluded },
+            });
+        }
     }
 
     /// Adds a camera frame; returns estimates of frames that became processable (with an IMU,
@@ -260,6 +378,13 @@ impl Estimator {
                 prev_t_ns: prev,
             });
         }
+        let t_imu = frame.t_ns + (self.window.td * 1e9).round() as i64;
+        for cf in frame.cameras.iter().filter(|c| !c.features.is_empty()) {
+            if let Some(t) = self.last_features_t.get_mut(cf.cam_id) {
+                *t = Some(t_imu);
+            }
+        }
+        self.monitor_sensors(t_imu);
         self.pending.push_back(frame);
         self.drain_pending()
     }
@@ -412,6 +537,7 @@ impl Estimator {
         let window_full = self.window.frames.len() > self.config.window_size;
         let marg_start = Instant::now();
         if window_full {
+            let had_prior = self.window.prior.is_some();
             let removed = if keyframe {
                 self.window.prior =
                     marginalization::prior_without_oldest(&self.window, &built, imu_active);
@@ -432,6 +558,12 @@ impl Estimator {
             if self.status == Status::Tracking {
                 self.finalized.push((removed.t_ns, removed.pose));
             }
+            if had_prior && imu_active && self.window.prior.is_none() {
+                self.events.push(Event {
+                    t_ns,
+                    kind: EventKind::PriorDropped,
+                });
+            }
         }
         let marginalization_s = marg_start.elapsed().as_secs_f64();
         triangulation::reject_outliers(&mut self.window, &self.config);
@@ -451,6 +583,7 @@ impl Estimator {
             bg: newest.bg,
             td_s: self.window.td,
             status: self.status,
+            live: self.live,
             keyframe,
             landmarks,
             solver: Some(summary),
