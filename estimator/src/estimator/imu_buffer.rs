@@ -161,3 +161,96 @@ impl ImuBuffer {
         Some(p)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// 200 Hz samples of a violent but smooth motion: yaw rate swinging ±2.5 rad/s at 1 Hz
+    /// (15.7 rad/s² peak), specific force ±20 m/s² at 2 Hz (251 m/s³ peak jerk), plus EuRoC-like
+    /// white noise (0.0024 rad/s, 0.028 m/s² per sample).
+    fn motion(n: usize, rng: &mut ChaCha8Rng) -> Vec<ImuSample> {
+        (0..n)
+            .map(|k| {
+                let t = k as f64 * 0.005;
+                let w = 2.0 * std::f64::consts::PI;
+                let noise = |rng: &mut ChaCha8Rng, s: f64| s * (rng.random::<f64>() - 0.5) * 3.46;
+                ImuSample {
+                    t_ns: (k as i64) * 5_000_000,
+                    gyro: Vector3::new(
+                        noise(rng, 0.0024),
+                        0.3 * (w * 0.5 * t).sin() + noise(rng, 0.0024),
+                        2.5 * (w * t).sin() + noise(rng, 0.0024),
+                    ),
+                    accel: Vector3::new(
+                        20.0 * (w * 2.0 * t).sin() + noise(rng, 0.028),
+                        noise(rng, 0.028),
+                        9.81 + noise(rng, 0.028),
+                    ),
+                }
+            })
+            .collect()
+    }
+
+    fn run(samples: &[ImuSample]) -> (Vec<i64>, usize) {
+        let mut buf = ImuBuffer::new(Some((1.0, 10.0)));
+        let mut excluded = Vec::new();
+        for s in samples {
+            buf.push(*s).unwrap();
+            excluded.extend(buf.take_excluded());
+        }
+        buf.flush();
+        excluded.extend(buf.take_excluded());
+        (excluded, buf.samples.len())
+    }
+
+    /// No false alarm on violent smooth motion; every sample comes out, in order.
+    #[test]
+    fn smooth_motion_is_never_excluded() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let samples = motion(4000, &mut rng);
+        let (excluded, kept) = run(&samples);
+        assert!(excluded.is_empty(), "excluded {excluded:?}");
+        assert_eq!(kept, samples.len());
+    }
+
+    /// Spikes of the fault (1 % of samples, ±3 rad/s on one gyroscope axis and
+    /// ±30 m/s² on one accelerometer axis) are all excluded and nothing else is; so are
+    /// gyroscope-only spikes of 1.5 rad/s.
+    #[test]
+    fn spikes_are_excluded_exactly() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let mut samples = motion(12_000, &mut rng);
+        let mut truth = Vec::new();
+        for (k, s) in samples.iter_mut().enumerate() {
+            if rng.random::<f64>() < 0.01 {
+                let sign = if rng.random::<bool>() { 1.0 } else { -1.0 };
+                let (g, a) = (rng.random_range(0..3), rng.random_range(0..3));
+                if k % 2 == 0 {
+                    s.gyro[g] += sign * 3.0;
+                    s.accel[a] += sign * 30.0;
+                } else {
+                    s.gyro[g] += sign * 1.5;
+                }
+                truth.push(s.t_ns);
+            }
+        }
+        assert!(truth.len() > 90, "{} spikes", truth.len());
+        let (excluded, kept) = run(&samples);
+        assert_eq!(excluded, truth);
+        assert_eq!(kept + truth.len(), samples.len());
+    }
+
+    /// Without a threshold every sample is accepted at once (no latency).
+    #[test]
+    fn no_threshold_no_latency() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let mut buf = ImuBuffer::new(None);
+        for s in motion(5, &mut rng) {
+            buf.push(s).unwrap();
+            assert_eq!(buf.newest_t_ns(), Some(s.t_ns));
+        }
+    }
+}

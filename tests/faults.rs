@@ -1,0 +1,81 @@
+//! Fault scenarios of the catalog, at full length (each ~3 s in release): the estimator keeps
+//! running when a sensor fails, says so (suite-switch events, excluded IMU samples), and its
+//! ATE stays within the scenario's bounds (measured figures in the scenario files).
+
+mod common;
+
+use common::run_catalog;
+
+/// The scenario's expectations all hold, and its suite switches are exactly `switches`
+/// (`"from -> to"` at the given times, seconds, ±0.1 s).
+fn assert_fault_scenario(name: &str, switches: &[(f64, &str)]) {
+    let d = run_catalog(name, None);
+    let r = &d.report;
+    let failed: Vec<_> = r.expectations.iter().filter(|e| !e.passed).collect();
+    assert!(failed.is_empty(), "{name}: failed expectations {failed:?}");
+    let got: Vec<(f64, &str)> = r
+        .events
+        .iter()
+        .filter(|e| e.kind == "suite_switch")
+        .map(|e| (e.t_s, e.detail.as_str()))
+        .collect();
+    assert_eq!(got.len(), switches.len(), "{name}: switches {got:?}");
+    for ((t, detail), (want_t, want)) in got.iter().zip(switches) {
+        assert!((t - want_t).abs() < 0.1, "{name}: switch at {t} s, want {want_t}");
+        assert!(detail.starts_with(want), "{name}: {detail:?}, want {want:?}");
+    }
+    assert!(
+        r.events.iter().all(|e| e.kind != "prior_dropped"),
+        "{name}: the prior was dropped"
+    );
+}
+
+#[test]
+fn left_camera_death_continues_on_the_right_camera() {
+    // Camera 0 dies at 20 s; after 0.5 s of silence the window is mono+IMU on camera 1.
+    assert_fault_scenario(
+        "room_figure8_left_camera_death_stereo_imu",
+        &[(20.46, "stereo_imu -> mono_imu(cam1)")],
+    );
+}
+
+#[test]
+fn right_camera_death_continues_on_the_left_camera() {
+    assert_fault_scenario(
+        "room_figure8_right_camera_death_stereo_imu",
+        &[(20.46, "stereo_imu -> mono_imu(cam0)")],
+    );
+}
+
+#[test]
+fn imu_spikes_are_excluded() {
+    assert_fault_scenario("room_figure8_imu_spikes_stereo_imu", &[]);
+    let d = run_catalog("room_figure8_imu_spikes_stereo_imu", None);
+    // Each spiked sample is excluded once (1 % of 12,000 samples expected).
+    assert!(d.report.imu_samples_excluded >= 80);
+}
+
+#[test]
+fn camera_blackout_switches_to_the_imu_and_back() {
+    assert_fault_scenario(
+        "room_figure8_blackout_stereo_imu",
+        &[(15.46, "stereo_imu -> imu_only"), (16.0, "imu_only -> stereo_imu")],
+    );
+}
+
+/// No false alarm on the fault-free catalog scenarios: no suite switch, no excluded IMU sample,
+/// no dropped prior.
+#[test]
+fn healthy_runs_raise_no_alarm() {
+    for name in [
+        "room_figure8_stereo_imu",
+        "room_circle_stereo_imu",
+        "room_replay_v2_02_stereo_imu",
+    ] {
+        let d = run_catalog(name, None);
+        let r = &d.report;
+        assert_eq!(r.suite_switches, 0, "{name}");
+        assert_eq!(r.imu_samples_excluded, 0, "{name}");
+        assert!(r.events.iter().all(|e| e.kind != "prior_dropped"), "{name}");
+    }
+}
