@@ -21,8 +21,14 @@ fn assert_fault_scenario(name: &str, switches: &[(f64, &str)]) {
         .collect();
     assert_eq!(got.len(), switches.len(), "{name}: switches {got:?}");
     for ((t, detail), (want_t, want)) in got.iter().zip(switches) {
-        assert!((t - want_t).abs() < 0.1, "{name}: switch at {t} s, want {want_t}");
-        assert!(detail.starts_with(want), "{name}: {detail:?}, want {want:?}");
+        assert!(
+            (t - want_t).abs() < 0.1,
+            "{name}: switch at {t} s, want {want_t}"
+        );
+        assert!(
+            detail.starts_with(want),
+            "{name}: {detail:?}, want {want:?}"
+        );
     }
     assert!(
         r.events.iter().all(|e| e.kind != "prior_dropped"),
@@ -59,7 +65,10 @@ fn imu_spikes_are_excluded() {
 fn camera_blackout_switches_to_the_imu_and_back() {
     assert_fault_scenario(
         "room_figure8_blackout_stereo_imu",
-        &[(15.46, "stereo_imu -> imu_only"), (16.0, "imu_only -> stereo_imu")],
+        &[
+            (15.46, "stereo_imu -> imu_only"),
+            (16.0, "imu_only -> stereo_imu"),
+        ],
     );
 }
 
