@@ -15,7 +15,7 @@
 use nalgebra::{Matrix2, Matrix6, Vector2, Vector6};
 
 use super::image::{PLANE_BORDER, Plane, Pyramid};
-use super::klt::sample_grid;
+use super::lanes::sample_grid;
 
 /// Every `STRIDE`-th row and column of the window takes part in the alignment.
 const STRIDE: usize = 2;

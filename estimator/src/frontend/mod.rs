@@ -11,6 +11,7 @@ mod config;
 pub mod corners;
 pub mod image;
 pub mod klt;
+mod lanes;
 pub mod ransac;
 mod tracker;
 mod types;
