@@ -86,6 +86,19 @@ unsafe fn template_rows_avx(
     }
 }
 
+/// Eight grey levels at `p` as eight exact `f32` (one 8-byte load).
+///
+/// # Safety
+/// The CPU supports AVX2 and `p..p + 8` is readable.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn load_u8x8(p: *const u8) -> std::arch::x86_64::__m256 {
+    use std::arch::x86_64::*;
+    // SAFETY: by the caller's contract.
+    unsafe { _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(p as *const __m128i))) }
+}
+
 /// Bilinear rows of [`sample_grid`]'s fast path in AVX2 registers, `cols` a multiple of eight:
 /// the same operations in the same order as the portable loop.
 #[cfg(target_arch = "x86_64")]
@@ -112,11 +125,7 @@ unsafe fn bilinear_rows_avx2(
         for c in (0..cols).step_by(LANES) {
             // SAFETY: in bounds by the caller's checks.
             unsafe {
-                let load = |i: usize| {
-                    _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(
-                        p.add(i) as *const __m128i
-                    )))
-                };
+                let load = |i: usize| load_u8x8(p.add(i));
                 let v = _mm256_add_ps(
                     _mm256_add_ps(
                         _mm256_add_ps(
@@ -279,12 +288,7 @@ unsafe fn window_rows_avx(
         for c in (0..pw).step_by(LANES) {
             // SAFETY: in bounds by the caller's contract.
             unsafe {
-                // Eight grey levels → eight exact f32.
-                let load = |i: usize| {
-                    _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(
-                        p.add(i) as *const __m128i
-                    )))
-                };
+                let load = |i: usize| load_u8x8(p.add(i));
                 let a0 = load(ra + c);
                 let a1 = load(ra + c + 1);
                 let b0 = load(rb + c);
