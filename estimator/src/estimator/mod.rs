@@ -140,8 +140,9 @@ pub struct Estimator {
     /// Time of the first measurement (a sensor that has not delivered yet is silent only
     /// `sensor_timeout_s` after it).
     first_t: Option<i64>,
-    /// The sensors in use.
-    live: LiveSuite,
+    /// Which sensors deliver now (cameras 0 and 1, IMU); the live suite is made of them.
+    live_cameras: [bool; 2],
+    live_imu: bool,
     /// Events not yet taken.
     events: Vec<Event>,
 }
@@ -208,11 +209,7 @@ impl Estimator {
         }
         let extrinsics = config.cameras.iter().map(|c| c.T_b_c).collect();
         let spike_threshold = config.imu_spike_threshold;
-        let live = if config.suite.uses_imu() {
-            LiveSuite::StereoImu
-        } else {
-            LiveSuite::Stereo
-        };
+        let live_imu = config.suite.uses_imu();
         let history = config.record_history.then(History::default);
         let huber: Arc<dyn LossFunction> = Arc::new(HuberLoss {
             delta: config.huber_sigma,
@@ -234,7 +231,8 @@ impl Estimator {
             last_features_t: [None; 2],
             last_imu_t: None,
             first_t: None,
-            live,
+            live_cameras: [true; 2],
+            live_imu,
             events: Vec::new(),
         })
     }
@@ -275,7 +273,7 @@ impl Estimator {
 
     /// The sensors in use.
     pub fn live_suite(&self) -> LiveSuite {
-        self.live
+        LiveSuite::from_live(self.live_cameras, self.live_imu)
     }
 
     /// Events since the last call, in order.
@@ -294,41 +292,28 @@ impl Estimator {
             fresh(self.last_features_t[1]),
         ];
         let imu = self.config.suite.uses_imu() && fresh(self.last_imu_t);
-        let live = LiveSuite::from_live(cameras, imu);
-        if live == self.live {
+        if (cameras, imu) == (self.live_cameras, self.live_imu) {
             return;
         }
-        let was = self.live;
-        let before = |cam: usize| {
-            matches!(was, LiveSuite::StereoImu | LiveSuite::Stereo)
-                || matches!(was, LiveSuite::MonoImu { cam: c } | LiveSuite::Mono { cam: c } if c == cam)
+        let change = |was: bool, now: bool, name: String| match (was, now) {
+            (true, false) => Some(format!("{name} silent")),
+            (false, true) => Some(format!("{name} back")),
+            _ => None,
         };
-        let had_imu = matches!(
-            was,
-            LiveSuite::StereoImu | LiveSuite::MonoImu { .. } | LiveSuite::ImuOnly
-        );
-        let mut why = Vec::new();
-        for (cam, &now) in cameras.iter().enumerate() {
-            match (before(cam), now) {
-                (true, false) => why.push(format!("camera {cam} silent")),
-                (false, true) => why.push(format!("camera {cam} back")),
-                _ => {}
-            }
-        }
-        match (had_imu, imu) {
-            (true, false) => why.push("IMU silent".to_string()),
-            (false, true) => why.push("IMU back".to_string()),
-            _ => {}
-        }
+        let why: Vec<String> = (0..2)
+            .filter_map(|c| change(self.live_cameras[c], cameras[c], format!("camera {c}")))
+            .chain(change(self.live_imu, imu, "IMU".to_string()))
+            .collect();
+        let from = self.live_suite();
+        (self.live_cameras, self.live_imu) = (cameras, imu);
         self.events.push(Event {
             t_ns: now_ns,
             kind: EventKind::SuiteSwitch {
-                from: was,
-                to: live,
+                from,
+                to: self.live_suite(),
                 reason: why.join(", "),
             },
         });
-        self.live = live;
     }
 
     /// Adds an IMU sample; returns estimates of frames that became processable.
@@ -583,7 +568,7 @@ impl Estimator {
             bg: newest.bg,
             td_s: self.window.td,
             status: self.status,
-            live: self.live,
+            live: self.live_suite(),
             keyframe,
             landmarks,
             solver: Some(summary),
