@@ -25,12 +25,7 @@ pub(in crate::estimator) fn initialize_stereo_inertial(
     if window.frames.iter().skip(1).any(|f| f.preint.is_none()) {
         return false;
     }
-    let intervals: Vec<&Preintegration> = window
-        .frames
-        .iter()
-        .skip(1)
-        .filter_map(|f| f.preint.as_ref())
-        .collect();
+    let intervals = window_intervals(window);
     let Some(bg) = estimate_gyro_bias(&poses, &intervals) else {
         return false;
     };
@@ -40,12 +35,7 @@ pub(in crate::estimator) fn initialize_stereo_inertial(
             p.repropagate(ba, bg);
         }
     }
-    let intervals: Vec<&Preintegration> = window
-        .frames
-        .iter()
-        .skip(1)
-        .filter_map(|f| f.preint.as_ref())
-        .collect();
+    let intervals = window_intervals(window);
     let Some((vel, g)) = align_velocities_and_gravity(&poses, &intervals, &ba, &bg, crate::GRAVITY)
     else {
         return false;
@@ -65,6 +55,16 @@ pub(in crate::estimator) fn initialize_stereo_inertial(
     // on the oldest frame (no earlier prior exists: vision-only frames carry none).
     window.prior = initial_prior(&window.frames[0], config);
     true
+}
+
+/// The IMU intervals between consecutive window frames (each frame's from its predecessor).
+fn window_intervals(window: &Window) -> Vec<&Preintegration> {
+    window
+        .frames
+        .iter()
+        .skip(1)
+        .filter_map(|f| f.preint.as_ref())
+        .collect()
 }
 
 /// The initial prior on frame `first`: its position and yaw (the four directions no sensor
