@@ -112,6 +112,11 @@ pub struct EstimatorConfig {
     /// features; the IMU: no samples); it is back with its next delivery. Only reporting: the
     /// window always uses whatever measurements arrive.
     pub sensor_timeout_s: f64,
+    /// IMU samples farther apart than this (s) break the IMU chain: no interval is
+    /// preintegrated across the gap (the frames on both sides are joined by vision only) and
+    /// nothing is interpolated over it. Several missing samples at any usual IMU rate
+    /// (100–1000 Hz) stay below it.
+    pub imu_max_gap_s: f64,
 }
 
 impl EstimatorConfig {
@@ -155,6 +160,7 @@ impl EstimatorConfig {
             compute_covariance: false,
             imu_spike_threshold: Some((1.0, 10.0)),
             sensor_timeout_s: 0.5,
+            imu_max_gap_s: 0.05,
         }
     }
 }

@@ -26,13 +26,17 @@ pub(super) struct ImuBuffer {
     spike_threshold: Option<(f64, f64)>,
     /// Times of the samples excluded since the last [`ImuBuffer::take_excluded`].
     excluded: Vec<i64>,
+    /// Longest time between consecutive accepted samples that an interval may span (ns).
+    max_gap_ns: i64,
 }
 
 impl ImuBuffer {
-    /// An empty buffer that excludes spikes above `spike_threshold` (see the type doc).
-    pub fn new(spike_threshold: Option<(f64, f64)>) -> Self {
+    /// An empty buffer that excludes spikes above `spike_threshold` (see the type doc) and
+    /// cuts no interval across a gap between samples longer than `max_gap_s`.
+    pub fn new(spike_threshold: Option<(f64, f64)>, max_gap_s: f64) -> Self {
         Self {
             spike_threshold,
+            max_gap_ns: (max_gap_s * 1e9).round() as i64,
             ..Self::default()
         }
     }
@@ -132,7 +136,9 @@ impl ImuBuffer {
 
     /// Cuts a preintegration over `[t0, t1]` linearized at the biases (end samples
     /// interpolated), then drops the samples no later interval needs (the last one at or before
-    /// `t1` stays for the next interval's interpolation).
+    /// `t1` stays for the next interval's interpolation). `None` when the samples do not bracket
+    /// both ends or when two consecutive samples over the interval are more than the buffer's
+    /// maximum gap apart (an IMU dropout: nothing is invented across it).
     pub fn take_interval(
         &mut self,
         t0: i64,
@@ -148,6 +154,14 @@ impl ImuBuffer {
             }
             Some(ImuSample::interpolate(&buf[i - 1], &buf[i], t))
         };
+        let bracket_start = self.samples.iter().rposition(|s| s.t_ns <= t0)?;
+        let bracket_end = self.samples.iter().position(|s| s.t_ns >= t1)?;
+        let gap = (bracket_start..bracket_end)
+            .any(|i| self.samples[i + 1].t_ns - self.samples[i].t_ns > self.max_gap_ns);
+        if gap {
+            self.drop_before(t1);
+            return None;
+        }
         let first = at(&self.samples, t0)?;
         let last = at(&self.samples, t1)?;
         let mut p = Preintegration::new(first, ba, bg, noise).ok()?;
@@ -155,10 +169,15 @@ impl ImuBuffer {
             p.push(*s).ok()?;
         }
         p.push(last).ok()?;
-        while self.samples.len() >= 2 && self.samples[1].t_ns <= t1 {
+        self.drop_before(t1);
+        Some(p)
+    }
+
+    /// Drops the samples before `t_ns` except the last one at or before it.
+    fn drop_before(&mut self, t_ns: i64) {
+        while self.samples.len() >= 2 && self.samples[1].t_ns <= t_ns {
             self.samples.pop_front();
         }
-        Some(p)
     }
 }
 
@@ -195,7 +214,7 @@ mod tests {
     }
 
     fn run(samples: &[ImuSample]) -> (Vec<i64>, usize) {
-        let mut buf = ImuBuffer::new(Some((1.0, 10.0)));
+        let mut buf = ImuBuffer::new(Some((1.0, 10.0)), 0.05);
         let mut excluded = Vec::new();
         for s in samples {
             buf.push(*s).unwrap();
@@ -247,10 +266,59 @@ mod tests {
     #[test]
     fn no_threshold_no_latency() {
         let mut rng = ChaCha8Rng::seed_from_u64(3);
-        let mut buf = ImuBuffer::new(None);
+        let mut buf = ImuBuffer::new(None, 0.05);
         for s in motion(5, &mut rng) {
             buf.push(s).unwrap();
             assert_eq!(buf.newest_t_ns(), Some(s.t_ns));
         }
+    }
+
+    /// An interval across a dropout longer than the maximum gap is refused (nothing is
+    /// interpolated over it), intervals on either side of it are cut normally, and the one
+    /// across the gap leaves no stale samples behind.
+    #[test]
+    fn no_interval_across_a_dropout() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let noise = ImuNoise {
+            gyroscope_noise_density: 1.7e-4,
+            accelerometer_noise_density: 2e-3,
+            gyroscope_random_walk: 1.9e-5,
+            accelerometer_random_walk: 3e-3,
+        };
+        let ms = 1_000_000;
+        let mut buf = ImuBuffer::new(None, 0.05);
+        // 200 Hz samples over [0, 1] s and [1.5, 2] s: a 0.5 s dropout.
+        for s in motion(401, &mut rng)
+            .into_iter()
+            .filter(|s| s.t_ns <= 1000 * ms || s.t_ns >= 1500 * ms)
+        {
+            buf.push(s).unwrap();
+        }
+        let z = Vector3::zeros();
+        let before = buf.take_interval(900 * ms, 950 * ms, z, z, noise).unwrap();
+        assert_eq!(before.start_ns(), 900 * ms);
+        assert!((before.dt() - 0.05).abs() < 1e-12);
+        assert!(
+            buf.take_interval(950 * ms, 1200 * ms, z, z, noise)
+                .is_none()
+        );
+        assert!(
+            buf.take_interval(1200 * ms, 1510 * ms, z, z, noise)
+                .is_none()
+        );
+        let after = buf
+            .take_interval(1510 * ms, 1560 * ms, z, z, noise)
+            .unwrap();
+        assert_eq!(after.start_ns(), 1510 * ms);
+        assert_eq!(buf.oldest_t_ns(), Some(1560 * ms));
+        // A gap of two missing samples (15 ms) is no dropout.
+        let mut buf = ImuBuffer::new(None, 0.05);
+        for s in motion(40, &mut rng)
+            .into_iter()
+            .filter(|s| s.t_ns != 50 * ms && s.t_ns != 55 * ms)
+        {
+            buf.push(s).unwrap();
+        }
+        assert!(buf.take_interval(40 * ms, 90 * ms, z, z, noise).is_some());
     }
 }

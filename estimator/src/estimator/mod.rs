@@ -185,6 +185,11 @@ impl Estimator {
                 "imu_spike_threshold: both thresholds must be finite and > 0".into(),
             ));
         }
+        if !(config.imu_max_gap_s.is_finite() && config.imu_max_gap_s > 0.0) {
+            return Err(EstimatorError::Config(
+                "imu_max_gap_s must be finite and > 0".into(),
+            ));
+        }
         if !(config.sensor_timeout_s.is_finite() && config.sensor_timeout_s > 0.0) {
             return Err(EstimatorError::Config(
                 "sensor_timeout_s must be finite and > 0".into(),
@@ -209,6 +214,7 @@ impl Estimator {
         }
         let extrinsics = config.cameras.iter().map(|c| c.T_b_c).collect();
         let spike_threshold = config.imu_spike_threshold;
+        let max_gap_s = config.imu_max_gap_s;
         let live_imu = config.suite.uses_imu();
         let history = config.record_history.then(History::default);
         let huber: Arc<dyn LossFunction> = Arc::new(HuberLoss {
@@ -218,7 +224,7 @@ impl Estimator {
             window: Window::new(extrinsics, config.td_s),
             config,
             focal,
-            imu: ImuBuffer::new(spike_threshold),
+            imu: ImuBuffer::new(spike_threshold, max_gap_s),
             pending: VecDeque::new(),
             next_seq: 0,
             status: Status::Initializing,
@@ -379,8 +385,22 @@ impl Estimator {
         while let Some(f) = self.pending.front() {
             let t = f.t_ns + (self.window.td * 1e9).round() as i64;
             if self.config.suite.uses_imu() {
+                // A frame waits for the IMU samples that cover it, unless the IMU has been
+                // silent for longer than the sensor timeout (newer frames prove time went on):
+                // it is then processed without an IMU interval.
+                let newest_frame_t = self
+                    .pending
+                    .back()
+                    .map_or(t, |b| b.t_ns + (self.window.td * 1e9).round() as i64);
+                let silent_after = (self.config.sensor_timeout_s * 1e9) as i64;
+                let imu_silent = newest_frame_t - t > silent_after;
                 match self.imu.newest_t_ns() {
                     Some(s) if s >= t => {}
+                    _ if imu_silent => {
+                        let f = self.pending.pop_front().expect("front exists");
+                        out.push(self.process(f, t));
+                        continue;
+                    }
                     _ => break,
                 }
                 if self.imu.oldest_t_ns().is_some_and(|s| s > t) {
@@ -458,8 +478,15 @@ impl Estimator {
             }
         };
         if uses_imu && wf.preint.is_none() && !self.window.frames.is_empty() {
-            // IMU gap: carry the state over (the window solve will use vision only here).
-            wf.pose = self.window.frames.back().expect("non-empty").pose;
+            // IMU gap: the window joins this frame by vision only. Predict at constant velocity
+            // and take the velocity from that motion (the IMU interval after the gap starts
+            // from it).
+            let last = self.window.frames.back().expect("non-empty").clone();
+            wf.pose = self.constant_velocity_guess(&last, t_ns);
+            let dt = (t_ns - last.t_ns) as f64 * 1e-9;
+            if dt > 0.0 {
+                wf.v = (wf.pose.p - last.pose.p) / dt;
+            }
         }
         self.last_frame_t = Some(t_ns);
 

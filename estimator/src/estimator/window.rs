@@ -13,11 +13,11 @@ use nalgebra::Vector3;
 use super::config::EstimatorConfig;
 use super::features::FeatureManager;
 use crate::factors::{
-    ImuFactor, PriorFactor, ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam,
+    ImuFactor, LinearFactor, PriorFactor, ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam,
     ProjectionTwoFrameTwoCam,
 };
 use crate::geometry::Pose;
-use crate::imu::Preintegration;
+use crate::imu::{ImuNoise, Preintegration};
 use crate::problem::{
     BlockId, BlockKind, Euclidean, Factor, LossFunction, PoseManifold, Problem, ResidualId,
 };
@@ -52,7 +52,8 @@ pub(super) struct Built {
     pub problem: Problem,
     pub refs: Vec<(BlockRef, BlockId)>,
     pub landmarks: Vec<(u64, BlockId)>,
-    /// (IMU factor, index of its later frame in the window).
+    /// (IMU factor, or bias random-walk factor across an IMU gap; index of its later frame in
+    /// the window).
     pub imu: Vec<(ResidualId, usize)>,
     /// (residual, track id).
     pub visual: Vec<(ResidualId, u64)>,
@@ -160,7 +161,9 @@ impl Window {
         let td_block = problem
             .add_block(&[self.td], one.clone(), BlockKind::State)
             .expect("finite");
-        problem.set_constant(td_block, !config.estimate_td);
+        // Vision alone cannot tell a time offset from motion: td is estimated only against
+        // the IMU.
+        problem.set_constant(td_block, !(config.estimate_td && imu_active));
         refs.push((BlockRef::Td, td_block));
         let mut built = Built {
             problem,
@@ -191,15 +194,24 @@ impl Window {
         if imu_active {
             for k in 1..self.frames.len() {
                 let (a, b) = (&self.frames[k - 1], &self.frames[k]);
-                let Some(p) = &b.preint else { continue };
-                let Ok(factor) = ImuFactor::new(p) else {
+                let sb_a = built.block(BlockRef::SpeedBias(a.seq)).expect("sb");
+                let sb_b = built.block(BlockRef::SpeedBias(b.seq)).expect("sb");
+                let Some(factor) = b.preint.as_ref().and_then(|p| ImuFactor::new(p).ok()) else {
+                    // No IMU interval (a dropout): the biases still follow their random walk.
+                    let dt = (b.t_ns - a.t_ns) as f64 * 1e-9;
+                    let factor = bias_random_walk(dt, &config.imu_noise);
+                    let r = built
+                        .problem
+                        .add_factor(Arc::new(factor), None, &[sb_a, sb_b])
+                        .expect("sizes match");
+                    built.imu.push((r, k));
                     continue;
                 };
                 let ids = [
                     built.block(BlockRef::Pose(a.seq)).expect("pose"),
-                    built.block(BlockRef::SpeedBias(a.seq)).expect("sb"),
+                    sb_a,
                     built.block(BlockRef::Pose(b.seq)).expect("pose"),
-                    built.block(BlockRef::SpeedBias(b.seq)).expect("sb"),
+                    sb_b,
                 ];
                 let r = built
                     .problem
@@ -420,4 +432,22 @@ impl Window {
         }
         dropped
     }
+}
+
+/// The biases' random walk over `dt` seconds between two speed-bias blocks
+/// `[v, ba, bg]`: `(ba_j − ba_i) / (σ_ba √dt)` and `(bg_j − bg_i) / (σ_bg √dt)`, the velocity
+/// unconstrained. Joins frames that no IMU interval joins, so the bias estimate survives an IMU
+/// dropout.
+fn bias_random_walk(dt: f64, noise: &ImuNoise) -> LinearFactor {
+    let dt = dt.max(1e-6);
+    // A floor keeps the weights finite for noise-free configurations.
+    let w_a = 1.0 / (noise.accelerometer_random_walk * dt.sqrt()).max(1e-9);
+    let w_g = 1.0 / (noise.gyroscope_random_walk * dt.sqrt()).max(1e-9);
+    let mut a_i = vec![0.0; 6 * 9];
+    for r in 0..3 {
+        a_i[r * 9 + 3 + r] = -w_a;
+        a_i[(r + 3) * 9 + 6 + r] = -w_g;
+    }
+    let a_j: Vec<f64> = a_i.iter().map(|v| -v).collect();
+    LinearFactor::new(vec![a_i, a_j], vec![0.0; 6], vec![9, 9]).expect("finite weights")
 }
