@@ -121,14 +121,14 @@ pub fn evaluate(run: &RunOutput, suite: SuiteSpec) -> Evaluation {
         .map(|&i| run.frames[i].truth.pose)
         .collect();
     let alignment = match suite {
-        SuiteSpec::StereoImu => Alignment::PosYaw,
+        SuiteSpec::StereoImu | SuiteSpec::MonoImu => Alignment::PosYaw,
         SuiteSpec::Stereo => Alignment::Se3,
     };
     let ate = metrics::ate(&gt, &est, alignment);
     let rpe = metrics::rpe(&gt, &est, &RpeOptions::meters(RPE_DELTA_M));
     let last = evaluated.last().map(|&i| &run.frames[i]);
     let (gyro_bias_error_rad_s, accel_bias_error_m_s2) = match (suite, last) {
-        (SuiteSpec::StereoImu, Some(f)) => (
+        (SuiteSpec::StereoImu | SuiteSpec::MonoImu, Some(f)) => (
             Some((f.estimate.bg - f.truth.gyro_bias).norm()),
             Some((f.estimate.ba - f.truth.accel_bias).norm()),
         ),

@@ -116,6 +116,9 @@ pub enum SuiteSpec {
     StereoImu,
     /// Stereo camera only.
     Stereo,
+    /// The rig's first camera and the IMU (a second camera of the rig is simulated but not
+    /// used).
+    MonoImu,
 }
 
 impl SuiteSpec {
@@ -124,14 +127,16 @@ impl SuiteSpec {
         match self {
             SuiteSpec::StereoImu => Suite::StereoImu,
             SuiteSpec::Stereo => Suite::Stereo,
+            SuiteSpec::MonoImu => Suite::MonoImu,
         }
     }
 
-    /// The name used in files and reports (`stereo_imu`, `stereo`).
+    /// The name used in files and reports (`stereo_imu`, `stereo`, `mono_imu`).
     pub fn as_str(self) -> &'static str {
         match self {
             SuiteSpec::StereoImu => "stereo_imu",
             SuiteSpec::Stereo => "stereo",
+            SuiteSpec::MonoImu => "mono_imu",
         }
     }
 }
@@ -1017,11 +1022,20 @@ impl Scenario {
         if !rig.time_offset_s.is_finite() {
             return Err(self.error("rig.time_offset_s", "expected a finite number"));
         }
-        if rig.cameras.len() != 2 {
+        let allowed = match s.suite {
+            SuiteSpec::MonoImu => 1..=2,
+            SuiteSpec::StereoImu | SuiteSpec::Stereo => 2..=2,
+        };
+        if !allowed.contains(&rig.cameras.len()) {
+            let want = if allowed.start() == allowed.end() {
+                allowed.start().to_string()
+            } else {
+                format!("{} or {}", allowed.start(), allowed.end())
+            };
             return Err(self.error(
                 "rig.cameras",
                 format!(
-                    "expected 2 cameras for the {} suite, got {}",
+                    "expected {want} cameras for the {} suite, got {}",
                     s.suite.as_str(),
                     rig.cameras.len()
                 ),
@@ -1561,7 +1575,8 @@ impl Scenario {
         let s = &self.spec;
         let e = &s.estimator;
         let mut cameras = Vec::new();
-        for (i, c) in s.rig.cameras.iter().enumerate() {
+        let used = s.suite.suite().cameras();
+        for (i, c) in s.rig.cameras.iter().enumerate().take(used) {
             cameras.push(EstCamera {
                 model: self.models[i].clone(),
                 T_b_c: self.extrinsic(i)?,

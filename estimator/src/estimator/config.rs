@@ -14,12 +14,23 @@ pub enum Suite {
     StereoImu,
     /// Stereo camera only (visual odometry; the oldest pose anchors the gauge).
     Stereo,
+    /// One camera (the configuration's only camera) and the IMU; metric scale comes from the
+    /// IMU at initialization (structure from motion and visual-inertial alignment).
+    MonoImu,
 }
 
 impl Suite {
     /// Whether IMU factors are used.
     pub fn uses_imu(self) -> bool {
-        matches!(self, Suite::StereoImu)
+        matches!(self, Suite::StereoImu | Suite::MonoImu)
+    }
+
+    /// Cameras the suite needs.
+    pub fn cameras(self) -> usize {
+        match self {
+            Suite::StereoImu | Suite::Stereo => 2,
+            Suite::MonoImu => 1,
+        }
     }
 }
 
@@ -40,7 +51,8 @@ pub struct CameraConfig {
 pub struct EstimatorConfig {
     /// Sensor suite.
     pub suite: Suite,
-    /// Cameras: index 0 is the left (anchor) camera, index 1 the right one.
+    /// Cameras: index 0 is the left (anchor) camera, index 1 the right one (stereo suites);
+    /// the one camera of mono+IMU.
     pub cameras: Vec<CameraConfig>,
     /// IMU noise densities.
     pub imu_noise: ImuNoise,
@@ -69,6 +81,15 @@ pub struct EstimatorConfig {
     pub estimate_extrinsics: bool,
     /// Frames collected for the visual-inertial alignment before IMU factors are used.
     pub init_frames: usize,
+    /// Mono+IMU initialization: the mean parallax (px) between the structure-from-motion
+    /// reference frame and the newest frame (VINS-Mono: 30 px). Until some window frame has
+    /// it, initialization waits for more motion.
+    pub mono_init_parallax_px: f64,
+    /// Mono+IMU initialization: the time (s) the `init_frames` keyframes of the initial window
+    /// are spread over (OpenVINS's `init_window_time`: 2 s). Over a shorter window a gentle
+    /// motion's acceleration is nearly constant and cannot be told from a tilt of gravity,
+    /// which leaves the scale undetermined.
+    pub mono_init_window_s: f64,
     /// Re-propagate a preintegration when the accelerometer bias moved more than this (m/s²).
     pub repropagate_ba: f64,
     /// Re-propagate a preintegration when the gyroscope bias moved more than this (rad/s).
@@ -149,6 +170,8 @@ impl EstimatorConfig {
             estimate_td: false,
             estimate_extrinsics: false,
             init_frames: 10,
+            mono_init_parallax_px: 30.0,
+            mono_init_window_s: 2.0,
             repropagate_ba: 0.1,
             repropagate_bg: 0.01,
             initial_ba_sigma: 0.2,

@@ -165,9 +165,17 @@ impl Estimator {
                 config.cameras.len()
             )));
         }
-        if config.cameras.len() != 2 {
+        if config.cameras.len() != config.suite.cameras() {
+            return Err(EstimatorError::Config(format!(
+                "the {:?} suite needs exactly {} camera(s), got {}",
+                config.suite,
+                config.suite.cameras(),
+                config.cameras.len()
+            )));
+        }
+        if !(config.mono_init_parallax_px.is_finite() && config.mono_init_parallax_px > 0.0) {
             return Err(EstimatorError::Config(
-                "the stereo suites need exactly two cameras".into(),
+                "mono_init_parallax_px must be finite and > 0".into(),
             ));
         }
         if config.window_size < 3 {
@@ -216,6 +224,7 @@ impl Estimator {
         let spike_threshold = config.imu_spike_threshold;
         let max_gap_s = config.imu_max_gap_s;
         let live_imu = config.suite.uses_imu();
+        let n_cameras = config.cameras.len();
         let history = config.record_history.then(History::default);
         let huber: Arc<dyn LossFunction> = Arc::new(HuberLoss {
             delta: config.huber_sigma,
@@ -237,7 +246,7 @@ impl Estimator {
             last_features_t: [None; 2],
             last_imu_t: None,
             first_t: None,
-            live_cameras: [true; 2],
+            live_cameras: [true, n_cameras > 1],
             live_imu,
             events: Vec::new(),
         })
@@ -293,10 +302,8 @@ impl Estimator {
         let timeout = (self.config.sensor_timeout_s * 1e9) as i64;
         let first = *self.first_t.get_or_insert(now_ns);
         let fresh = |t: Option<i64>| now_ns - t.unwrap_or(first) <= timeout;
-        let cameras = [
-            fresh(self.last_features_t[0]),
-            fresh(self.last_features_t[1]),
-        ];
+        let n_cameras = self.config.cameras.len();
+        let cameras = [0, 1].map(|c| c < n_cameras && fresh(self.last_features_t[c]));
         let imu = self.config.suite.uses_imu() && fresh(self.last_imu_t);
         if (cameras, imu) == (self.live_cameras, self.live_imu) {
             return;
@@ -500,7 +507,17 @@ impl Estimator {
 
         // 3. Keyframe decision about the second-newest frame.
         let n = self.window.frames.len();
-        let keyframe = if n < 3 || continued < self.config.keyframe_min_tracked {
+        let mono_waiting =
+            self.config.suite == Suite::MonoImu && self.status == Status::Initializing;
+        let keyframe = if mono_waiting && n >= 3 {
+            // A monocular window waiting for initialization spreads its keyframes evenly over
+            // `mono_init_window_s`: the alignment needs the acceleration to change within the
+            // window, or a constant acceleration passes for a tilt of gravity and the scale is
+            // lost.
+            let (a, b) = (&self.window.frames[n - 3], &self.window.frames[n - 2]);
+            let spacing = self.config.mono_init_window_s / self.config.init_frames as f64;
+            (b.t_ns - a.t_ns) as f64 * 1e-9 >= spacing
+        } else if n < 3 || continued < self.config.keyframe_min_tracked {
             true
         } else {
             let a = self.window.frames[n - 3].seq;
@@ -510,7 +527,7 @@ impl Estimator {
             let cam = frame
                 .cameras
                 .iter()
-                .filter(|c| c.cam_id < 2 && !c.features.is_empty())
+                .filter(|c| c.cam_id < self.config.cameras.len() && !c.features.is_empty())
                 .map(|c| c.cam_id)
                 .min()
                 .unwrap_or(0);
@@ -525,13 +542,54 @@ impl Estimator {
             self.pending_bias_prior = false;
             self.window.prior = init::initial_prior(&self.window.frames[0], &self.config);
         }
-        triangulation::triangulate_tracks(&mut self.window, &self.config, &self.focal);
+        let mono = self.config.suite == Suite::MonoImu;
+        if !(mono && self.status == Status::Initializing) {
+            triangulation::triangulate_tracks(&mut self.window, &self.config, &self.focal);
+        }
         if uses_imu
             && self.status == Status::Initializing
             && self.window.frames.len() >= self.config.init_frames
-            && init::initialize_stereo_inertial(&mut self.window, &self.config)
         {
-            self.status = Status::Tracking;
+            let initialized = if mono {
+                init::initialize_mono_inertial(&mut self.window, &self.config, &self.focal, 0)
+                    .is_ok()
+            } else {
+                init::initialize_stereo_inertial(&mut self.window, &self.config)
+            };
+            if initialized {
+                self.status = Status::Tracking;
+                if mono {
+                    triangulation::triangulate_tracks(&mut self.window, &self.config, &self.focal);
+                }
+            }
+        }
+        if mono && self.status == Status::Initializing {
+            // Monocular frames have no depth before the structure from motion succeeds:
+            // nothing to solve. A non-keyframe leaves at once (the keyframes stay spread over
+            // `mono_init_window_s`), the oldest keyframe once the window is full.
+            if !keyframe && self.window.frames.len() >= 3 {
+                self.window.remove_second_newest();
+            } else if self.window.frames.len() > self.config.window_size {
+                self.window.remove_oldest(false, &self.config);
+            }
+            let newest = self.window.frames.back().expect("just pushed");
+            return Estimate {
+                t_ns: newest.t_ns,
+                T_w_b: newest.pose,
+                v_w: newest.v,
+                ba: newest.ba,
+                bg: newest.bg,
+                td_s: self.window.td,
+                status: self.status,
+                live: self.live_suite(),
+                keyframe,
+                landmarks: 0,
+                solver: None,
+                backend_s: start.elapsed().as_secs_f64(),
+                solve_s: 0.0,
+                marginalization_s: 0.0,
+                covariance: None,
+            };
         }
         let imu_active = uses_imu && self.status == Status::Tracking;
         let mut built = self.window.build(&self.problem_settings(), imu_active);
@@ -631,7 +689,7 @@ impl Estimator {
         let mut by_id: std::collections::BTreeMap<u64, Observation> =
             std::collections::BTreeMap::new();
         for cf in &frame.cameras {
-            if cf.cam_id > 1 {
+            if cf.cam_id >= self.config.cameras.len() {
                 continue;
             }
             let model = &self.config.cameras[cf.cam_id].model;

@@ -100,7 +100,7 @@ pub(super) fn reject_outliers(window: &mut Window, config: &EstimatorConfig) {
 
 /// Linear triangulation (DLT) of one point from camera poses `T_w_c` and normalized
 /// observations, by the smallest eigenvector of `AᵀA`.
-fn triangulate(views: &[(Pose, Vector2<f64>)]) -> Option<Vector3<f64>> {
+pub(super) fn triangulate(views: &[(Pose, Vector2<f64>)]) -> Option<Vector3<f64>> {
     let mut ata = Matrix4::<f64>::zeros();
     for (t_w_c, z) in views {
         let t_c_w = t_w_c.inverse();

@@ -233,14 +233,12 @@ impl Window {
     ) {
         let config = settings.config;
         let one = Arc::new(Euclidean::new(1));
-        let ex = [
-            built.block(BlockRef::Extrinsic(0)).expect("ex0"),
-            built.block(BlockRef::Extrinsic(1)).expect("ex1"),
-        ];
-        let weights = [
-            settings.focal[0] / config.cameras[0].pixel_sigma,
-            settings.focal[1] / config.cameras[1].pixel_sigma,
-        ];
+        let ex: Vec<BlockId> = (0..self.extrinsics.len())
+            .map(|c| built.block(BlockRef::Extrinsic(c)).expect("extrinsic"))
+            .collect();
+        let weights: Vec<f64> = (0..self.extrinsics.len())
+            .map(|c| settings.focal[c] / config.cameras[c].pixel_sigma)
+            .collect();
         // Pose block of each window frame, by seq (frames are in seq order).
         let pose_ids: Vec<(u64, BlockId)> = self
             .frames

@@ -58,7 +58,7 @@ pub(in crate::estimator) fn initialize_stereo_inertial(
 }
 
 /// The IMU intervals between consecutive window frames (each frame's from its predecessor).
-fn window_intervals(window: &Window) -> Vec<&Preintegration> {
+pub(super) fn window_intervals(window: &Window) -> Vec<&Preintegration> {
     window
         .frames
         .iter()

@@ -1,0 +1,111 @@
+//! Mono+IMU initialization (VINS-Mono): structure from motion over the window on one camera,
+//! then the gyroscope bias from the visual rotations and velocities, gravity and metric scale
+//! from the preintegrated IMU deltas.
+
+use nalgebra::{UnitQuaternion, Vector3};
+
+use super::alignment::{align_with_scale, estimate_gyro_bias};
+use super::sfm::{SfmFailure, SfmSettings, solve_sfm};
+use super::stereo::{initial_prior, window_intervals};
+use crate::estimator::config::EstimatorConfig;
+use crate::estimator::window::Window;
+use crate::factors::FeatureMeasurement;
+use crate::geometry::Pose;
+
+/// Why a mono+IMU initialization attempt failed (the next frame tries again).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MonoInitFailure {
+    /// A window frame has no IMU interval from its predecessor.
+    MissingImu,
+    /// The structure from motion failed.
+    Sfm(SfmFailure),
+    /// The visual rotations do not determine a gyroscope bias.
+    GyroBias,
+    /// Gravity came out more than 1 m/s² off its norm, or the scale not positive.
+    Alignment,
+}
+
+/// Initializes the window from camera `cam` alone and the IMU. On success the frames carry
+/// metric, gravity-aligned poses (world origin at the oldest frame, yaw as the SfM left it),
+/// velocities and the gyroscope bias; every track's depth is cleared for re-triangulation and
+/// the initial prior is set. On failure the states are untouched (the intervals may have been
+/// re-linearized at the estimated gyroscope bias).
+pub(in crate::estimator) fn initialize_mono_inertial(
+    window: &mut Window,
+    config: &EstimatorConfig,
+    focal: &[f64],
+    cam: usize,
+) -> Result<(), MonoInitFailure> {
+    if window.frames.iter().skip(1).any(|f| f.preint.is_none()) {
+        return Err(MonoInitFailure::MissingImu);
+    }
+    let tracks: Vec<Vec<(usize, FeatureMeasurement)>> = window
+        .features
+        .tracks
+        .values()
+        .map(|t| {
+            t.obs
+                .iter()
+                .filter_map(|o| Some((window.frame_index(o.seq)?, o.meas[cam]?)))
+                .collect::<Vec<_>>()
+        })
+        .filter(|t| t.len() >= 2)
+        .collect();
+    let settings = SfmSettings {
+        focal: focal[cam],
+        pixel_sigma: config.cameras[cam].pixel_sigma,
+        min_parallax_px: config.mono_init_parallax_px,
+        td: window.td,
+    };
+    let sfm = solve_sfm(&tracks, window.frames.len(), &settings).map_err(MonoInitFailure::Sfm)?;
+    let t_b_c = window.extrinsics[cam];
+    // Body attitudes in the SfM world: R_w_b = R_w_c R_b_cᵀ.
+    let body_q: Vec<UnitQuaternion<f64>> =
+        sfm.poses.iter().map(|p| p.q * t_b_c.q.inverse()).collect();
+    let attitudes: Vec<Pose> = body_q
+        .iter()
+        .map(|q| Pose::new(*q, Vector3::zeros()))
+        .collect();
+    let bg = estimate_gyro_bias(&attitudes, &window_intervals(window))
+        .ok_or(MonoInitFailure::GyroBias)?;
+    let ba = Vector3::zeros();
+    for f in window.frames.iter_mut().skip(1) {
+        if let Some(p) = &mut f.preint {
+            p.repropagate(ba, bg);
+        }
+    }
+    let cam_positions: Vec<Vector3<f64>> = sfm.poses.iter().map(|p| p.p).collect();
+    let rotations: Vec<_> = body_q
+        .iter()
+        .map(|q| q.to_rotation_matrix().into_inner())
+        .collect();
+    let (vel, g, s) = align_with_scale(
+        &cam_positions,
+        &rotations,
+        &t_b_c.p,
+        &window_intervals(window),
+        &bg,
+        crate::GRAVITY,
+    )
+    .ok_or(MonoInitFailure::Alignment)?;
+    let r_align = UnitQuaternion::rotation_between(&g, &crate::gravity_w())
+        .ok_or(MonoInitFailure::Alignment)?;
+    // Metric body positions: p_b = s c̄ − R_w_b t_b_c.
+    let body_p: Vec<Vector3<f64>> = cam_positions
+        .iter()
+        .zip(&rotations)
+        .map(|(c, r)| c * s - r * t_b_c.p)
+        .collect();
+    let origin = body_p[0];
+    for (k, f) in window.frames.iter_mut().enumerate() {
+        f.pose = Pose::new(r_align * body_q[k], r_align * (body_p[k] - origin));
+        f.v = r_align * vel[k];
+        f.ba = ba;
+        f.bg = bg;
+    }
+    for t in window.features.tracks.values_mut() {
+        t.inv_depth = None;
+    }
+    window.prior = initial_prior(&window.frames[0], config);
+    Ok(())
+}
