@@ -72,6 +72,43 @@ fn camera_blackout_switches_to_the_imu_and_back() {
     );
 }
 
+#[test]
+fn two_and_ten_second_blackouts_are_bridged_by_the_imu() {
+    assert_fault_scenario(
+        "room_figure8_blackout_2s_stereo_imu",
+        &[
+            (20.46, "stereo_imu -> imu_only"),
+            (22.0, "imu_only -> stereo_imu"),
+        ],
+    );
+    assert_fault_scenario(
+        "room_figure8_blackout_10s_stereo_imu",
+        &[
+            (20.46, "stereo_imu -> imu_only"),
+            (30.0, "imu_only -> stereo_imu"),
+        ],
+    );
+}
+
+#[test]
+fn imu_dropouts_run_stereo_only_and_the_imu_rejoins() {
+    // 0.5 s is within the sensor timeout: no switch, and nothing interpolated over the gap.
+    assert_fault_scenario("room_figure8_imu_dropout_short_stereo_imu", &[]);
+    assert_fault_scenario(
+        "room_figure8_imu_dropout_stereo_imu",
+        &[
+            (20.5, "stereo_imu -> stereo"),
+            (23.0, "stereo -> stereo_imu"),
+        ],
+    );
+}
+
+#[test]
+fn frame_drops_and_a_time_offset_stay_within_twice_the_fault_free_error() {
+    assert_fault_scenario("room_figure8_frame_drops_stereo_imu", &[]);
+    assert_fault_scenario("room_figure8_time_offset_stereo_imu", &[]);
+}
+
 /// No false alarm on the fault-free catalog scenarios: no suite switch, no excluded IMU sample,
 /// no dropped prior.
 #[test]

@@ -10,7 +10,7 @@
 //!
 //! ```toml
 //! description = "Stereo+IMU, a 20 s figure-eight in the room"
-//! suite = "stereo_imu"
+//! suite = "stereo_imu"            # or "stereo", "mono_imu" (the first camera and the IMU)
 //!
 //! [world]
 //! scene = "room"
