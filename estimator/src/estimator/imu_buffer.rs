@@ -147,10 +147,12 @@ impl ImuBuffer {
         bg: Vector3<f64>,
         noise: ImuNoise,
     ) -> Option<Preintegration> {
+        // Both ends are bracketed (checked below), so a sample before `t` exists unless one
+        // falls on it.
         let at = |buf: &VecDeque<ImuSample>, t: i64| -> Option<ImuSample> {
             let i = buf.iter().position(|s| s.t_ns >= t)?;
-            if buf[i].t_ns == t || i == 0 {
-                return Some(ImuSample { t_ns: t, ..buf[i] });
+            if buf[i].t_ns == t {
+                return Some(buf[i]);
             }
             Some(ImuSample::interpolate(&buf[i - 1], &buf[i], t))
         };

@@ -147,6 +147,14 @@ pub struct Estimator {
     events: Vec<Event>,
 }
 
+/// What one window solve produced, for the frame's [`Estimate`].
+struct Solved {
+    landmarks: usize,
+    summary: SolverSummary,
+    marginalization_s: f64,
+    covariance: Option<DMatrix<f64>>,
+}
+
 /// A known state for the first frame (see [`Estimator::start_from`]).
 #[derive(Clone, Copy, Debug)]
 struct KnownStart {
@@ -365,9 +373,11 @@ impl Estimator {
     /// Adds a camera frame; returns estimates of frames that became processable (with an IMU,
     /// a frame waits until IMU samples cover its time).
     pub fn push_frame(&mut self, frame: FeatureFrame) -> Result<Vec<Estimate>, EstimatorError> {
-        let prev = self.pending.back().map(|f| f.t_ns).or(self
-            .last_frame_t
-            .map(|t| t - (self.window.td * 1e9).round() as i64));
+        let prev = self
+            .pending
+            .back()
+            .map(|f| f.t_ns)
+            .or(self.last_frame_t.map(|t| t - self.td_ns()));
         if let Some(prev) = prev
             && frame.t_ns <= prev
         {
@@ -376,7 +386,7 @@ impl Estimator {
                 prev_t_ns: prev,
             });
         }
-        let t_imu = frame.t_ns + (self.window.td * 1e9).round() as i64;
+        let t_imu = frame.t_ns + self.td_ns();
         for cf in frame.cameras.iter().filter(|c| !c.features.is_empty()) {
             if let Some(t) = self.last_features_t.get_mut(cf.cam_id) {
                 *t = Some(t_imu);
@@ -387,30 +397,27 @@ impl Estimator {
         self.drain_pending()
     }
 
+    /// The current time offset in whole nanoseconds (camera stamp + this = IMU time).
+    fn td_ns(&self) -> i64 {
+        (self.window.td * 1e9).round() as i64
+    }
+
     fn drain_pending(&mut self) -> Result<Vec<Estimate>, EstimatorError> {
         let mut out = Vec::new();
         while let Some(f) = self.pending.front() {
-            let t = f.t_ns + (self.window.td * 1e9).round() as i64;
+            let t = f.t_ns + self.td_ns();
             if self.config.suite.uses_imu() {
                 // A frame waits for the IMU samples that cover it, unless the IMU has been
                 // silent for longer than the sensor timeout (newer frames prove time went on):
                 // it is then processed without an IMU interval.
-                let newest_frame_t = self
-                    .pending
-                    .back()
-                    .map_or(t, |b| b.t_ns + (self.window.td * 1e9).round() as i64);
+                let newest_frame_t = self.pending.back().map_or(t, |b| b.t_ns + self.td_ns());
                 let silent_after = (self.config.sensor_timeout_s * 1e9) as i64;
                 let imu_silent = newest_frame_t - t > silent_after;
-                match self.imu.newest_t_ns() {
-                    Some(s) if s >= t => {}
-                    _ if imu_silent => {
-                        let f = self.pending.pop_front().expect("front exists");
-                        out.push(self.process(f, t));
-                        continue;
-                    }
-                    _ => break,
+                let covered = self.imu.newest_t_ns().is_some_and(|s| s >= t);
+                if !covered && !imu_silent {
+                    break;
                 }
-                if self.imu.oldest_t_ns().is_some_and(|s| s > t) {
+                if covered && self.imu.oldest_t_ns().is_some_and(|s| s > t) {
                     // No IMU before this frame: it cannot be integrated from anywhere.
                     self.pending.pop_front();
                     continue;
@@ -572,24 +579,8 @@ impl Estimator {
             } else if self.window.frames.len() > self.config.window_size {
                 self.window.remove_oldest(false, &self.config);
             }
-            let newest = self.window.frames.back().expect("just pushed");
-            return Estimate {
-                t_ns: newest.t_ns,
-                T_w_b: newest.pose,
-                v_w: newest.v,
-                ba: newest.ba,
-                bg: newest.bg,
-                td_s: self.window.td,
-                status: self.status,
-                live: self.live_suite(),
-                keyframe,
-                landmarks: 0,
-                solver: None,
-                backend_s: start.elapsed().as_secs_f64(),
-                solve_s: 0.0,
-                marginalization_s: 0.0,
-                covariance: None,
-            };
+            let newest = self.window.frames.back().expect("just pushed").clone();
+            return self.estimate(&newest, keyframe, start, None);
         }
         let imu_active = uses_imu && self.status == Status::Tracking;
         let mut built = self.window.build(&self.problem_settings(), imu_active);
@@ -645,6 +636,24 @@ impl Estimator {
         {
             h.frames.push(newest.clone());
         }
+        let solved = Solved {
+            landmarks,
+            summary,
+            marginalization_s,
+            covariance,
+        };
+        self.estimate(&newest, keyframe, start, Some(solved))
+    }
+
+    /// The estimate of the newest frame after `process` (`solved`: what the window solve and
+    /// marginalization produced, `None` when nothing was solved).
+    fn estimate(
+        &self,
+        newest: &WindowFrame,
+        keyframe: bool,
+        start: Instant,
+        solved: Option<Solved>,
+    ) -> Estimate {
         Estimate {
             t_ns: newest.t_ns,
             T_w_b: newest.pose,
@@ -655,12 +664,14 @@ impl Estimator {
             status: self.status,
             live: self.live_suite(),
             keyframe,
-            landmarks,
-            solver: Some(summary),
+            landmarks: solved.as_ref().map_or(0, |s| s.landmarks),
+            solver: solved.as_ref().map(|s| s.summary),
             backend_s: start.elapsed().as_secs_f64(),
-            solve_s: summary.time.as_secs_f64(),
-            marginalization_s,
-            covariance,
+            solve_s: solved
+                .as_ref()
+                .map_or(0.0, |s| s.summary.time.as_secs_f64()),
+            marginalization_s: solved.as_ref().map_or(0.0, |s| s.marginalization_s),
+            covariance: solved.and_then(|s| s.covariance),
         }
     }
 

@@ -217,14 +217,20 @@ fn pose_from_essential(
         .max_by_key(|(_, _, n)| *n)
 }
 
-/// Squared Sampson distance of a correspondence to the epipolar geometry `e` (normalized
-/// units²).
-fn sampson_sq(e: &Matrix3<f64>, a: &Vector2<f64>, b: &Vector2<f64>) -> f64 {
+/// The Sampson terms of a correspondence under `e`: the epipolar residual `x₂ᵀ E x₁` and the
+/// squared norm of its image gradient (the distance is their ratio, `num / √den`).
+fn sampson_terms(e: &Matrix3<f64>, a: &Vector2<f64>, b: &Vector2<f64>) -> (f64, f64) {
     let (a, b) = (a.push(1.0), b.push(1.0));
     let ea = e * a;
     let etb = e.transpose() * b;
-    let num = b.dot(&ea);
     let den = ea.x * ea.x + ea.y * ea.y + etb.x * etb.x + etb.y * etb.y;
+    (b.dot(&ea), den)
+}
+
+/// Squared Sampson distance of a correspondence to the epipolar geometry `e` (normalized
+/// units²).
+fn sampson_sq(e: &Matrix3<f64>, a: &Vector2<f64>, b: &Vector2<f64>) -> f64 {
+    let (num, den) = sampson_terms(e, a, b);
     if den <= 0.0 {
         return f64::INFINITY;
     }
@@ -321,10 +327,8 @@ fn sampson_residuals(
     x1.iter()
         .zip(x2)
         .map(|(a, b)| {
-            let (a, b) = (a.push(1.0), b.push(1.0));
-            let (ea, etb) = (e * a, e.transpose() * b);
-            let den = (ea.x * ea.x + ea.y * ea.y + etb.x * etb.x + etb.y * etb.y).max(1e-300);
-            b.dot(&ea) / den.sqrt()
+            let (num, den) = sampson_terms(&e, a, b);
+            num / den.max(1e-300).sqrt()
         })
         .collect()
 }
@@ -399,7 +403,7 @@ fn refine(
     (r, t)
 }
 
-/// `[t]ₓ R`, the essential matrix of a relative pose (for tests and checks).
+/// `[t]ₓ R`, the essential matrix of a relative pose.
 pub fn essential_from_pose(r: &Matrix3<f64>, t: &Vector3<f64>) -> Matrix3<f64> {
     skew(t) * r
 }

@@ -6,7 +6,8 @@ use nalgebra::{UnitQuaternion, Vector3};
 
 use super::alignment::{align_with_scale, estimate_gyro_bias};
 use super::sfm::{SfmFailure, SfmSettings, solve_sfm};
-use super::stereo::{initial_prior, window_intervals};
+use super::stereo::initial_prior;
+use super::{repropagate, set_gravity_aligned, window_intervals};
 use crate::estimator::config::EstimatorConfig;
 use crate::estimator::window::Window;
 use crate::factors::FeatureMeasurement;
@@ -36,7 +37,7 @@ pub(in crate::estimator) fn initialize_mono_inertial(
     focal: &[f64],
     cam: usize,
 ) -> Result<(), MonoInitFailure> {
-    if window.frames.iter().skip(1).any(|f| f.preint.is_none()) {
+    if window_intervals(window).is_none() {
         return Err(MonoInitFailure::MissingImu);
     }
     let tracks: Vec<Vec<(usize, FeatureMeasurement)>> = window
@@ -66,14 +67,10 @@ pub(in crate::estimator) fn initialize_mono_inertial(
         .iter()
         .map(|q| Pose::new(*q, Vector3::zeros()))
         .collect();
-    let bg = estimate_gyro_bias(&attitudes, &window_intervals(window))
-        .ok_or(MonoInitFailure::GyroBias)?;
+    let intervals = window_intervals(window).ok_or(MonoInitFailure::MissingImu)?;
+    let bg = estimate_gyro_bias(&attitudes, &intervals).ok_or(MonoInitFailure::GyroBias)?;
     let ba = Vector3::zeros();
-    for f in window.frames.iter_mut().skip(1) {
-        if let Some(p) = &mut f.preint {
-            p.repropagate(ba, bg);
-        }
-    }
+    repropagate(window, ba, bg);
     let cam_positions: Vec<Vector3<f64>> = sfm.poses.iter().map(|p| p.p).collect();
     let rotations: Vec<_> = body_q
         .iter()
@@ -83,25 +80,20 @@ pub(in crate::estimator) fn initialize_mono_inertial(
         &cam_positions,
         &rotations,
         &t_b_c.p,
-        &window_intervals(window),
+        &window_intervals(window).ok_or(MonoInitFailure::MissingImu)?,
         &bg,
         crate::GRAVITY,
     )
     .ok_or(MonoInitFailure::Alignment)?;
-    let r_align = UnitQuaternion::rotation_between(&g, &crate::gravity_w())
-        .ok_or(MonoInitFailure::Alignment)?;
-    // Metric body positions: p_b = s c̄ − R_w_b t_b_c.
-    let body_p: Vec<Vector3<f64>> = cam_positions
+    // Metric body poses: p_b = s c̄ − R_w_b t_b_c.
+    let body: Vec<Pose> = cam_positions
         .iter()
         .zip(&rotations)
-        .map(|(c, r)| c * s - r * t_b_c.p)
+        .zip(&body_q)
+        .map(|((c, r), q)| Pose::new(*q, c * s - r * t_b_c.p))
         .collect();
-    let origin = body_p[0];
-    for (k, f) in window.frames.iter_mut().enumerate() {
-        f.pose = Pose::new(r_align * body_q[k], r_align * (body_p[k] - origin));
-        f.v = r_align * vel[k];
-        f.ba = ba;
-        f.bg = bg;
+    if !set_gravity_aligned(window, &body, &vel, &g, ba, bg) {
+        return Err(MonoInitFailure::Alignment);
     }
     for t in window.features.tracks.values_mut() {
         t.inv_depth = None;

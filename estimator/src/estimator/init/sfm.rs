@@ -66,9 +66,6 @@ pub fn solve_sfm(
     settings: &SfmSettings,
 ) -> Result<SfmSolution, SfmFailure> {
     let newest = frames - 1;
-    let obs_in = |t: &[(usize, FeatureMeasurement)], k: usize| {
-        t.iter().find(|(f, _)| *f == k).map(|(_, m)| m.point)
-    };
     // 1. The oldest frame with enough correspondences and parallax to the newest.
     let threshold = 3.0 * settings.pixel_sigma / settings.focal;
     let mut found = None;
@@ -76,7 +73,7 @@ pub fn solve_sfm(
     for l in 0..newest {
         let (x1, x2): (Vec<Vector2<f64>>, Vec<Vector2<f64>>) = tracks
             .iter()
-            .filter_map(|t| Some((obs_in(t, l)?, obs_in(t, newest)?)))
+            .filter_map(|t| Some((point_in(t, l)?, point_in(t, newest)?)))
             .unzip();
         if x1.len() < MIN_PAIR_CORRESPONDENCES {
             continue;
@@ -139,6 +136,11 @@ pub fn solve_sfm(
     Ok(SfmSolution { poses })
 }
 
+/// A track's normalized point in frame `k`, if it is seen there.
+fn point_in(track: &[(usize, FeatureMeasurement)], k: usize) -> Option<Vector2<f64>> {
+    track.iter().find(|(f, _)| *f == k).map(|(_, m)| m.point)
+}
+
 /// Whether a point lies in front of every view.
 fn in_front(views: &[(Pose, Vector2<f64>)], p: &Vector3<f64>) -> bool {
     views
@@ -161,9 +163,7 @@ fn triangulate_between(
         if points[i].is_some() {
             continue;
         }
-        let za = t.iter().find(|(k, _)| *k == a).map(|(_, m)| m.point);
-        let zb = t.iter().find(|(k, _)| *k == b).map(|(_, m)| m.point);
-        if let (Some(za), Some(zb)) = (za, zb) {
+        if let (Some(za), Some(zb)) = (point_in(t, a), point_in(t, b)) {
             let views = [(pa, za), (pb, zb)];
             points[i] = triangulate(&views).filter(|p| in_front(&views, p));
         }
@@ -183,10 +183,7 @@ fn pnp(
     let pairs: Vec<(Vector3<f64>, Vector2<f64>)> = tracks
         .iter()
         .zip(points)
-        .filter_map(|(t, p)| {
-            let z = t.iter().find(|(f, _)| *f == k)?.1.point;
-            Some(((*p)?, z))
-        })
+        .filter_map(|(t, p)| Some(((*p)?, point_in(t, k)?)))
         .collect();
     if pairs.len() < MIN_PNP_POINTS {
         return None;

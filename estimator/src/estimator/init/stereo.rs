@@ -2,14 +2,14 @@
 
 use std::sync::Arc;
 
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 
 use super::alignment::{align_velocities_and_gravity, estimate_gyro_bias};
+use super::{repropagate, set_gravity_aligned, window_intervals};
 use crate::estimator::config::EstimatorConfig;
 use crate::estimator::window::{BlockRef, Prior, Window, WindowFrame};
 use crate::factors::PriorFactor;
 use crate::geometry::Pose;
-use crate::imu::Preintegration;
 use crate::problem::{Euclidean, PoseManifold};
 
 /// Aligns the visually solved window with the IMU: the gyroscope bias from the visual rotations,
@@ -22,49 +22,28 @@ pub(in crate::estimator) fn initialize_stereo_inertial(
     config: &EstimatorConfig,
 ) -> bool {
     let poses: Vec<Pose> = window.frames.iter().map(|f| f.pose).collect();
-    if window.frames.iter().skip(1).any(|f| f.preint.is_none()) {
+    let Some(intervals) = window_intervals(window) else {
         return false;
-    }
-    let intervals = window_intervals(window);
+    };
     let Some(bg) = estimate_gyro_bias(&poses, &intervals) else {
         return false;
     };
     let ba = Vector3::zeros();
-    for f in window.frames.iter_mut().skip(1) {
-        if let Some(p) = &mut f.preint {
-            p.repropagate(ba, bg);
-        }
-    }
-    let intervals = window_intervals(window);
+    repropagate(window, ba, bg);
+    let Some(intervals) = window_intervals(window) else {
+        return false;
+    };
     let Some((vel, g)) = align_velocities_and_gravity(&poses, &intervals, &ba, &bg, crate::GRAVITY)
     else {
         return false;
     };
-    // Rotate the world so that gravity points along −z (minimal rotation).
-    let Some(r_align) = UnitQuaternion::rotation_between(&g, &crate::gravity_w()) else {
+    if !set_gravity_aligned(window, &poses, &vel, &g, ba, bg) {
         return false;
-    };
-    let origin = window.frames[0].pose.p;
-    for (f, v) in window.frames.iter_mut().zip(vel) {
-        f.pose = Pose::new(r_align * f.pose.q, r_align * (f.pose.p - origin));
-        f.v = r_align * v;
-        f.ba = ba;
-        f.bg = bg;
     }
     // Landmarks are anchored in camera frames: unaffected. The prior starts as a bias prior
     // on the oldest frame (no earlier prior exists: vision-only frames carry none).
     window.prior = initial_prior(&window.frames[0], config);
     true
-}
-
-/// The IMU intervals between consecutive window frames (each frame's from its predecessor).
-pub(super) fn window_intervals(window: &Window) -> Vec<&Preintegration> {
-    window
-        .frames
-        .iter()
-        .skip(1)
-        .filter_map(|f| f.preint.as_ref())
-        .collect()
 }
 
 /// The initial prior on frame `first`: its position and yaw (the four directions no sensor
