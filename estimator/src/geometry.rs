@@ -128,6 +128,19 @@ pub fn left_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
     right_jacobian(&-phi)
 }
 
+/// Two unit vectors `(b1, b2)` orthogonal to the unit vector `dir` and to each other
+/// (`b2 = dir × b1`): the tangent basis of the unit sphere at `dir`, for updates of a direction
+/// or of gravity with its norm fixed.
+pub fn sphere_tangent_basis(dir: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let helper = if dir.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let b1 = dir.cross(&helper).normalize();
+    (b1, dir.cross(&b1))
+}
+
 /// Quaternion ⊕ with right perturbation: `q · Exp(delta)`, renormalized.
 #[inline]
 pub fn quat_plus(q: &UnitQuaternion<f64>, delta: &Vector3<f64>) -> UnitQuaternion<f64> {

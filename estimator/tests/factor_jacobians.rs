@@ -7,8 +7,8 @@ use std::sync::Arc;
 
 use common::{pose, rotation, small_rotation, vec3};
 use estimator::factors::{
-    FeatureMeasurement, ImuFactor, PriorFactor, ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam,
-    ProjectionTwoFrameTwoCam,
+    FeatureMeasurement, ImuFactor, PointProjection, PriorFactor, ProjectionOneFrameTwoCam,
+    ProjectionTwoFrameOneCam, ProjectionTwoFrameTwoCam,
 };
 use estimator::geometry::Pose;
 use estimator::imu::{ImuNoise, ImuSample, Preintegration};
@@ -21,6 +21,7 @@ use proptest::prelude::*;
 
 const POSE: PoseManifold = PoseManifold;
 const R1: Euclidean = Euclidean::new(1);
+const R3: Euclidean = Euclidean::new(3);
 const R9: Euclidean = Euclidean::new(9);
 
 fn check(factor: &dyn Factor, params: &[Vec<f64>], manifolds: &[&dyn Manifold]) {
@@ -130,6 +131,20 @@ proptest! {
             vec![td],
         ];
         check(&factor, &params, &[&POSE, &POSE, &POSE, &R1, &R1]);
+    }
+
+    #[test]
+    fn point_projection_jacobians(
+        t_w_c in pose(10.0), x in -0.85..0.85f64, y in -0.55..0.55f64, depth in 0.3..60.0f64,
+        noise in vec3(0.01), weight in 10.0..1000.0f64,
+    ) {
+        let x_w = t_w_c.transform(&(Vector3::new(x, y, 1.0) * depth));
+        let factor = PointProjection {
+            obs: Vector2::new(x + noise.x, y + noise.y),
+            weight,
+        };
+        let params = vec![t_w_c.to_array().to_vec(), x_w.as_slice().to_vec()];
+        check(&factor, &params, &[&POSE, &R3]);
     }
 
     #[test]

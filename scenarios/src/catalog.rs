@@ -27,6 +27,8 @@ const ENTRIES: &[Entry] = &[
     entry!("room_figure8_stereo"),
     entry!("room_circle_stereo_imu"),
     entry!("room_replay_v2_02_stereo_imu"),
+    entry!("room_figure8_mono_imu"),
+    entry!("room_replay_v2_02_mono_imu"),
     entry!("room_figure8_blackout_stereo_imu"),
     entry!("room_figure8_left_camera_death_stereo_imu"),
     entry!("room_figure8_right_camera_death_stereo_imu"),

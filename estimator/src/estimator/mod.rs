@@ -553,9 +553,11 @@ impl Estimator {
         if !(mono && self.status == Status::Initializing) {
             triangulation::triangulate_tracks(&mut self.window, &self.config, &self.focal);
         }
+        // Mono+IMU tries its (costly) structure from motion only when a keyframe arrives.
         if uses_imu
             && self.status == Status::Initializing
             && self.window.frames.len() >= self.config.init_frames
+            && (keyframe || !mono)
         {
             let initialized = if mono {
                 init::initialize_mono_inertial(&mut self.window, &self.config, &self.focal, 0)

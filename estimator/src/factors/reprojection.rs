@@ -36,10 +36,16 @@ impl FeatureMeasurement {
         }
     }
 
+    /// The normalized point shifted to time offset `td` along its image velocity.
+    #[inline]
+    pub fn point_at_td(&self, td: f64) -> Vector2<f64> {
+        self.point - (td - self.td) * self.velocity
+    }
+
     /// The point shifted to time offset `td`, as a homogeneous ray `(x, y, 1)`.
     #[inline]
     fn at_td(&self, td: f64) -> Vector3<f64> {
-        let p = self.point - (td - self.td) * self.velocity;
+        let p = self.point_at_td(td);
         Vector3::new(p.x, p.y, 1.0)
     }
 }

@@ -349,14 +349,7 @@ fn refine(
             .sum::<f64>()
     };
     let apply = |r: &Matrix3<f64>, t: &Vector3<f64>, d: &[f64; 5]| {
-        // Tangent basis of the unit sphere at t.
-        let helper = if t.x.abs() < 0.9 {
-            Vector3::x()
-        } else {
-            Vector3::y()
-        };
-        let b1 = t.cross(&helper).normalize();
-        let b2 = t.cross(&b1);
+        let (b1, b2) = crate::geometry::sphere_tangent_basis(t);
         let dr = crate::geometry::so3_exp(&Vector3::new(d[0], d[1], d[2]))
             .to_rotation_matrix()
             .into_inner();

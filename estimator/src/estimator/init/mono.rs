@@ -4,7 +4,7 @@
 
 use nalgebra::{UnitQuaternion, Vector3};
 
-use super::alignment::{align_with_scale, estimate_gyro_bias};
+use super::alignment::{UpToScaleTrajectory, align_with_scale, estimate_gyro_bias};
 use super::sfm::{SfmFailure, SfmSettings, solve_sfm};
 use super::stereo::initial_prior;
 use super::{repropagate, set_gravity_aligned, window_intervals};
@@ -24,6 +24,10 @@ pub enum MonoInitFailure {
     GyroBias,
     /// Gravity came out more than 1 m/s² off its norm, or the scale not positive.
     Alignment,
+    /// The window's accelerations do not determine the scale: its relative standard deviation
+    /// exceeds `mono_init_max_scale_sigma` (too little or too uniform acceleration, which the
+    /// accelerometer bias can absorb).
+    ScaleUnobservable,
 }
 
 /// Initializes the window from camera `cam` alone and the IMU. On success the frames carry
@@ -69,22 +73,36 @@ pub(in crate::estimator) fn initialize_mono_inertial(
         .collect();
     let intervals = window_intervals(window).ok_or(MonoInitFailure::MissingImu)?;
     let bg = estimate_gyro_bias(&attitudes, &intervals).ok_or(MonoInitFailure::GyroBias)?;
-    let ba = Vector3::zeros();
-    repropagate(window, ba, bg);
+    repropagate(window, Vector3::zeros(), bg);
     let cam_positions: Vec<Vector3<f64>> = sfm.poses.iter().map(|p| p.p).collect();
     let rotations: Vec<_> = body_q
         .iter()
         .map(|q| q.to_rotation_matrix().into_inner())
         .collect();
-    let (vel, g, s) = align_with_scale(
-        &cam_positions,
-        &rotations,
-        &t_b_c.p,
+    let visual = UpToScaleTrajectory {
+        cam_positions: &cam_positions,
+        cam_covariance: &sfm.position_covariance,
+        body_rotations: &rotations,
+        t_b_c: &t_b_c.p,
+    };
+    let aligned = align_with_scale(
+        &visual,
         &window_intervals(window).ok_or(MonoInitFailure::MissingImu)?,
         &bg,
+        config.initial_ba_sigma,
         crate::GRAVITY,
     )
     .ok_or(MonoInitFailure::Alignment)?;
+    if aligned.scale_rel_sigma > config.mono_init_max_scale_sigma {
+        return Err(MonoInitFailure::ScaleUnobservable);
+    }
+    let (vel, g, s, ba) = (
+        &aligned.velocities,
+        &aligned.gravity,
+        aligned.scale,
+        aligned.ba,
+    );
+    repropagate(window, ba, bg);
     // Metric body poses: p_b = s c̄ − R_w_b t_b_c.
     let body: Vec<Pose> = cam_positions
         .iter()
@@ -92,7 +110,7 @@ pub(in crate::estimator) fn initialize_mono_inertial(
         .zip(&body_q)
         .map(|((c, r), q)| Pose::new(*q, c * s - r * t_b_c.p))
         .collect();
-    if !set_gravity_aligned(window, &body, &vel, &g, ba, bg) {
+    if !set_gravity_aligned(window, &body, vel, g, ba, bg) {
         return Err(MonoInitFailure::Alignment);
     }
     for t in window.features.tracks.values_mut() {
