@@ -259,6 +259,8 @@ pub struct Report {
     pub suite_switches: usize,
     /// IMU samples excluded as spikes.
     pub imu_samples_excluded: usize,
+    /// IMU samples on the sensor's range (clipped; the intervals over them carry no IMU factor).
+    pub imu_samples_saturated: usize,
     /// Final gyroscope bias error (rad/s).
     pub gyro_bias_error_rad_s: Option<f64>,
     /// Final accelerometer bias error (m/s²).
@@ -294,6 +296,7 @@ impl Report {
             "resets" => Some(self.resets as f64),
             "suite_switches" => Some(self.suite_switches as f64),
             "imu_samples_excluded" => Some(self.imu_samples_excluded as f64),
+            "imu_samples_saturated" => Some(self.imu_samples_saturated as f64),
             "tracking_fraction" => Some(self.tracking_fraction),
             "gyro_bias_error_rad_s" => self.gyro_bias_error_rad_s,
             "accel_bias_error_m_s2" => self.accel_bias_error_m_s2,
@@ -333,6 +336,7 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
                     ("suite_switch", format!("{from} -> {to} ({reason})"))
                 }
                 EventKind::PriorDropped => ("prior_dropped", String::new()),
+                EventKind::Reset { reason } => ("reset", reason.clone()),
             };
             EventReport {
                 t_s: e.t_ns as f64 * 1e-9,
@@ -367,6 +371,7 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
         resets: run.resets,
         suite_switches: run.suite_switches,
         imu_samples_excluded: run.imu_samples_excluded,
+        imu_samples_saturated: run.imu_samples_saturated,
         gyro_bias_error_rad_s: eval.gyro_bias_error_rad_s,
         accel_bias_error_m_s2: eval.accel_bias_error_m_s2,
         timing_ms,
@@ -485,8 +490,8 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
     let _ = writeln!(s, "resets        {}", r.resets);
     let _ = writeln!(
         s,
-        "sensors       {} suite switches, {} IMU samples excluded as spikes",
-        r.suite_switches, r.imu_samples_excluded
+        "sensors       {} suite switches, {} IMU samples excluded as spikes, {} saturated",
+        r.suite_switches, r.imu_samples_excluded, r.imu_samples_saturated
     );
     for e in r.events.iter().filter(|e| e.kind == "suite_switch") {
         let _ = writeln!(s, "  {:>8.2} s   {}", e.t_s, e.detail);

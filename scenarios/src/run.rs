@@ -70,6 +70,11 @@ pub enum EventKind {
     },
     /// Marginalization failed and the estimator went on without its prior.
     PriorDropped,
+    /// The estimator found its window failed and restarted from its last good state.
+    Reset {
+        /// What failed.
+        reason: String,
+    },
 }
 
 /// A timestamped event.
@@ -98,12 +103,14 @@ pub struct RunOutput {
     pub frames: Vec<FrameRecord>,
     /// Events in order.
     pub events: Vec<Event>,
-    /// Estimator resets (the estimator has no reset yet: always 0).
+    /// Estimator resets (`Reset` events).
     pub resets: usize,
     /// Sensor-suite switches the estimator reported.
     pub suite_switches: usize,
     /// IMU samples the estimator excluded as spikes.
     pub imu_samples_excluded: usize,
+    /// IMU samples the estimator found on the sensor's range.
+    pub imu_samples_saturated: usize,
     /// The graphics adapter of a rendered scenario (`None` for feature-level ones).
     pub renderer: Option<String>,
     /// The image front end's statistics against ground truth (rendered scenarios tracked by
@@ -218,6 +225,7 @@ pub fn run(
         resets: 0,
         suite_switches: 0,
         imu_samples_excluded: 0,
+        imu_samples_saturated: 0,
         renderer,
         frontend: None,
     };
@@ -286,7 +294,15 @@ pub fn run(
                     out.imu_samples_excluded += t_ns.len();
                     continue;
                 }
+                EstimatorEventKind::ImuSamplesSaturated { count } => {
+                    out.imu_samples_saturated += count;
+                    continue;
+                }
                 EstimatorEventKind::PriorDropped => EventKind::PriorDropped,
+                EstimatorEventKind::Reset { reason } => {
+                    out.resets += 1;
+                    EventKind::Reset { reason }
+                }
             };
             out.events.push(Event { t_ns: e.t_ns, kind });
         }

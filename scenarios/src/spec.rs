@@ -664,6 +664,8 @@ pub struct ExpectationsSpec {
     pub suite_switches: Option<Bound>,
     /// IMU samples excluded as spikes.
     pub imu_samples_excluded: Option<Bound>,
+    /// IMU samples on the sensor's range.
+    pub imu_samples_saturated: Option<Bound>,
     /// Fraction of processed frames in tracking state.
     pub tracking_fraction: Option<Bound>,
     /// Final gyroscope bias error (rad/s).
@@ -692,6 +694,7 @@ impl ExpectationsSpec {
             ("resets", self.resets),
             ("suite_switches", self.suite_switches),
             ("imu_samples_excluded", self.imu_samples_excluded),
+            ("imu_samples_saturated", self.imu_samples_saturated),
             ("tracking_fraction", self.tracking_fraction),
             ("gyro_bias_error_rad_s", self.gyro_bias_error_rad_s),
             ("accel_bias_error_m_s2", self.accel_bias_error_m_s2),
@@ -1619,6 +1622,14 @@ impl Scenario {
         }
         if let Some(v) = e.estimate_extrinsics {
             cfg.estimate_extrinsics = v;
+        }
+        // The IMU's datasheet ranges: the estimator treats readings on them as clipped.
+        let imu = &s.rig.imu;
+        if imu.gyro_range_rad_s.is_some() || imu.accel_range_m_s2.is_some() {
+            cfg.imu_range = Some((
+                imu.gyro_range_rad_s.unwrap_or(f64::INFINITY),
+                imu.accel_range_m_s2.unwrap_or(f64::INFINITY),
+            ));
         }
         Ok(cfg)
     }

@@ -2,6 +2,7 @@
 
 use std::sync::Arc;
 
+use super::health::HealthLimits;
 use crate::camera::CameraModel;
 use crate::geometry::Pose;
 use crate::imu::ImuNoise;
@@ -146,6 +147,12 @@ pub struct EstimatorConfig {
     /// nothing is interpolated over it. Several missing samples at any usual IMU rate
     /// (100–1000 Hz) stay below it.
     pub imu_max_gap_s: f64,
+    /// The IMU's measuring ranges `(gyroscope rad/s, accelerometer m/s²)`: a sample at a range
+    /// on any axis was clipped, so no IMU interval is cut over it (the frames around it are
+    /// joined by vision and the biases' random walk, as across a gap). `None`: never clipped.
+    pub imu_range: Option<(f64, f64)>,
+    /// Failure detection: the limits of a plausible solved state; past one the window is reset.
+    pub health: HealthLimits,
 }
 
 impl EstimatorConfig {
@@ -193,6 +200,8 @@ impl EstimatorConfig {
             imu_spike_threshold: Some((1.0, 10.0)),
             sensor_timeout_s: 0.5,
             imu_max_gap_s: 0.05,
+            imu_range: None,
+            health: HealthLimits::default(),
         }
     }
 }

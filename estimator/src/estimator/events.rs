@@ -72,8 +72,20 @@ pub enum EventKind {
         /// Their times (ns).
         t_ns: Vec<i64>,
     },
+    /// IMU samples sat on the sensor's range (see `EstimatorConfig::imu_range`): the intervals
+    /// over them carry no IMU factor.
+    ImuSamplesSaturated {
+        /// How many.
+        count: usize,
+    },
     /// Marginalization failed: the window goes on without a prior (its information is lost).
     PriorDropped,
+    /// The solved window failed a health check (see [`super::health`]) and was discarded; the
+    /// estimator restarted from the last good state.
+    Reset {
+        /// What failed.
+        reason: String,
+    },
 }
 
 /// A timestamped estimator event.

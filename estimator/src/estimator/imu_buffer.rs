@@ -28,17 +28,48 @@ pub(super) struct ImuBuffer {
     excluded: Vec<i64>,
     /// Longest time between consecutive accepted samples that an interval may span (ns).
     max_gap_ns: i64,
+    /// `(gyroscope rad/s, accelerometer m/s²)` ranges: a sample at a range on any axis is
+    /// saturated (clipped), and no interval is cut over it.
+    range: Option<(f64, f64)>,
+    /// Times of the accepted samples that are saturated, oldest first.
+    saturated: VecDeque<i64>,
+    /// Saturated samples since the last [`ImuBuffer::take_saturated`].
+    saturated_new: usize,
 }
 
 impl ImuBuffer {
     /// An empty buffer that excludes spikes above `spike_threshold` (see the type doc) and
     /// cuts no interval across a gap between samples longer than `max_gap_s`.
-    pub fn new(spike_threshold: Option<(f64, f64)>, max_gap_s: f64) -> Self {
+    /// `range`: the sensor's measuring ranges, past which it clips (see the field doc).
+    pub fn new(
+        spike_threshold: Option<(f64, f64)>,
+        max_gap_s: f64,
+        range: Option<(f64, f64)>,
+    ) -> Self {
         Self {
             spike_threshold,
             max_gap_ns: (max_gap_s * 1e9).round() as i64,
+            range,
             ..Self::default()
         }
+    }
+
+    /// Accepts `s` into the samples intervals are cut from, noting whether it is saturated.
+    fn accept(&mut self, s: ImuSample) {
+        if let Some((gyro, accel)) = self.range {
+            // Clipped readings sit on the range; 1e-9 relative absorbs float round-off.
+            let at = |v: &Vector3<f64>, r: f64| v.iter().any(|x| x.abs() >= r * (1.0 - 1e-9));
+            if at(&s.gyro, gyro) || at(&s.accel, accel) {
+                self.saturated.push_back(s.t_ns);
+                self.saturated_new += 1;
+            }
+        }
+        self.samples.push_back(s);
+    }
+
+    /// The number of saturated samples since the last call.
+    pub fn take_saturated(&mut self) -> usize {
+        std::mem::take(&mut self.saturated_new)
     }
 
     /// Appends a sample; its time must follow the newest one's. With spike rejection the
@@ -46,7 +77,7 @@ impl ImuBuffer {
     pub fn push(&mut self, sample: ImuSample) -> Result<(), ImuError> {
         self.check_next(&sample)?;
         let Some((gyro_max, accel_max)) = self.spike_threshold else {
-            self.samples.push_back(sample);
+            self.accept(sample);
             return Ok(());
         };
         self.raw.push_back(sample);
@@ -89,7 +120,7 @@ impl ImuBuffer {
         if spike {
             self.excluded.push(s.t_ns);
         } else {
-            self.samples.push_back(s);
+            self.accept(s);
         }
         self.unjudged -= 1;
         while self.raw.len() > LOOKAHEAD + self.unjudged {
@@ -137,8 +168,9 @@ impl ImuBuffer {
     /// Cuts a preintegration over `[t0, t1]` linearized at the biases (end samples
     /// interpolated), then drops the samples no later interval needs (the last one at or before
     /// `t1` stays for the next interval's interpolation). `None` when the samples do not bracket
-    /// both ends or when two consecutive samples over the interval are more than the buffer's
-    /// maximum gap apart (an IMU dropout: nothing is invented across it).
+    /// both ends, when two consecutive samples over the interval are more than the buffer's
+    /// maximum gap apart (an IMU dropout: nothing is invented across it), or when a sample over
+    /// it is saturated (its reading is a bound, not a measurement).
     pub fn take_interval(
         &mut self,
         t0: i64,
@@ -160,7 +192,12 @@ impl ImuBuffer {
         let bracket_end = self.samples.iter().position(|s| s.t_ns >= t1)?;
         let gap = (bracket_start..bracket_end)
             .any(|i| self.samples[i + 1].t_ns - self.samples[i].t_ns > self.max_gap_ns);
-        if gap {
+        let (lo, hi) = (
+            self.samples[bracket_start].t_ns,
+            self.samples[bracket_end].t_ns,
+        );
+        let clipped = self.saturated.iter().any(|&t| t >= lo && t <= hi);
+        if gap || clipped {
             self.drop_before(t1);
             return None;
         }
@@ -179,6 +216,10 @@ impl ImuBuffer {
     fn drop_before(&mut self, t_ns: i64) {
         while self.samples.len() >= 2 && self.samples[1].t_ns <= t_ns {
             self.samples.pop_front();
+        }
+        let oldest = self.samples.front().map_or(i64::MAX, |s| s.t_ns);
+        while self.saturated.front().is_some_and(|&t| t < oldest) {
+            self.saturated.pop_front();
         }
     }
 }
@@ -216,7 +257,7 @@ mod tests {
     }
 
     fn run(samples: &[ImuSample]) -> (Vec<i64>, usize) {
-        let mut buf = ImuBuffer::new(Some((1.0, 10.0)), 0.05);
+        let mut buf = ImuBuffer::new(Some((1.0, 10.0)), 0.05, None);
         let mut excluded = Vec::new();
         for s in samples {
             buf.push(*s).unwrap();
@@ -268,7 +309,7 @@ mod tests {
     #[test]
     fn no_threshold_no_latency() {
         let mut rng = ChaCha8Rng::seed_from_u64(3);
-        let mut buf = ImuBuffer::new(None, 0.05);
+        let mut buf = ImuBuffer::new(None, 0.05, None);
         for s in motion(5, &mut rng) {
             buf.push(s).unwrap();
             assert_eq!(buf.newest_t_ns(), Some(s.t_ns));
@@ -288,7 +329,7 @@ mod tests {
             accelerometer_random_walk: 3e-3,
         };
         let ms = 1_000_000;
-        let mut buf = ImuBuffer::new(None, 0.05);
+        let mut buf = ImuBuffer::new(None, 0.05, None);
         // 200 Hz samples over [0, 1] s and [1.5, 2] s: a 0.5 s dropout.
         for s in motion(401, &mut rng)
             .into_iter()
@@ -314,7 +355,7 @@ mod tests {
         assert_eq!(after.start_ns(), 1510 * ms);
         assert_eq!(buf.oldest_t_ns(), Some(1560 * ms));
         // A gap of two missing samples (15 ms) is no dropout.
-        let mut buf = ImuBuffer::new(None, 0.05);
+        let mut buf = ImuBuffer::new(None, 0.05, None);
         for s in motion(40, &mut rng)
             .into_iter()
             .filter(|s| s.t_ns != 50 * ms && s.t_ns != 55 * ms)

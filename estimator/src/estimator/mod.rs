@@ -16,6 +16,7 @@ pub mod config;
 mod covariance;
 pub mod events;
 mod features;
+pub mod health;
 mod imu_buffer;
 mod init;
 mod marginalization;
@@ -31,6 +32,7 @@ use nalgebra::{DMatrix, UnitQuaternion, Vector2, Vector3};
 pub use config::{CameraConfig, EstimatorConfig, Suite};
 pub use events::{Event, EventKind, LiveSuite};
 use features::Observation;
+pub use health::{FailureReason, HealthLimits};
 use imu_buffer::ImuBuffer;
 use window::{ProblemSettings, Window, WindowFrame};
 
@@ -133,6 +135,8 @@ pub struct Estimator {
     finalized: Vec<(i64, Pose)>,
     known_start: Option<KnownStart>,
     pending_bias_prior: bool,
+    /// The newest state that passed the health checks (where a reset restarts).
+    last_good: Option<WindowFrame>,
     /// Sensor monitors: the last time (ns, IMU clock) each camera delivered features, and the
     /// last IMU sample.
     last_features_t: [Option<i64>; 2],
@@ -231,6 +235,7 @@ impl Estimator {
         let extrinsics = config.cameras.iter().map(|c| c.T_b_c).collect();
         let spike_threshold = config.imu_spike_threshold;
         let max_gap_s = config.imu_max_gap_s;
+        let imu_range = config.imu_range;
         let live_imu = config.suite.uses_imu();
         let n_cameras = config.cameras.len();
         let history = config.record_history.then(History::default);
@@ -241,7 +246,7 @@ impl Estimator {
             window: Window::new(extrinsics, config.td_s),
             config,
             focal,
-            imu: ImuBuffer::new(spike_threshold, max_gap_s),
+            imu: ImuBuffer::new(spike_threshold, max_gap_s, imu_range),
             pending: VecDeque::new(),
             next_seq: 0,
             status: Status::Initializing,
@@ -251,6 +256,7 @@ impl Estimator {
             finalized: Vec::new(),
             known_start: None,
             pending_bias_prior: false,
+            last_good: None,
             last_features_t: [None; 2],
             last_imu_t: None,
             first_t: None,
@@ -366,6 +372,13 @@ impl Estimator {
             self.events.push(Event {
                 t_ns: t,
                 kind: EventKind::ImuSamplesExcluded { t_ns: excluded },
+            });
+        }
+        let saturated = self.imu.take_saturated();
+        if saturated > 0 {
+            self.events.push(Event {
+                t_ns: self.imu.newest_t_ns().unwrap_or(0),
+                kind: EventKind::ImuSamplesSaturated { count: saturated },
             });
         }
     }
@@ -503,6 +516,7 @@ impl Estimator {
             }
         }
         self.last_frame_t = Some(t_ns);
+        let predicted = wf.clone();
 
         // 2. Observations.
         let observations = self.observations(&frame, seq, t_ns);
@@ -550,6 +564,9 @@ impl Estimator {
             self.window.prior = init::initial_prior(&self.window.frames[0], &self.config);
         }
         let mono = self.config.suite == Suite::MonoImu;
+        // The prediction is comparable with the solution only if the world did not change
+        // (initialization rotates and, for mono, rescales it).
+        let was_tracking = self.status == Status::Tracking;
         if !(mono && self.status == Status::Initializing) {
             triangulation::triangulate_tracks(&mut self.window, &self.config, &self.focal);
         }
@@ -588,6 +605,18 @@ impl Estimator {
         let mut built = self.window.build(&self.problem_settings(), imu_active);
         let summary = solve(&mut built.problem, &self.config.solver);
         self.window.write_back(&built, &self.config);
+        if was_tracking
+            && let Some(reason) = health::check_window(
+                &self.window,
+                &summary,
+                &predicted.pose,
+                imu_active,
+                &self.config.health,
+            )
+        {
+            self.reset(t_ns, reason);
+            return self.estimate(&predicted, keyframe, start, None);
+        }
         let covariance = if self.config.compute_covariance {
             let seq = self.window.frames.back().expect("just pushed").seq;
             covariance::newest_covariance(&built, seq)
@@ -633,10 +662,11 @@ impl Estimator {
         if !uses_imu {
             self.status = Status::Tracking;
         }
-        if let Some(h) = &mut self.history
-            && self.status == Status::Tracking
-        {
-            h.frames.push(newest.clone());
+        if self.status == Status::Tracking {
+            self.last_good = Some(newest.clone());
+            if let Some(h) = &mut self.history {
+                h.frames.push(newest.clone());
+            }
         }
         let solved = Solved {
             landmarks,

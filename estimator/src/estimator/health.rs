@@ -1,0 +1,226 @@
+//! Failure detection and reset: after each window solve the newest state is checked against
+//! physical plausibility and against its own prediction (the thresholds of VINS-Fusion's
+//! `failureDetection`); a failed window is discarded and the estimator restarts from the last
+//! state that passed, keeping the world frame.
+
+use std::fmt;
+
+use super::events::{Event, EventKind};
+use super::window::{Window, WindowFrame};
+use super::{Estimator, KnownStart, Status};
+use crate::geometry::{Pose, so3_log};
+use crate::problem::SolverSummary;
+
+/// Limits of a plausible solved state (defaults: VINS-Fusion's failure detection).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HealthLimits {
+    /// Largest accelerometer bias norm (m/s²; VINS-Fusion: 2.5).
+    pub max_accel_bias_m_s2: f64,
+    /// Largest gyroscope bias norm (rad/s; VINS-Fusion: 1.0).
+    pub max_gyro_bias_rad_s: f64,
+    /// Largest distance between the newest frame's predicted and solved positions (m;
+    /// VINS-Fusion: 5 m between consecutive frames).
+    pub max_jump_m: f64,
+    /// Largest angle between the newest frame's predicted and solved attitudes (deg;
+    /// VINS-Fusion: 50°).
+    pub max_rotation_jump_deg: f64,
+}
+
+impl Default for HealthLimits {
+    fn default() -> Self {
+        Self {
+            max_accel_bias_m_s2: 2.5,
+            max_gyro_bias_rad_s: 1.0,
+            max_jump_m: 5.0,
+            max_rotation_jump_deg: 50.0,
+        }
+    }
+}
+
+/// Why a solved window was judged failed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FailureReason {
+    /// The solver's cost or a state of the window is not finite.
+    NonFinite,
+    /// The accelerometer bias norm (m/s²) is implausible.
+    AccelBias(f64),
+    /// The gyroscope bias norm (rad/s) is implausible.
+    GyroBias(f64),
+    /// The solved position moved this far (m) from the prediction.
+    Jump(f64),
+    /// The solved attitude turned this far (deg) from the prediction.
+    RotationJump(f64),
+}
+
+impl fmt::Display for FailureReason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NonFinite => write!(f, "non-finite solution"),
+            Self::AccelBias(n) => write!(f, "accelerometer bias {n:.2} m/s²"),
+            Self::GyroBias(n) => write!(f, "gyroscope bias {n:.2} rad/s"),
+            Self::Jump(d) => write!(f, "position jump {d:.2} m against the prediction"),
+            Self::RotationJump(a) => write!(f, "rotation jump {a:.1}° against the prediction"),
+        }
+    }
+}
+
+/// Checks a solved window: every state finite, then the newest frame's biases (when `imu`)
+/// and its distance and angle from `predicted`, its pose before the solve.
+pub(super) fn check_window(
+    window: &Window,
+    summary: &SolverSummary,
+    predicted: &Pose,
+    imu: bool,
+    limits: &HealthLimits,
+) -> Option<FailureReason> {
+    let finite = |f: &WindowFrame| {
+        f.pose.p.iter().all(|v| v.is_finite())
+            && f.pose.q.coords.iter().all(|v| v.is_finite())
+            && f.v
+                .iter()
+                .chain(f.ba.iter())
+                .chain(f.bg.iter())
+                .all(|v| v.is_finite())
+    };
+    if !summary.final_cost.is_finite() || !window.frames.iter().all(finite) {
+        return Some(FailureReason::NonFinite);
+    }
+    let newest = window.frames.back()?;
+    if imu {
+        let (ba, bg) = (newest.ba.norm(), newest.bg.norm());
+        if ba > limits.max_accel_bias_m_s2 {
+            return Some(FailureReason::AccelBias(ba));
+        }
+        if bg > limits.max_gyro_bias_rad_s {
+            return Some(FailureReason::GyroBias(bg));
+        }
+    }
+    let jump = (newest.pose.p - predicted.p).norm();
+    if jump > limits.max_jump_m {
+        return Some(FailureReason::Jump(jump));
+    }
+    let angle = so3_log(&(predicted.q.inverse() * newest.pose.q))
+        .norm()
+        .to_degrees();
+    (angle > limits.max_rotation_jump_deg).then_some(FailureReason::RotationJump(angle))
+}
+
+impl Estimator {
+    /// Discards the failed window and restarts from `last_good` (the newest state that passed
+    /// the checks), keeping the world frame: the next frame starts at that pose, velocity and
+    /// biases with the initial prior around them, the way [`Estimator::start_from`] does.
+    /// Without a good state the estimator initializes again from the data. Records a
+    /// [`EventKind::Reset`] at `t_ns`.
+    pub(super) fn reset(&mut self, t_ns: i64, reason: FailureReason) {
+        self.events.push(Event {
+            t_ns,
+            kind: EventKind::Reset {
+                reason: reason.to_string(),
+            },
+        });
+        self.window = Window::new(self.window.extrinsics.clone(), self.window.td);
+        self.known_start = None;
+        self.pending_bias_prior = false;
+        self.status = Status::Initializing;
+        if let Some(good) = self.last_good.take() {
+            let uses_imu = self.config.suite.uses_imu();
+            let limits = &self.config.health;
+            let plausible = good.ba.norm() <= limits.max_accel_bias_m_s2
+                && good.bg.norm() <= limits.max_gyro_bias_rad_s;
+            let zero = nalgebra::Vector3::zeros();
+            self.known_start = Some(KnownStart {
+                pose: good.pose,
+                v: good.v,
+                ba: if plausible { good.ba } else { zero },
+                bg: if plausible { good.bg } else { zero },
+            });
+            if uses_imu {
+                self.status = Status::Tracking;
+                self.pending_bias_prior = true;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::problem::Termination;
+    use nalgebra::{UnitQuaternion, Vector3};
+    use std::collections::VecDeque;
+
+    fn window_with(newest: WindowFrame) -> Window {
+        let mut w = Window::new(vec![Pose::identity()], 0.0);
+        w.frames = VecDeque::from(vec![newest]);
+        w
+    }
+
+    fn frame(p: Vector3<f64>, yaw: f64, ba: f64, bg: f64) -> WindowFrame {
+        WindowFrame {
+            seq: 0,
+            t_ns: 0,
+            pose: Pose::new(UnitQuaternion::from_euler_angles(0.0, 0.0, yaw), p),
+            v: Vector3::zeros(),
+            ba: Vector3::new(ba, 0.0, 0.0),
+            bg: Vector3::new(0.0, bg, 0.0),
+            preint: None,
+        }
+    }
+
+    fn summary(cost: f64) -> SolverSummary {
+        SolverSummary {
+            iterations: 1,
+            successful_steps: 1,
+            initial_cost: cost,
+            final_cost: cost,
+            termination: Termination::Converged,
+            reduced_size: 0,
+            landmarks: 0,
+            time: std::time::Duration::ZERO,
+        }
+    }
+
+    /// Each detector fires just past its limit and stays silent just inside it.
+    #[test]
+    fn detectors_fire_past_their_limits_only() {
+        let limits = HealthLimits::default();
+        let at = Pose::identity();
+        let check = |f: WindowFrame, cost: f64| {
+            check_window(&window_with(f), &summary(cost), &at, true, &limits)
+        };
+        let z = Vector3::zeros();
+        assert_eq!(check(frame(z, 0.0, 2.4, 0.9), 1.0), None);
+        assert_eq!(
+            check(frame(z, 0.0, 2.6, 0.0), 1.0),
+            Some(FailureReason::AccelBias(2.6))
+        );
+        assert_eq!(
+            check(frame(z, 0.0, 0.0, 1.1), 1.0),
+            Some(FailureReason::GyroBias(1.1))
+        );
+        assert_eq!(check(frame(Vector3::x() * 4.9, 0.0, 0.0, 0.0), 1.0), None);
+        assert!(matches!(
+            check(frame(Vector3::x() * 5.1, 0.0, 0.0, 0.0), 1.0),
+            Some(FailureReason::Jump(_))
+        ));
+        assert_eq!(check(frame(z, 49f64.to_radians(), 0.0, 0.0), 1.0), None);
+        assert!(matches!(
+            check(frame(z, 51f64.to_radians(), 0.0, 0.0), 1.0),
+            Some(FailureReason::RotationJump(_))
+        ));
+        assert_eq!(
+            check(frame(z, 0.0, 0.0, 0.0), f64::NAN),
+            Some(FailureReason::NonFinite)
+        );
+        assert_eq!(
+            check(frame(Vector3::new(f64::NAN, 0.0, 0.0), 0.0, 0.0, 0.0), 1.0),
+            Some(FailureReason::NonFinite)
+        );
+        // Vision only: the biases are not judged.
+        let f = frame(z, 0.0, 9.0, 9.0);
+        assert_eq!(
+            check_window(&window_with(f), &summary(1.0), &at, false, &limits),
+            None
+        );
+    }
+}
