@@ -1,7 +1,8 @@
 //! Failure detection and reset: after each window solve the newest state is checked against
 //! physical plausibility and against its own prediction (the thresholds of VINS-Fusion's
 //! `failureDetection`); a failed window is discarded and the estimator restarts from the last
-//! state that passed, keeping the world frame.
+//! state that passed, keeping the world frame. Also the per-sensor monitors: silence (the live
+//! suite), and the IMU samples excluded as spikes or found saturated.
 
 use std::fmt;
 
@@ -106,6 +107,57 @@ pub(super) fn check_window(
 }
 
 impl Estimator {
+    /// Re-evaluates which sensors deliver at time `now_ns` (a sensor silent for longer than
+    /// `sensor_timeout_s` is out) and reports a switch when that changed.
+    pub(super) fn monitor_sensors(&mut self, now_ns: i64) {
+        let timeout = (self.config.sensor_timeout_s * 1e9) as i64;
+        let first = *self.first_t.get_or_insert(now_ns);
+        let fresh = |t: Option<i64>| now_ns - t.unwrap_or(first) <= timeout;
+        let n_cameras = self.config.cameras.len();
+        let cameras = [0, 1].map(|c| c < n_cameras && fresh(self.last_features_t[c]));
+        let imu = self.config.suite.uses_imu() && fresh(self.last_imu_t);
+        if (cameras, imu) == (self.live_cameras, self.live_imu) {
+            return;
+        }
+        let change = |was: bool, now: bool, name: String| match (was, now) {
+            (true, false) => Some(format!("{name} silent")),
+            (false, true) => Some(format!("{name} back")),
+            _ => None,
+        };
+        let why: Vec<String> = (0..2)
+            .filter_map(|c| change(self.live_cameras[c], cameras[c], format!("camera {c}")))
+            .chain(change(self.live_imu, imu, "IMU".to_string()))
+            .collect();
+        let from = self.live_suite();
+        (self.live_cameras, self.live_imu) = (cameras, imu);
+        self.events.push(Event {
+            t_ns: now_ns,
+            kind: EventKind::SuiteSwitch {
+                from,
+                to: self.live_suite(),
+                reason: why.join(", "),
+            },
+        });
+    }
+
+    /// Reports the IMU samples excluded since the last call.
+    pub(super) fn report_excluded(&mut self) {
+        let excluded = self.imu.take_excluded();
+        if let Some(&t) = excluded.first() {
+            self.events.push(Event {
+                t_ns: t,
+                kind: EventKind::ImuSamplesExcluded { t_ns: excluded },
+            });
+        }
+        let saturated = self.imu.take_saturated();
+        if saturated > 0 {
+            self.events.push(Event {
+                t_ns: self.imu.newest_t_ns().unwrap_or(0),
+                kind: EventKind::ImuSamplesSaturated { count: saturated },
+            });
+        }
+    }
+
     /// Discards the failed window and restarts from `last_good` (the newest state that passed
     /// the checks), keeping the world frame: the next frame starts at that pose, velocity and
     /// biases with the initial prior around them, the way [`Estimator::start_from`] does.

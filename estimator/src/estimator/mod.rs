@@ -310,39 +310,6 @@ impl Estimator {
         std::mem::take(&mut self.events)
     }
 
-    /// Re-evaluates which sensors deliver at time `now_ns` (a sensor silent for longer than
-    /// `sensor_timeout_s` is out) and reports a switch when that changed.
-    fn monitor_sensors(&mut self, now_ns: i64) {
-        let timeout = (self.config.sensor_timeout_s * 1e9) as i64;
-        let first = *self.first_t.get_or_insert(now_ns);
-        let fresh = |t: Option<i64>| now_ns - t.unwrap_or(first) <= timeout;
-        let n_cameras = self.config.cameras.len();
-        let cameras = [0, 1].map(|c| c < n_cameras && fresh(self.last_features_t[c]));
-        let imu = self.config.suite.uses_imu() && fresh(self.last_imu_t);
-        if (cameras, imu) == (self.live_cameras, self.live_imu) {
-            return;
-        }
-        let change = |was: bool, now: bool, name: String| match (was, now) {
-            (true, false) => Some(format!("{name} silent")),
-            (false, true) => Some(format!("{name} back")),
-            _ => None,
-        };
-        let why: Vec<String> = (0..2)
-            .filter_map(|c| change(self.live_cameras[c], cameras[c], format!("camera {c}")))
-            .chain(change(self.live_imu, imu, "IMU".to_string()))
-            .collect();
-        let from = self.live_suite();
-        (self.live_cameras, self.live_imu) = (cameras, imu);
-        self.events.push(Event {
-            t_ns: now_ns,
-            kind: EventKind::SuiteSwitch {
-                from,
-                to: self.live_suite(),
-                reason: why.join(", "),
-            },
-        });
-    }
-
     /// Adds an IMU sample; returns estimates of frames that became processable.
     pub fn push_imu(&mut self, sample: ImuSample) -> Result<Vec<Estimate>, EstimatorError> {
         ImuSample::new(sample.t_ns, sample.gyro, sample.accel)?;
@@ -363,24 +330,6 @@ impl Estimator {
         self.imu.flush();
         self.report_excluded();
         self.drain_pending()
-    }
-
-    /// Reports the IMU samples excluded since the last call.
-    fn report_excluded(&mut self) {
-        let excluded = self.imu.take_excluded();
-        if let Some(&t) = excluded.first() {
-            self.events.push(Event {
-                t_ns: t,
-                kind: EventKind::ImuSamplesExcluded { t_ns: excluded },
-            });
-        }
-        let saturated = self.imu.take_saturated();
-        if saturated > 0 {
-            self.events.push(Event {
-                t_ns: self.imu.newest_t_ns().unwrap_or(0),
-                kind: EventKind::ImuSamplesSaturated { count: saturated },
-            });
-        }
     }
 
     /// Adds a camera frame; returns estimates of frames that became processable (with an IMU,
