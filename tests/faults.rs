@@ -138,3 +138,33 @@ fn healthy_runs_raise_no_alarm() {
         assert!(r.events.iter().all(|e| e.kind != "prior_dropped"), "{name}");
     }
 }
+
+/// A scenario without expectations still fails when the estimator never tracks: mono+IMU on a
+/// circle at constant speed facing along the tangent (the scale is not observable, so the
+/// initialization never passes its gate) gets the default bounds (ATE within
+/// max(0.5 m, 2 % of the path), tracking on half of the frames) and does not pass.
+#[test]
+fn a_run_that_never_tracks_fails_on_the_default_expectations() {
+    let text = scenarios::catalog::get("room_circle_stereo_imu")
+        .expect("catalog")
+        .text;
+    let text = text.replace("suite = \"stereo_imu\"", "suite = \"mono_imu\"");
+    let text = &text[..text.find("[expectations]").expect("has expectations")];
+    let scenario = scenarios::spec::Scenario::parse(
+        "circle_mono_without_expectations",
+        scenarios::spec::Origin::Catalog,
+        text,
+    )
+    .expect("valid");
+    let options = scenarios::run::RunOptions {
+        seed: None,
+        duration_s: Some(20.0),
+    };
+    let output = scenarios::run::run(&scenario, &options, &mut |_| {}).expect("runs");
+    let eval = scenarios::report::evaluate(&output, scenario.spec.suite);
+    let r = scenarios::report::build_report(&scenario, &output, &eval);
+    let metrics: Vec<&str> = r.expectations.iter().map(|e| e.metric).collect();
+    assert_eq!(metrics, ["ate_rmse_m", "tracking_fraction"]);
+    assert_eq!(r.tracking_fraction, 0.0);
+    assert!(!r.passed);
+}

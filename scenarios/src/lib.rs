@@ -19,6 +19,7 @@ pub mod frontend;
 pub mod images;
 pub mod metrics;
 pub mod plot;
+pub mod recovery;
 pub mod report;
 pub mod run;
 pub mod selfcheck;

@@ -47,11 +47,28 @@ use crate::dataset::{self, StampedPose};
 use crate::frontend::FrontendStats;
 use crate::metrics::{self, Alignment, AteResult, MetricsError, RpeOptions, RpeResult};
 use crate::plot::{self, PlotData};
+use crate::recovery;
 use crate::run::{EventKind, RunOutput};
 use crate::spec::{Scenario, SuiteSpec};
 
 /// Pair spacing of the relative pose error: metres of ground-truth path.
 pub const RPE_DELTA_M: f64 = 1.0;
+
+impl Evaluation {
+    /// `(time s, position error m)` of the evaluated frames after the ATE's alignment, in time
+    /// order; empty without an ATE.
+    pub fn position_errors(&self, run: &RunOutput) -> Vec<(f64, f64)> {
+        match &self.ate {
+            Ok(ate) => self
+                .evaluated
+                .iter()
+                .zip(&ate.translation_errors)
+                .map(|(&i, e)| (run.frames[i].estimate.t_ns as f64 * 1e-9, *e))
+                .collect(),
+            Err(_) => Vec::new(),
+        }
+    }
+}
 
 /// Metrics of a run against ground truth.
 #[derive(Clone, Debug)]
@@ -206,6 +223,15 @@ pub struct FaultReport {
     pub start_s: f64,
     /// End (s); `null` for permanent faults.
     pub end_s: Option<f64>,
+    /// Delay (s) from the fault's end to the return of the sensor suite live at its start (0
+    /// when it caused no suite switch; `null` when the suite never came back).
+    pub back_s: Option<f64>,
+    /// Position error (m, aligned as the ATE) of the first tracking frame at the fault's end.
+    pub error_at_end_m: Option<f64>,
+    /// Position error (m) 10 s after the fault's end.
+    pub error_10s_after_m: Option<f64>,
+    /// Resets from the fault's start to 10 s after its end.
+    pub resets: usize,
 }
 
 /// One checked expectation.
@@ -297,6 +323,12 @@ impl Report {
             "suite_switches" => Some(self.suite_switches as f64),
             "imu_samples_excluded" => Some(self.imu_samples_excluded as f64),
             "imu_samples_saturated" => Some(self.imu_samples_saturated as f64),
+            // The slowest return of the full suite over the faults (none if one never did).
+            "recovery_s" => self
+                .faults
+                .iter()
+                .map(|f| f.back_s)
+                .try_fold(0.0f64, |m, b| Some(m.max(b?))),
             "tracking_fraction" => Some(self.tracking_fraction),
             "gyro_bias_error_rad_s" => self.gyro_bias_error_rad_s,
             "accel_bias_error_m_s2" => self.accel_bias_error_m_s2,
@@ -323,7 +355,7 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
             .is_some()
             .then(|| Stats::from_seconds(frames.iter().map(|f| f.timing.render_s))),
     };
-    let events = run
+    let events: Vec<EventReport> = run
         .events
         .iter()
         .map(|e| {
@@ -345,6 +377,12 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
             }
         })
         .collect();
+    let switches: Vec<recovery::Switch<'_>> = events
+        .iter()
+        .filter(|e: &&EventReport| e.kind == "suite_switch")
+        .filter_map(|e| recovery::parse_switch(e.t_s, &e.detail))
+        .collect();
+    let errors = eval.position_errors(run);
     let faults = scenario
         .fault_intervals()
         .into_iter()
@@ -352,6 +390,13 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
             kind,
             start_s: a,
             end_s: b.is_finite().then_some(b),
+            back_s: recovery::back_after(&switches, a, b),
+            error_at_end_m: recovery::error_at(&errors, b),
+            error_10s_after_m: recovery::error_at(&errors, b + recovery::AFTER_S),
+            resets: events
+                .iter()
+                .filter(|e| e.kind == "reset" && e.t_s >= a && e.t_s <= b + recovery::AFTER_S)
+                .count(),
         })
         .collect();
     let mut report = Report {
@@ -388,9 +433,17 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
         passed: true,
         vio_version: env!("CARGO_PKG_VERSION"),
     };
-    report.expectations = spec
-        .expectations
-        .bounds()
+    let mut bounds = spec.expectations.bounds();
+    let path_m: f64 = frames
+        .windows(2)
+        .map(|w| (w[1].truth.pose.p - w[0].truth.pose.p).norm())
+        .sum();
+    for (metric, b) in recovery::default_bounds(path_m) {
+        if bounds.iter().all(|(m, _)| *m != metric) {
+            bounds.push((metric, b));
+        }
+    }
+    report.expectations = bounds
         .into_iter()
         .map(|(metric, b)| {
             let value = report.metric(metric);
@@ -493,8 +546,27 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
         "sensors       {} suite switches, {} IMU samples excluded as spikes, {} saturated",
         r.suite_switches, r.imu_samples_excluded, r.imu_samples_saturated
     );
-    for e in r.events.iter().filter(|e| e.kind == "suite_switch") {
-        let _ = writeln!(s, "  {:>8.2} s   {}", e.t_s, e.detail);
+    for e in r
+        .events
+        .iter()
+        .filter(|e| e.kind == "suite_switch" || e.kind == "reset")
+    {
+        let _ = writeln!(s, "  {:>8.2} s   {} {}", e.t_s, e.kind, e.detail);
+    }
+    for f in &r.faults {
+        let end = f.end_s.map_or("on".to_string(), |e| format!("{e:.2} s"));
+        let back = f
+            .back_s
+            .map_or("never".to_string(), |b| format!("after {b:.2} s"));
+        let _ = writeln!(
+            s,
+            "fault         {} {:.2} s – {end}: suite back {back}, error {} at the end, {} 10 s later, {} resets",
+            f.kind,
+            f.start_s,
+            opt(f.error_at_end_m, 4, " m"),
+            opt(f.error_10s_after_m, 4, " m"),
+            f.resets
+        );
     }
     if r.expectations.is_empty() {
         let _ = writeln!(s, "expectations  none");
@@ -542,26 +614,21 @@ pub fn plot_data(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> Plo
         .collect();
     // Without an alignment (too few or degenerate positions) there is no estimate to draw in the
     // ground truth's frame, and no error.
-    let (est, errors) = match &eval.ate {
-        Ok(ate) => (
-            eval.evaluated
-                .iter()
-                .map(|&i| {
-                    let p = ate
-                        .alignment
-                        .transform_pose(&run.frames[i].estimate.T_w_b)
-                        .p;
-                    (p.x, p.y)
-                })
-                .collect(),
-            eval.evaluated
-                .iter()
-                .zip(&ate.translation_errors)
-                .map(|(&i, e)| (run.frames[i].estimate.t_ns as f64 * 1e-9, *e))
-                .collect(),
-        ),
-        Err(_) => (Vec::new(), Vec::new()),
+    let est = match &eval.ate {
+        Ok(ate) => eval
+            .evaluated
+            .iter()
+            .map(|&i| {
+                let p = ate
+                    .alignment
+                    .transform_pose(&run.frames[i].estimate.T_w_b)
+                    .p;
+                (p.x, p.y)
+            })
+            .collect(),
+        Err(_) => Vec::new(),
     };
+    let errors = eval.position_errors(run);
     let tracking_from_s = eval
         .evaluated
         .first()

@@ -666,6 +666,8 @@ pub struct ExpectationsSpec {
     pub imu_samples_excluded: Option<Bound>,
     /// IMU samples on the sensor's range.
     pub imu_samples_saturated: Option<Bound>,
+    /// The slowest return (s) of the full sensor suite after a fault's end.
+    pub recovery_s: Option<Bound>,
     /// Fraction of processed frames in tracking state.
     pub tracking_fraction: Option<Bound>,
     /// Final gyroscope bias error (rad/s).
@@ -695,6 +697,7 @@ impl ExpectationsSpec {
             ("suite_switches", self.suite_switches),
             ("imu_samples_excluded", self.imu_samples_excluded),
             ("imu_samples_saturated", self.imu_samples_saturated),
+            ("recovery_s", self.recovery_s),
             ("tracking_fraction", self.tracking_fraction),
             ("gyro_bias_error_rad_s", self.gyro_bias_error_rad_s),
             ("accel_bias_error_m_s2", self.accel_bias_error_m_s2),

@@ -1,0 +1,102 @@
+//! Recovery metrics of a fault (how long until the full sensor suite is back, the position error
+//! when the fault ends and 10 s later) and the default expectations that keep a diverged run
+//! from passing.
+
+use crate::spec::Bound;
+
+/// Seconds after a fault's end at which the second position error is taken.
+pub const AFTER_S: f64 = 10.0;
+
+/// A suite switch as the report lists it: time and the live suites before and after.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Switch<'a> {
+    /// Time (s).
+    pub t_s: f64,
+    /// Live suite before.
+    pub from: &'a str,
+    /// Live suite after.
+    pub to: &'a str,
+}
+
+/// Parses a report `suite_switch` detail, `"from -> to (reason)"`.
+pub fn parse_switch(t_s: f64, detail: &str) -> Option<Switch<'_>> {
+    let (from, rest) = detail.split_once(" -> ")?;
+    let to = rest.split(" (").next()?;
+    Some(Switch { t_s, from, to })
+}
+
+/// Delay (s) from the end of the fault `[start_s, end_s)` to the return of the suite that was
+/// live when it started, judged on the switches from its start to `AFTER_S` after its end:
+/// `Some(0)` when the fault caused none, `None` when that suite did not come back (always for a
+/// permanent fault, `end_s` infinite, that caused a switch). `switches` in time order.
+pub fn back_after(switches: &[Switch<'_>], start_s: f64, end_s: f64) -> Option<f64> {
+    let mut within = switches
+        .iter()
+        .filter(|s| s.t_s >= start_s && s.t_s <= end_s + AFTER_S);
+    let Some(first) = within.next() else {
+        return Some(0.0);
+    };
+    std::iter::once(first)
+        .chain(within)
+        .find(|s| s.to == first.from)
+        .map(|s| (s.t_s - end_s).max(0.0))
+}
+
+/// The error of the first evaluated frame at or after `t_s` (within 1 s): `errors` are
+/// `(time s, error m)` in time order.
+pub fn error_at(errors: &[(f64, f64)], t_s: f64) -> Option<f64> {
+    errors
+        .iter()
+        .find(|(t, _)| *t >= t_s && *t < t_s + 1.0)
+        .map(|(_, e)| *e)
+}
+
+/// The default bounds of a scenario that sets none of its own on these metrics: the ATE within
+/// `max(0.5 m, 2 % of the ground-truth path)` and tracking on at least half of the frames. They
+/// catch divergence (metres of error, a lost track), not precision; a scenario states its own
+/// bounds for that.
+pub fn default_bounds(path_length_m: f64) -> [(&'static str, Bound); 2] {
+    [
+        (
+            "ate_rmse_m",
+            Bound {
+                min: None,
+                max: Some((0.02 * path_length_m).max(0.5)),
+            },
+        ),
+        (
+            "tracking_fraction",
+            Bound {
+                min: Some(0.5),
+                max: None,
+            },
+        ),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn recovery_delay_follows_the_switches() {
+        let s = |t, from, to| Switch { t_s: t, from, to };
+        let blackout = [
+            s(20.46, "stereo_imu", "imu_only"),
+            s(22.0, "imu_only", "stereo_imu"),
+        ];
+        assert_eq!(back_after(&blackout, 20.0, 22.0), Some(0.0));
+        assert_eq!(back_after(&blackout, 20.0, 21.5), Some(0.5));
+        // No switch at all: nothing to recover from.
+        assert_eq!(back_after(&[], 20.0, 22.0), Some(0.0));
+        // A dead camera never comes back.
+        let death = [s(20.46, "stereo_imu", "mono_imu(cam1)")];
+        assert_eq!(back_after(&death, 20.0, f64::INFINITY), None);
+        assert_eq!(
+            parse_switch(1.0, "stereo_imu -> stereo (IMU silent)"),
+            Some(s(1.0, "stereo_imu", "stereo"))
+        );
+        assert_eq!(error_at(&[(1.0, 0.1), (2.0, 0.2)], 1.5), Some(0.2));
+        assert_eq!(error_at(&[(1.0, 0.1)], 5.0), None);
+    }
+}
