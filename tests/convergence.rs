@@ -12,19 +12,38 @@ use common::run_catalog;
 /// Shortened duration of the default test run (s).
 const SHORT_S: f64 = 20.0;
 
-/// Asserts the position ATE of a shortened stereo+IMU run and that it tracked almost throughout.
-fn assert_converges(name: &str, max_ate_m: f64) {
-    let d = run_catalog(name, Some(SHORT_S));
+/// What a convergence run must show: its suite, the least fraction of tracking frames (the
+/// rest initializing) and the largest position ATE.
+struct Converges {
+    suite: &'static str,
+    min_tracking: f64,
+    max_ate_m: f64,
+}
+
+/// Runs `name` for `duration_s` (None: its full length) and asserts `want`, and no reset.
+fn assert_run_converges(name: &str, duration_s: Option<f64>, want: Converges) {
+    let d = run_catalog(name, duration_s);
     let r = &d.report;
-    assert_eq!(r.suite, "stereo_imu");
+    assert_eq!(r.suite, want.suite);
     assert!(
-        r.tracking_fraction > 0.9,
+        r.tracking_fraction > want.min_tracking,
         "{name}: tracking only {:.1} % of frames",
         100.0 * r.tracking_fraction
     );
     let ate = r.ate_rmse_m.expect("tracking frames");
-    assert!(ate < max_ate_m, "{name}: ATE {ate:.4} m ≥ {max_ate_m} m");
+    let max = want.max_ate_m;
+    assert!(ate < max, "{name}: ATE {ate:.4} m ≥ {max} m");
     assert_eq!(r.resets, 0);
+}
+
+/// Asserts the position ATE of a shortened stereo+IMU run and that it tracked almost throughout.
+fn assert_converges(name: &str, max_ate_m: f64) {
+    let want = Converges {
+        suite: "stereo_imu",
+        min_tracking: 0.9,
+        max_ate_m,
+    };
+    assert_run_converges(name, Some(SHORT_S), want);
 }
 
 #[test]
@@ -50,17 +69,12 @@ fn stereo_imu_converges_on_euroc_v2_02_replay() {
 /// ATE stays within 0.02 m (measured: initialized at 3.2 s, ATE 0.0094 m).
 #[test]
 fn mono_imu_initializes_and_converges_on_euroc_v2_02_replay() {
-    let d = run_catalog("room_replay_v2_02_mono_imu", None);
-    let r = &d.report;
-    assert_eq!(r.suite, "mono_imu");
-    assert!(
-        r.tracking_fraction > 0.8,
-        "tracking {:.3}",
-        r.tracking_fraction
-    );
-    let ate = r.ate_rmse_m.expect("tracking frames");
-    assert!(ate < 0.02, "ATE {ate:.4} m");
-    assert_eq!(r.resets, 0);
+    let want = Converges {
+        suite: "mono_imu",
+        min_tracking: 0.8,
+        max_ate_m: 0.02,
+    };
+    assert_run_converges("room_replay_v2_02_mono_imu", None, want);
 }
 
 /// Mono+IMU on the first 20 s of the default figure-eight (seed 1): the scale gate passes
@@ -68,17 +82,12 @@ fn mono_imu_initializes_and_converges_on_euroc_v2_02_replay() {
 /// (measured 0.0335 m).
 #[test]
 fn mono_imu_initializes_and_converges_on_room_figure8() {
-    let d = run_catalog("room_figure8_mono_imu", Some(SHORT_S));
-    let r = &d.report;
-    assert_eq!(r.suite, "mono_imu");
-    assert!(
-        r.tracking_fraction > 0.75,
-        "tracking {:.3}",
-        r.tracking_fraction
-    );
-    let ate = r.ate_rmse_m.expect("tracking frames");
-    assert!(ate < 0.05, "ATE {ate:.4} m");
-    assert_eq!(r.resets, 0);
+    let want = Converges {
+        suite: "mono_imu",
+        min_tracking: 0.75,
+        max_ate_m: 0.05,
+    };
+    assert_run_converges("room_figure8_mono_imu", Some(SHORT_S), want);
 }
 
 #[test]

@@ -7,7 +7,7 @@ use crate::spec::Bound;
 /// Seconds after a fault's end at which the second position error is taken.
 pub const AFTER_S: f64 = 10.0;
 
-/// A suite switch as the report lists it: time and the live suites before and after.
+/// A suite switch of the run: time and the live suites before and after.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Switch<'a> {
     /// Time (s).
@@ -16,13 +16,6 @@ pub struct Switch<'a> {
     pub from: &'a str,
     /// Live suite after.
     pub to: &'a str,
-}
-
-/// Parses a report `suite_switch` detail, `"from -> to (reason)"`.
-pub fn parse_switch(t_s: f64, detail: &str) -> Option<Switch<'_>> {
-    let (from, rest) = detail.split_once(" -> ")?;
-    let to = rest.split(" (").next()?;
-    Some(Switch { t_s, from, to })
 }
 
 /// Delay (s) from the end of the fault `[start_s, end_s)` to the return of the suite that was
@@ -92,10 +85,6 @@ mod tests {
         // A dead camera never comes back.
         let death = [s(20.46, "stereo_imu", "mono_imu(cam1)")];
         assert_eq!(back_after(&death, 20.0, f64::INFINITY), None);
-        assert_eq!(
-            parse_switch(1.0, "stereo_imu -> stereo (IMU silent)"),
-            Some(s(1.0, "stereo_imu", "stereo"))
-        );
         assert_eq!(error_at(&[(1.0, 0.1), (2.0, 0.2)], 1.5), Some(0.2));
         assert_eq!(error_at(&[(1.0, 0.1)], 5.0), None);
     }

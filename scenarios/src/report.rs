@@ -355,7 +355,7 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
             .is_some()
             .then(|| Stats::from_seconds(frames.iter().map(|f| f.timing.render_s))),
     };
-    let events: Vec<EventReport> = run
+    let events = run
         .events
         .iter()
         .map(|e| {
@@ -377,10 +377,17 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
             }
         })
         .collect();
-    let switches: Vec<recovery::Switch<'_>> = events
+    let switches: Vec<recovery::Switch<'_>> = run
+        .events
         .iter()
-        .filter(|e: &&EventReport| e.kind == "suite_switch")
-        .filter_map(|e| recovery::parse_switch(e.t_s, &e.detail))
+        .filter_map(|e| match &e.kind {
+            EventKind::SuiteSwitch { from, to, .. } => Some(recovery::Switch {
+                t_s: e.t_ns as f64 * 1e-9,
+                from,
+                to,
+            }),
+            _ => None,
+        })
         .collect();
     let errors = eval.position_errors(run);
     let faults = scenario
@@ -393,9 +400,11 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
             back_s: recovery::back_after(&switches, a, b),
             error_at_end_m: recovery::error_at(&errors, b),
             error_10s_after_m: recovery::error_at(&errors, b + recovery::AFTER_S),
-            resets: events
+            resets: run
+                .events
                 .iter()
-                .filter(|e| e.kind == "reset" && e.t_s >= a && e.t_s <= b + recovery::AFTER_S)
+                .filter(|e| matches!(e.kind, EventKind::Reset { .. }))
+                .filter(|e| (a..=b + recovery::AFTER_S).contains(&(e.t_ns as f64 * 1e-9)))
                 .count(),
         })
         .collect();

@@ -6,6 +6,8 @@
 
 use std::fmt;
 
+use nalgebra::Vector3;
+
 use super::events::{Event, EventKind};
 use super::window::{Window, WindowFrame};
 use super::{Estimator, KnownStart, Status};
@@ -25,6 +27,20 @@ pub struct HealthLimits {
     /// Largest angle between the newest frame's predicted and solved attitudes (deg;
     /// VINS-Fusion: 50°).
     pub max_rotation_jump_deg: f64,
+}
+
+impl HealthLimits {
+    /// The failure the biases `(ba, bg)` show, if any.
+    fn bias_failure(&self, ba: &Vector3<f64>, bg: &Vector3<f64>) -> Option<FailureReason> {
+        let (ba, bg) = (ba.norm(), bg.norm());
+        if ba > self.max_accel_bias_m_s2 {
+            Some(FailureReason::AccelBias(ba))
+        } else if bg > self.max_gyro_bias_rad_s {
+            Some(FailureReason::GyroBias(bg))
+        } else {
+            None
+        }
+    }
 }
 
 impl Default for HealthLimits {
@@ -87,14 +103,8 @@ pub(super) fn check_window(
         return Some(FailureReason::NonFinite);
     }
     let newest = window.frames.back()?;
-    if imu {
-        let (ba, bg) = (newest.ba.norm(), newest.bg.norm());
-        if ba > limits.max_accel_bias_m_s2 {
-            return Some(FailureReason::AccelBias(ba));
-        }
-        if bg > limits.max_gyro_bias_rad_s {
-            return Some(FailureReason::GyroBias(bg));
-        }
+    if imu && let Some(failure) = limits.bias_failure(&newest.ba, &newest.bg) {
+        return Some(failure);
     }
     let jump = (newest.pose.p - predicted.p).norm();
     if jump > limits.max_jump_m {
@@ -176,10 +186,12 @@ impl Estimator {
         self.status = Status::Initializing;
         if let Some(good) = self.last_good.take() {
             let uses_imu = self.config.suite.uses_imu();
-            let limits = &self.config.health;
-            let plausible = good.ba.norm() <= limits.max_accel_bias_m_s2
-                && good.bg.norm() <= limits.max_gyro_bias_rad_s;
-            let zero = nalgebra::Vector3::zeros();
+            let plausible = self
+                .config
+                .health
+                .bias_failure(&good.ba, &good.bg)
+                .is_none();
+            let zero = Vector3::zeros();
             self.known_start = Some(KnownStart {
                 pose: good.pose,
                 v: good.v,
@@ -198,7 +210,7 @@ impl Estimator {
 mod tests {
     use super::*;
     use crate::problem::Termination;
-    use nalgebra::{UnitQuaternion, Vector3};
+    use nalgebra::UnitQuaternion;
     use std::collections::VecDeque;
 
     fn window_with(newest: WindowFrame) -> Window {

@@ -465,7 +465,17 @@ impl Estimator {
             }
         }
         self.last_frame_t = Some(t_ns);
-        let predicted = wf.clone();
+        // The predicted state, without its IMU interval (for the health check and the estimate
+        // of a frame whose solve fails it).
+        let predicted = WindowFrame {
+            seq,
+            t_ns,
+            pose: wf.pose,
+            v: wf.v,
+            ba: wf.ba,
+            bg: wf.bg,
+            preint: None,
+        };
 
         // 2. Observations.
         let observations = self.observations(&frame, seq, t_ns);

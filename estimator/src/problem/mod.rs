@@ -1,6 +1,7 @@
 //! The nonlinear least-squares problem: parameter-block manifolds, factors, robust losses, the
-//! shared Jacobian checker, the solver and marginalization.
+//! shared Jacobian checker, the solver, marginalization and marginal covariances.
 
+mod covariance;
 mod factor;
 pub mod gradient_check;
 mod graph;
@@ -9,6 +10,7 @@ mod manifold;
 pub mod marginalization;
 pub mod solver;
 
+pub use covariance::marginal_covariance;
 pub use factor::{Factor, rotation_matrix, write_row_major};
 pub use gradient_check::{CheckError, CheckOptions, check_factor_jacobians};
 pub use graph::{BlockId, BlockKind, Problem, ProblemError, ResidualId};

@@ -12,10 +12,9 @@ use super::five_point::relative_pose_ransac;
 use crate::estimator::triangulation::triangulate;
 use crate::factors::{FeatureMeasurement, PointProjection, PriorFactor};
 use crate::geometry::{Pose, skew, so3_exp};
-use crate::problem::solver::dense_normal_equations;
 use crate::problem::{
     BlockId, BlockKind, Euclidean, HuberLoss, LossFunction, PoseManifold, Problem, SolverOptions,
-    solve,
+    marginal_covariance, solve,
 };
 
 /// Fewest correspondences between the reference frame and the newest frame.
@@ -332,41 +331,14 @@ fn bundle_adjust(
     if !out.iter().all(|p| p.p.iter().all(|v| v.is_finite())) {
         return None;
     }
-    let cov = position_covariance(&problem, &ids)?;
-    Some((out, cov))
-}
-
-/// The joint covariance of the position coordinates of the pose blocks `ids` (3 per block,
-/// zero rows for constant blocks): the matching part of the inverse Gauss-Newton information
-/// of the whole problem (landmarks included). `None` if it is not positive definite.
-fn position_covariance(problem: &Problem, ids: &[BlockId]) -> Option<DMatrix<f64>> {
-    let (h, _, blocks) = dense_normal_equations(problem)?;
-    let mut offsets = Vec::with_capacity(blocks.len());
-    let mut at = 0;
-    for b in &blocks {
-        offsets.push(at);
-        at += problem.manifold(*b).tangent_size();
-    }
-    // (row in the output, column in H) for every free position coordinate.
-    let picks: Vec<(usize, usize)> = ids
+    // The position coordinates (the first three of the pose tangent) of every frame; the
+    // constant reference frame's rows are zero.
+    let coords: Vec<(BlockId, usize)> = ids
         .iter()
-        .enumerate()
-        .filter_map(|(k, id)| Some((k, offsets[blocks.iter().position(|b| b == id)?])))
-        .flat_map(|(k, o)| (0..3).map(move |i| (3 * k + i, o + i)))
+        .flat_map(|&id| (0..3).map(move |i| (id, i)))
         .collect();
-    let chol = h.cholesky()?;
-    let mut e = DMatrix::zeros(at, picks.len());
-    for (j, &(_, c)) in picks.iter().enumerate() {
-        e[(c, j)] = 1.0;
-    }
-    let x = chol.solve(&e);
-    let mut cov = DMatrix::zeros(3 * ids.len(), 3 * ids.len());
-    for (i, &(ri, ci)) in picks.iter().enumerate() {
-        for (j, &(rj, _)) in picks.iter().enumerate() {
-            cov[(ri, rj)] = 0.5 * (x[(ci, j)] + x[(picks[j].1, i)]);
-        }
-    }
-    Some(cov)
+    let cov = marginal_covariance(&problem, &coords)?;
+    Some((out, cov))
 }
 
 #[cfg(test)]
