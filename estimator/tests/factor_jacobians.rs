@@ -7,13 +7,13 @@ use std::sync::Arc;
 
 use common::{pose, rotation, small_rotation, vec3};
 use estimator::factors::{
-    FeatureMeasurement, ImuFactor, PointProjection, PriorFactor, ProjectionOneFrameTwoCam,
+    FeatureMeasurement, ImuFactor, PointProjection, ProjectionOneFrameTwoCam,
     ProjectionTwoFrameOneCam, ProjectionTwoFrameTwoCam,
 };
 use estimator::geometry::Pose;
 use estimator::imu::{ImuNoise, ImuSample, Preintegration};
 use estimator::problem::{
-    CheckOptions, Euclidean, Factor, Manifold, PoseManifold, QuaternionManifold,
+    CheckOptions, Euclidean, Factor, Manifold, PoseManifold, PriorFactor, QuaternionManifold,
     check_factor_jacobians,
 };
 use nalgebra::{Vector2, Vector3};

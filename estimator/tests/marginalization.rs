@@ -4,11 +4,10 @@
 
 use std::sync::Arc;
 
-use estimator::factors::LinearFactor;
 use estimator::problem::marginalization::{MarginalizationOptions, marginalize};
 use estimator::problem::solver::dense_normal_equations;
 use estimator::problem::{
-    BlockId, BlockKind, Euclidean, Factor, Problem, ResidualId, SolverOptions, solve,
+    BlockId, BlockKind, Euclidean, Factor, LinearFactor, Problem, ResidualId, SolverOptions, solve,
 };
 use nalgebra::DMatrix;
 use rand::{RngExt, SeedableRng};

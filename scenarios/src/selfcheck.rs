@@ -5,13 +5,13 @@ use std::fmt::Write as _;
 use std::sync::Arc;
 
 use estimator::factors::{
-    FeatureMeasurement, ImuFactor, PriorFactor, ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam,
+    FeatureMeasurement, ImuFactor, ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam,
     ProjectionTwoFrameTwoCam,
 };
 use estimator::geometry::{Pose, so3_exp};
 use estimator::imu::{ImuNoise, ImuSample, Preintegration};
 use estimator::problem::{
-    CheckOptions, Euclidean, Factor, Manifold, PoseManifold, check_factor_jacobians,
+    CheckOptions, Euclidean, Factor, Manifold, PoseManifold, PriorFactor, check_factor_jacobians,
 };
 use nalgebra::{Vector2, Vector3};
 

@@ -13,13 +13,13 @@ use nalgebra::Vector3;
 use super::config::EstimatorConfig;
 use super::features::FeatureManager;
 use crate::factors::{
-    ImuFactor, LinearFactor, PriorFactor, ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam,
-    ProjectionTwoFrameTwoCam,
+    ImuFactor, ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam, ProjectionTwoFrameTwoCam,
 };
 use crate::geometry::Pose;
 use crate::imu::{ImuNoise, Preintegration};
 use crate::problem::{
-    BlockId, BlockKind, Euclidean, Factor, LossFunction, PoseManifold, Problem, ResidualId,
+    BlockId, BlockKind, Euclidean, Factor, LinearFactor, LossFunction, PoseManifold, PriorFactor,
+    Problem, ResidualId,
 };
 
 /// A frame's state in the window.

@@ -19,8 +19,8 @@ use std::sync::Arc;
 use nalgebra::{DMatrix, SymmetricEigen};
 
 use super::graph::{BlockId, BlockKind, Problem, ResidualId};
-use super::solver::{Layout, SchurScratch, linearize, mirror_upper};
-use crate::factors::{PriorError, PriorFactor};
+use super::prior::{PriorError, PriorFactor};
+use super::solver::schur_complement_system;
 use crate::problem::Manifold;
 
 /// Errors from [`marginalize`].
@@ -88,69 +88,36 @@ pub fn marginalize(
         }
         removing[b.0] = true;
     }
-    // Layout: removed states first, then kept blocks (kept landmarks join the dense part);
-    // removed landmarks are eliminated per block.
-    let mut state_offset = vec![usize::MAX; nblocks];
-    let mut landmark_slot = vec![usize::MAX; nblocks];
-    let (mut landmarks, mut landmark_offset) = (Vec::new(), Vec::new());
-    let (mut n, mut nl) = (0, 0);
-    for (i, b) in problem.blocks.iter().enumerate() {
-        if removing[i] && b.kind == BlockKind::Landmark {
-            landmark_slot[i] = landmarks.len();
-            landmarks.push(i);
-            landmark_offset.push(nl);
-            nl += b.manifold.tangent_size();
-        } else if removing[i] {
-            state_offset[i] = n;
-            n += b.manifold.tangent_size();
-        }
-    }
-    let nm = n;
-    let mut kept = Vec::new();
-    for (i, b) in problem.blocks.iter().enumerate() {
-        if touched[i] && !removing[i] && !b.constant {
-            state_offset[i] = n;
-            n += b.manifold.tangent_size();
-            kept.push(BlockId(i));
-        }
-    }
-    let layout = Layout {
-        state_offset,
-        landmark_slot,
-        landmarks,
-        landmark_offset,
-        n,
-        n_landmark: nl,
-    };
-    let ids: Vec<usize> = residual_ids.iter().map(|r| r.0).collect();
-    let eqs = linearize(problem, &layout, Some(&ids)).ok_or(MarginalizationError::Evaluation)?;
-
-    // 2. Landmark Schur complement (no damping), on the right-hand side −g.
-    let mut h = eqs.hxx.clone();
-    let mut neg_g: Vec<f64> = eqs.gx.iter().map(|v| -v).collect();
-    let mut cinv = vec![0.0; eqs.hll.len()];
-    let mut valid = vec![false; eqs.num_landmarks()];
-    eqs.eliminate(
-        0.0,
-        0.0,
-        &mut h,
-        &mut neg_g,
-        &mut cinv,
-        &mut valid,
-        true,
-        &mut SchurScratch::default(),
-    );
-    let g: Vec<f64> = neg_g.iter().map(|v| -v).collect();
-    mirror_upper(&mut h, n);
+    // Removed states first, then the kept blocks (kept landmarks join the dense part);
+    // removed landmarks are eliminated by the Schur complement.
+    let is_lm = |i: usize| problem.blocks[i].kind == BlockKind::Landmark;
+    let removed_landmarks: Vec<BlockId> = (0..nblocks)
+        .filter(|&i| removing[i] && is_lm(i))
+        .map(BlockId)
+        .collect();
+    let mut states: Vec<BlockId> = (0..nblocks)
+        .filter(|&i| removing[i] && !is_lm(i))
+        .map(BlockId)
+        .collect();
+    let kept: Vec<BlockId> = (0..nblocks)
+        .filter(|&i| touched[i] && !removing[i] && !problem.blocks[i].constant)
+        .map(BlockId)
+        .collect();
+    let tangent = |b: &BlockId| problem.blocks[b.0].manifold.tangent_size();
+    let nm: usize = states.iter().map(tangent).sum();
+    states.extend_from_slice(&kept);
+    // 1–2. Linearize and fold in the removed landmarks.
+    let (hm, g) = schur_complement_system(problem, residual_ids, &states, &removed_landmarks)
+        .ok_or(MarginalizationError::Evaluation)?;
+    let n = hm.nrows();
 
     // 3. Remove the state blocks with an eigen-thresholded pseudo-inverse.
     let nk = n - nm;
-    let hm = DMatrix::from_row_slice(n, n, &h);
     let hmm = hm.view((0, 0), (nm, nm)).into_owned();
     let hmk = hm.view((0, nm), (nm, nk)).into_owned();
     let hkk = hm.view((nm, nm), (nk, nk)).into_owned();
-    let gm = nalgebra::DVector::from_column_slice(&g[..nm]);
-    let gk = nalgebra::DVector::from_column_slice(&g[nm..]);
+    let gm = g.rows(0, nm).into_owned();
+    let gk = g.rows(nm, nk).into_owned();
     let (h_star, g_star) = if nm > 0 {
         let eig = SymmetricEigen::new(0.5 * (&hmm + hmm.transpose()));
         let inv_vals = eig.eigenvalues.map(|v| {

@@ -5,15 +5,21 @@ mod covariance;
 mod factor;
 pub mod gradient_check;
 mod graph;
+mod linear_factor;
 mod loss;
 mod manifold;
 pub mod marginalization;
+mod prior;
 pub mod solver;
 
 pub use covariance::marginal_covariance;
 pub use factor::{Factor, rotation_matrix, write_row_major};
 pub use gradient_check::{CheckError, CheckOptions, check_factor_jacobians};
 pub use graph::{BlockId, BlockKind, Problem, ProblemError, ResidualId};
+pub use linear_factor::LinearFactor;
 pub use loss::{CauchyLoss, HuberLoss, LossFunction, apply_loss};
 pub use manifold::{Euclidean, Manifold, PoseManifold, QuaternionManifold};
-pub use solver::{Method, SolverOptions, SolverSummary, Termination, solve};
+pub use prior::{PriorError, PriorFactor};
+pub use solver::{
+    Method, SolverOptions, SolverSummary, Termination, schur_complement_system, solve,
+};

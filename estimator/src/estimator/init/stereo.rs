@@ -8,9 +8,8 @@ use super::alignment::{align_velocities_and_gravity, estimate_gyro_bias};
 use super::{repropagate, set_gravity_aligned, window_intervals};
 use crate::estimator::config::EstimatorConfig;
 use crate::estimator::window::{BlockRef, Prior, Window, WindowFrame};
-use crate::factors::PriorFactor;
 use crate::geometry::Pose;
-use crate::problem::{Euclidean, PoseManifold};
+use crate::problem::{Euclidean, PoseManifold, PriorFactor};
 
 /// Aligns the visually solved window with the IMU: the gyroscope bias from the visual rotations,
 /// then velocities and gravity by linear alignment; the world is rotated so that gravity is −z

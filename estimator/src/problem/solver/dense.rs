@@ -1,0 +1,79 @@
+//! Dense linear algebra of the solver: the Cholesky solve of the reduced system (faer) and,
+//! for analysis and tests, the full dense normal equations of a problem.
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt;
+use faer::reborrow::{Reborrow, ReborrowMut};
+use faer::{MatMut, Par};
+use nalgebra::{DMatrix, DVector};
+
+use super::normal_equations::linearize;
+use super::plan::{Layout, NONE};
+use crate::problem::graph::{BlockId, Problem};
+
+/// Solves `A x = b` in place for a symmetric positive-definite row-major `n × n` matrix by
+/// faer's blocked Cholesky factorization (single-threaded: `Par::Seq`), overwriting `a` with
+/// the factor. The row-major buffer of a symmetric matrix is also its column-major buffer.
+/// `false` if `A` is not positive definite.
+pub(crate) fn dense_cholesky_solve(
+    a: &mut [f64],
+    n: usize,
+    b: &mut [f64],
+    scratch: &mut Option<(usize, MemBuffer)>,
+) -> bool {
+    if n == 0 {
+        return true;
+    }
+    if scratch.as_ref().is_none_or(|(m, _)| *m != n) {
+        let req = llt::factor::cholesky_in_place_scratch::<f64>(n, Par::Seq, Default::default())
+            .or(llt::solve::solve_in_place_scratch::<f64>(n, 1, Par::Seq));
+        *scratch = Some((n, MemBuffer::new(req)));
+    }
+    let buf = &mut scratch.as_mut().expect("allocated above").1;
+    let stack = MemStack::new(buf);
+    let mut l = MatMut::from_column_major_slice_mut(a, n, n);
+    if llt::factor::cholesky_in_place(
+        l.rb_mut(),
+        Default::default(),
+        Par::Seq,
+        stack,
+        Default::default(),
+    )
+    .is_err()
+    {
+        return false;
+    }
+    let rhs = MatMut::from_column_major_slice_mut(b, n, 1);
+    llt::solve::solve_in_place(l.rb(), rhs, Par::Seq, MemStack::new(buf));
+    true
+}
+
+/// The full normal equations `H = Σ JᵀJ`, `g = Σ Jᵀr` at the current values with every variable
+/// block (landmarks included) in one dense system, in block-id order. Returns `(H, g, blocks)`,
+/// where `blocks` lists the variable blocks in the order of their tangent coordinates. For
+/// analysis and tests (gauge freedoms, consistency); the solver itself never forms this matrix.
+pub fn dense_normal_equations(
+    problem: &Problem,
+) -> Option<(DMatrix<f64>, DVector<f64>, Vec<BlockId>)> {
+    let mut layout = Layout::new(problem);
+    let mut n = 0;
+    let mut blocks = Vec::new();
+    for (i, b) in problem.blocks.iter().enumerate() {
+        if layout.state_offset[i] != NONE || layout.landmark_slot[i] != NONE {
+            layout.state_offset[i] = n;
+            layout.landmark_slot[i] = NONE;
+            n += b.manifold.tangent_size();
+            blocks.push(BlockId(i));
+        }
+    }
+    layout.n = n;
+    layout.landmarks.clear();
+    layout.landmark_offset.clear();
+    layout.n_landmark = 0;
+    let eqs = linearize(problem, &layout, None)?;
+    Some((
+        DMatrix::from_row_slice(n, n, &eqs.hxx),
+        DVector::from_vec(eqs.gx),
+        blocks,
+    ))
+}

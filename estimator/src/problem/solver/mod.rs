@@ -1,0 +1,432 @@
+//! Levenberg–Marquardt and Powell's dogleg on the manifold, with landmark blocks eliminated by
+//! the Schur complement and the reduced system solved by dense Cholesky (faer's LLT).
+//!
+//! A solve plans its normal equations once (`NormalEquations::new`: residuals grouped by
+//! landmark, the landmark–state coupling blocks `H_xl` laid out in one buffer) and every
+//! linearization refills the same buffers. Rotation matrices of pose blocks are computed once
+//! per evaluation pass and handed to the factors (`Factor::evaluate_with_rotations`).
+//!
+//! Everything is deterministic: blocks are visited in id order, no threads (faer runs with
+//! `Par::Seq`), and stopping is decided by iteration count, cost change, gradient and step size
+//! — never by wall-clock time. Timing is measured for reports only.
+
+mod dense;
+mod normal_equations;
+mod plan;
+mod schur;
+
+use std::time::{Duration, Instant};
+
+pub use dense::dense_normal_equations;
+use normal_equations::NormalEquations;
+pub(crate) use plan::{Layout, NONE};
+pub use schur::schur_complement_system;
+pub(crate) use schur::{ReducedSystem, Step};
+
+use super::graph::Problem;
+
+/// Which trust-region strategy to use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Levenberg–Marquardt with Ceres-style Jacobi damping `λ·diag(JᵀJ)`.
+    LevenbergMarquardt,
+    /// Powell's dogleg between the Cauchy point and the Gauss–Newton step.
+    Dogleg,
+}
+
+/// Solver settings. Stop criteria are all relative or absolute tolerances and an iteration
+/// cap, never time.
+#[derive(Clone, Copy, Debug)]
+pub struct SolverOptions {
+    /// Trust-region strategy.
+    pub method: Method,
+    /// Maximum number of iterations (linearizations).
+    pub max_iterations: usize,
+    /// Stop when `|Δcost| / cost` of an accepted step falls below this.
+    pub function_tolerance: f64,
+    /// Stop when `max |g|` falls below this.
+    pub gradient_tolerance: f64,
+    /// Stop when `‖δ‖ ≤ tol · (‖x‖ + tol)`.
+    pub parameter_tolerance: f64,
+    /// Initial trust radius (LM: `λ = 1/radius`).
+    pub initial_trust_radius: f64,
+    /// Clamp of the Jacobi scaling `diag(JᵀJ)` from below.
+    pub min_diagonal: f64,
+}
+
+impl Default for SolverOptions {
+    fn default() -> Self {
+        Self {
+            method: Method::LevenbergMarquardt,
+            max_iterations: 10,
+            function_tolerance: 1e-6,
+            gradient_tolerance: 1e-10,
+            parameter_tolerance: 1e-8,
+            initial_trust_radius: 1e4,
+            min_diagonal: 1e-6,
+        }
+    }
+}
+
+/// Why the solver stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Termination {
+    /// A tolerance was met.
+    Converged,
+    /// The iteration cap was reached.
+    MaxIterations,
+    /// No step could reduce the cost (trust region collapsed or factorization kept failing).
+    NoProgress,
+    /// The initial point could not be evaluated.
+    InvalidInitialPoint,
+    /// There was nothing to optimize.
+    NothingToDo,
+}
+
+/// Statistics of one solve, for logs and timing reports.
+#[derive(Clone, Copy, Debug)]
+pub struct SolverSummary {
+    /// Linearizations performed.
+    pub iterations: usize,
+    /// Accepted steps.
+    pub successful_steps: usize,
+    /// `½ Σ ρ` before.
+    pub initial_cost: f64,
+    /// `½ Σ ρ` after.
+    pub final_cost: f64,
+    /// Why it stopped.
+    pub termination: Termination,
+    /// Size of the reduced (dense) system.
+    pub reduced_size: usize,
+    /// Number of eliminated landmark blocks.
+    pub landmarks: usize,
+    /// Wall time spent (measured for reports; never used for decisions).
+    pub time: Duration,
+}
+
+fn norm(s: &Step) -> f64 {
+    s.dx.iter().chain(&s.dl).map(|v| v * v).sum::<f64>().sqrt()
+}
+
+/// Applies a full-space step to a copy of the problem's values.
+pub(crate) fn apply_step(problem: &Problem, layout: &Layout, step: &Step, out: &mut Vec<f64>) {
+    out.clear();
+    out.extend_from_slice(&problem.values);
+    for (i, b) in problem.blocks.iter().enumerate() {
+        let delta = if layout.state_offset[i] != NONE {
+            let o = layout.state_offset[i];
+            &step.dx[o..o + b.manifold.tangent_size()]
+        } else if layout.landmark_slot[i] != NONE {
+            let o = layout.landmark_offset[layout.landmark_slot[i]];
+            &step.dl[o..o + b.manifold.tangent_size()]
+        } else {
+            continue;
+        };
+        let a = b.manifold.ambient_size();
+        b.manifold.plus(
+            &problem.values[b.offset..b.offset + a],
+            delta,
+            &mut out[b.offset..b.offset + a],
+        );
+    }
+}
+
+/// Minimizes the problem's cost in place.
+pub fn solve(problem: &mut Problem, options: &SolverOptions) -> SolverSummary {
+    let start = Instant::now();
+    let layout = Layout::new(problem);
+    let mut summary = SolverSummary {
+        iterations: 0,
+        successful_steps: 0,
+        initial_cost: f64::NAN,
+        final_cost: f64::NAN,
+        termination: Termination::NothingToDo,
+        reduced_size: layout.n,
+        landmarks: layout.landmarks.len(),
+        time: Duration::ZERO,
+    };
+    if layout.n + layout.n_landmark == 0 || options.max_iterations == 0 {
+        match problem.cost() {
+            Some(cost) => {
+                summary.initial_cost = cost;
+                summary.final_cost = cost;
+                if layout.n + layout.n_landmark > 0 {
+                    summary.termination = Termination::MaxIterations;
+                }
+            }
+            None => summary.termination = Termination::InvalidInitialPoint,
+        }
+        summary.time = start.elapsed();
+        return summary;
+    }
+    // The plan and every buffer of the linear system are built once and reused by each
+    // linearization and step. The first linearization also gives the initial cost.
+    let mut e = NormalEquations::new(problem, &layout, None);
+    if !e.linearize(problem) {
+        summary.termination = Termination::InvalidInitialPoint;
+        summary.time = start.elapsed();
+        return summary;
+    }
+    summary.iterations = 1;
+    let mut cost = e.cost;
+    summary.initial_cost = cost;
+    summary.final_cost = cost;
+    let mut radius = options.initial_trust_radius;
+    let mut decrease_factor = 2.0;
+    let mut candidate = Vec::with_capacity(problem.values.len());
+    let mut sys = ReducedSystem::default();
+    let mut linearized = true;
+    summary.termination = Termination::MaxIterations;
+    if e.gradient_max_norm() <= options.gradient_tolerance {
+        summary.termination = Termination::Converged;
+        summary.time = start.elapsed();
+        return summary;
+    }
+    // Every pass but the first (whose linearization happened above) checks the cap first.
+    let mut first = true;
+    loop {
+        if !first && summary.iterations >= options.max_iterations {
+            break;
+        }
+        first = false;
+        if !linearized {
+            summary.iterations += 1;
+            if !e.linearize(problem) {
+                summary.termination = Termination::InvalidInitialPoint;
+                break;
+            }
+            linearized = true;
+            if e.gradient_max_norm() <= options.gradient_tolerance {
+                summary.termination = Termination::Converged;
+                break;
+            }
+        }
+        let step = match options.method {
+            Method::LevenbergMarquardt => {
+                e.solve_damped(1.0 / radius, options.min_diagonal, &mut sys)
+            }
+            Method::Dogleg => dogleg_step(&e, radius, options.min_diagonal, &mut sys),
+        };
+        let Some(step) = step else {
+            // Factorization failed: shrink the region and retry on the same linearization.
+            radius /= decrease_factor;
+            decrease_factor *= 2.0;
+            if radius < 1e-32 {
+                summary.termination = Termination::NoProgress;
+                break;
+            }
+            continue;
+        };
+        let step_norm = norm(&step);
+        let x_norm = problem.values.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if step_norm <= options.parameter_tolerance * (x_norm + options.parameter_tolerance) {
+            summary.termination = Termination::Converged;
+            break;
+        }
+        // Predicted decrease of the (undamped) quadratic model.
+        let model_decrease = -(e.gradient_dot(&step) + 0.5 * e.quadratic(&step));
+        apply_step(problem, &layout, &step, &mut candidate);
+        let new_cost = e.cost_at(problem, &candidate);
+        let accepted = match new_cost {
+            Some(nc) if model_decrease > 0.0 => {
+                let rho = (cost - nc) / model_decrease;
+                if rho > 1e-3 {
+                    let rel = (cost - nc) / cost.max(f64::MIN_POSITIVE);
+                    std::mem::swap(&mut problem.values, &mut candidate);
+                    cost = nc;
+                    summary.successful_steps += 1;
+                    radius = match options.method {
+                        Method::LevenbergMarquardt => {
+                            radius / (1.0f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3))
+                        }
+                        Method::Dogleg if rho > 0.75 => radius.max(3.0 * step_norm),
+                        Method::Dogleg => radius,
+                    }
+                    .min(1e16);
+                    decrease_factor = 2.0;
+                    linearized = false;
+                    if rel < options.function_tolerance {
+                        summary.termination = Termination::Converged;
+                        break;
+                    }
+                    true
+                } else {
+                    false
+                }
+            }
+            _ => false,
+        };
+        if !accepted {
+            radius /= decrease_factor;
+            decrease_factor *= 2.0;
+            if radius < 1e-32 {
+                summary.termination = Termination::NoProgress;
+                break;
+            }
+        }
+    }
+    summary.final_cost = cost;
+    summary.time = start.elapsed();
+    summary
+}
+
+/// Powell's dogleg step within `radius` (full-space Euclidean norm of the tangent step).
+fn dogleg_step(
+    e: &NormalEquations,
+    radius: f64,
+    min_diag: f64,
+    sys: &mut ReducedSystem,
+) -> Option<Step> {
+    // Gauss–Newton step with a tiny regularization for gauge freedoms.
+    let mut mu = 1e-10;
+    let gn = loop {
+        if let Some(s) = e.solve_damped(mu, min_diag, sys) {
+            break s;
+        }
+        mu *= 100.0;
+        if mu > 1e-2 {
+            return None;
+        }
+    };
+    if norm(&gn) <= radius {
+        return Some(gn);
+    }
+    let g = e.gradient_step(); // −g
+    let g_sq: f64 = g.dx.iter().chain(&g.dl).map(|v| v * v).sum();
+    let ghg = e.quadratic(&g);
+    if ghg <= 0.0 || g_sq == 0.0 {
+        return Some(scale(&gn, radius / norm(&gn)));
+    }
+    let alpha = g_sq / ghg;
+    let sd = scale(&g, alpha);
+    let sd_norm = norm(&sd);
+    if sd_norm >= radius {
+        return Some(scale(&g, radius / g_sq.sqrt()));
+    }
+    // Find β ∈ [0, 1] with ‖sd + β (gn − sd)‖ = radius.
+    let diff = Step {
+        dx: gn.dx.iter().zip(&sd.dx).map(|(a, b)| a - b).collect(),
+        dl: gn.dl.iter().zip(&sd.dl).map(|(a, b)| a - b).collect(),
+    };
+    let a: f64 = diff.dx.iter().chain(&diff.dl).map(|v| v * v).sum();
+    let b: f64 = 2.0
+        * sd.dx
+            .iter()
+            .chain(&sd.dl)
+            .zip(diff.dx.iter().chain(&diff.dl))
+            .map(|(s, d)| s * d)
+            .sum::<f64>();
+    let c = sd_norm * sd_norm - radius * radius;
+    let beta = (-b + (b * b - 4.0 * a * c).max(0.0).sqrt()) / (2.0 * a);
+    Some(Step {
+        dx: sd
+            .dx
+            .iter()
+            .zip(&diff.dx)
+            .map(|(s, d)| s + beta * d)
+            .collect(),
+        dl: sd
+            .dl
+            .iter()
+            .zip(&diff.dl)
+            .map(|(s, d)| s + beta * d)
+            .collect(),
+    })
+}
+
+fn scale(s: &Step, k: f64) -> Step {
+    Step {
+        dx: s.dx.iter().map(|v| v * k).collect(),
+        dl: s.dl.iter().map(|v| v * k).collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use super::*;
+    use crate::problem::{BlockKind, Euclidean, Factor};
+
+    /// Rosenbrock's function as residuals `[10 (y − x²), 1 − x]` over one 2-vector.
+    struct Rosenbrock;
+
+    impl Factor for Rosenbrock {
+        fn residual_dim(&self) -> usize {
+            2
+        }
+        fn parameter_block_sizes(&self) -> &[usize] {
+            &[2]
+        }
+        fn parameter_tangent_sizes(&self) -> &[usize] {
+            &[2]
+        }
+        fn evaluate(
+            &self,
+            params: &[&[f64]],
+            residuals: &mut [f64],
+            jacobians: Option<&mut [Option<&mut [f64]>]>,
+        ) -> bool {
+            let (x, y) = (params[0][0], params[0][1]);
+            residuals[0] = 10.0 * (y - x * x);
+            residuals[1] = 1.0 - x;
+            if let Some(Some(j)) = jacobians.map(|js| js[0].as_deref_mut()) {
+                j.copy_from_slice(&[-20.0 * x, 10.0, -1.0, 0.0]);
+            }
+            true
+        }
+    }
+
+    fn rosenbrock() -> (Problem, crate::problem::BlockId) {
+        let mut p = Problem::new();
+        let b = p
+            .add_block(&[-1.2, 1.0], Arc::new(Euclidean::new(2)), BlockKind::State)
+            .unwrap();
+        p.add_factor(Arc::new(Rosenbrock), None, &[b]).unwrap();
+        (p, b)
+    }
+
+    #[test]
+    fn both_trust_region_methods_reach_the_rosenbrock_minimum() {
+        for method in [Method::LevenbergMarquardt, Method::Dogleg] {
+            let (mut p, b) = rosenbrock();
+            let options = SolverOptions {
+                method,
+                max_iterations: 200,
+                function_tolerance: 1e-14,
+                initial_trust_radius: 1.0,
+                ..Default::default()
+            };
+            let summary = solve(&mut p, &options);
+            let x = p.values(b);
+            assert_eq!(summary.termination, Termination::Converged, "{method:?}");
+            assert!(summary.final_cost < 1e-12, "{method:?}: {summary:?}");
+            assert!(
+                (x[0] - 1.0).abs() < 1e-5 && (x[1] - 1.0).abs() < 1e-5,
+                "{method:?}: {x:?}"
+            );
+            // Rosenbrock's valley needs many steps; the cost only ever goes down.
+            assert!(summary.successful_steps >= 5, "{method:?}: {summary:?}");
+        }
+    }
+
+    #[test]
+    fn dogleg_steps_stay_in_the_trust_region_and_reach_gauss_newton() {
+        let (p, _) = rosenbrock();
+        let layout = Layout::new(&p);
+        let e = normal_equations::linearize(&p, &layout, None).unwrap();
+        let mut sys = ReducedSystem::default();
+        // The Gauss–Newton step as `dogleg_step` computes it (a 1e-10 regularization).
+        let gn = e.solve_damped(1e-10, 1e-6, &mut sys).unwrap();
+        let gn_norm = norm(&gn);
+        for radius in [1e-3, 0.05, 0.3, 0.9 * gn_norm] {
+            let s = dogleg_step(&e, radius, 1e-6, &mut sys).unwrap();
+            assert!((norm(&s) - radius).abs() < 1e-9 * radius, "radius {radius}");
+            // Every dogleg step decreases the quadratic model.
+            assert!(e.gradient_dot(&s) + 0.5 * e.quadratic(&s) < 0.0);
+        }
+        // A region holding the Gauss–Newton step returns it.
+        let s = dogleg_step(&e, 2.0 * gn_norm, 1e-6, &mut sys).unwrap();
+        assert_eq!(s.dx, gn.dx);
+    }
+}

@@ -1,0 +1,472 @@
+//! The normal equations `H δ = −g` of a planned system: linearization (every residual's
+//! Jacobian rows accumulated into `H_xx`, the landmark blocks `H_ll` and the couplings `H_xl`),
+//! cost evaluation in a fixed order, and the quadratic model the trust region uses.
+
+use super::plan::{Coupling, Layout, NONE, ResidualPlan, Slot};
+use super::schur::{Step, dot};
+use crate::problem::graph::Problem;
+
+/// Normal equations `H δ = −g` at a linearization point, landmarks kept apart, together with
+/// the problem's sparsity plan (computed once, reused by every linearization of a solve: no
+/// per-iteration allocation).
+pub(crate) struct NormalEquations {
+    /// Size of the reduced system.
+    pub n: usize,
+    /// Reduced-state block `H_xx` (row-major, full).
+    pub hxx: Vec<f64>,
+    /// Reduced-state gradient.
+    pub gx: Vec<f64>,
+    /// `½ Σ ρ` at the linearization point.
+    pub cost: f64,
+    /// Tangent size of each landmark.
+    pub lt: Vec<usize>,
+    /// Offset of each landmark in the stacked landmark vector (`gl`, steps).
+    pub loff: Vec<usize>,
+    /// Offset of each landmark's `t × t` block in `hll`.
+    pub lhoff: Vec<usize>,
+    /// Stacked `H_ll` blocks.
+    pub hll: Vec<f64>,
+    /// Stacked landmark gradients.
+    pub gl: Vec<f64>,
+    /// Landmark `l`'s couplings are `couplings[cstart[l]..cstart[l + 1]]`, sorted by offset.
+    pub cstart: Vec<usize>,
+    /// Coupling blocks of all landmarks.
+    pub couplings: Vec<Coupling>,
+    /// Values of the coupling blocks.
+    pub w: Vec<f64>,
+    /// The state blocks coupled to any landmark: (offset, tangent size, compact offset), by
+    /// offset; `zdim` compact coordinates in all.
+    pub(super) zblocks: Vec<(usize, usize, usize)>,
+    pub(super) zdim: usize,
+    /// Whether inverse-depth landmarks are eliminated by one dense product over the coupled
+    /// coordinates (small windows) rather than block pair by block pair (large, sparse
+    /// problems such as a batch solve).
+    pub(super) dense_schur: bool,
+    /// Residuals without a variable landmark, in id order.
+    pub(super) state_res: Vec<ResidualPlan>,
+    /// Residuals with a variable landmark, grouped by landmark, in id order within a group.
+    pub(super) lm_res: Vec<ResidualPlan>,
+    pub(super) slots: Vec<Slot>,
+    /// Rotation matrices of the blocks at the values being evaluated (`Problem::fill_rotations`).
+    pub(super) rot: Vec<nalgebra::Matrix3<f64>>,
+    /// Scratch: residual, Jacobians, a factor's direct normal equations.
+    pub(super) r: Vec<f64>,
+    pub(super) jac: Vec<f64>,
+    pub(super) direct_h: Vec<f64>,
+    pub(super) direct_g: Vec<f64>,
+}
+
+/// `H[a, b] += Jaᵀ Jb` on a row-major `n × n` buffer (only the block with the smaller offset
+/// first is written; [`mirror_upper`] completes the matrix).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn add_jtj(
+    h: &mut [f64],
+    n: usize,
+    (oa, ta, ja): (usize, usize, &[f64]),
+    (ob, tb, jb): (usize, usize, &[f64]),
+    m: usize,
+) {
+    let (oa, ta, ja, ob, tb, jb) = if oa <= ob {
+        (oa, ta, ja, ob, tb, jb)
+    } else {
+        (ob, tb, jb, oa, ta, ja)
+    };
+    if m == 2 {
+        // Reprojection residuals: two rows, summed in one pass over the block.
+        let (a0, a1) = (&ja[..ta], &ja[ta..2 * ta]);
+        let (b0, b1) = (&jb[..tb], &jb[tb..2 * tb]);
+        if ta == 6 && tb == 6 {
+            // Pose × pose: fixed sizes, unrolled.
+            let (a0, a1): (&[f64; 6], &[f64; 6]) = (a0.try_into().unwrap(), a1.try_into().unwrap());
+            let (b0, b1): (&[f64; 6], &[f64; 6]) = (b0.try_into().unwrap(), b1.try_into().unwrap());
+            for i in 0..6 {
+                let (x0, x1) = (a0[i], a1[i]);
+                let s = (oa + i) * n + ob;
+                let row: &mut [f64; 6] = (&mut h[s..s + 6]).try_into().unwrap();
+                for j in 0..6 {
+                    row[j] += x0 * b0[j] + x1 * b1[j];
+                }
+            }
+            return;
+        }
+        for i in 0..ta {
+            let (x0, x1) = (a0[i], a1[i]);
+            let row = &mut h[(oa + i) * n + ob..(oa + i) * n + ob + tb];
+            for ((hv, y0), y1) in row.iter_mut().zip(b0).zip(b1) {
+                *hv += x0 * y0 + x1 * y1;
+            }
+        }
+        return;
+    }
+    for r in 0..m {
+        let ra = &ja[r * ta..r * ta + ta];
+        let rb = &jb[r * tb..r * tb + tb];
+        for (i, a) in ra.iter().enumerate() {
+            if *a == 0.0 {
+                continue;
+            }
+            let row = &mut h[(oa + i) * n + ob..(oa + i) * n + ob + tb];
+            for (hv, b) in row.iter_mut().zip(rb) {
+                *hv += a * b;
+            }
+        }
+    }
+}
+
+/// Copies the upper triangle of a row-major square matrix onto its lower triangle.
+pub(crate) fn mirror_upper(h: &mut [f64], n: usize) {
+    for i in 0..n {
+        for j in i + 1..n {
+            h[j * n + i] = h[i * n + j];
+        }
+    }
+}
+
+impl NormalEquations {
+    /// Number of landmarks.
+    pub fn num_landmarks(&self) -> usize {
+        self.lt.len()
+    }
+
+    /// Evaluates every planned residual with Jacobians at the problem's current values and
+    /// accumulates the normal equations; `false` if a residual cannot be evaluated.
+    ///
+    /// Also sets [`Self::cost`], summed in the same order as [`Self::cost_at`].
+    pub fn linearize(&mut self, problem: &Problem) -> bool {
+        self.hxx.fill(0.0);
+        self.gx.fill(0.0);
+        self.hll.fill(0.0);
+        self.gl.fill(0.0);
+        self.w.fill(0.0);
+        let mut total = 0.0;
+        problem.fill_rotations(&problem.values, &mut self.rot);
+        let plans = std::mem::take(&mut self.state_res);
+        let mut ok = true;
+        for p in &plans {
+            let rho = if p.direct && self.accumulate_direct(problem, p) {
+                // The cost as `evaluate` gives it (as `cost_at` computes it).
+                self.evaluate_cost(problem, &problem.values, p)
+            } else {
+                self.accumulate(problem, p)
+            };
+            match rho {
+                Some(rho) => total += rho,
+                None => {
+                    ok = false;
+                    break;
+                }
+            }
+        }
+        self.state_res = plans;
+        if !ok {
+            return false;
+        }
+        let plans = std::mem::take(&mut self.lm_res);
+        for p in &plans {
+            match self.accumulate(problem, p) {
+                Some(rho) => total += rho,
+                None => {
+                    ok = false;
+                    break;
+                }
+            }
+        }
+        self.lm_res = plans;
+        mirror_upper(&mut self.hxx, self.n);
+        self.cost = 0.5 * total;
+        ok
+    }
+
+    /// `ρ(‖r‖²)` of one planned residual at `values`, without Jacobians.
+    pub(super) fn evaluate_cost(
+        &mut self,
+        problem: &Problem,
+        values: &[f64],
+        p: &ResidualPlan,
+    ) -> Option<f64> {
+        // `self.rot` holds the rotations at `values` (filled by the caller).
+        problem.evaluate_residual_with(values, Some(&self.rot), p.ri, &mut self.r[..p.m], None)
+    }
+
+    /// Total cost `½ Σ ρ(‖r‖²)` of the planned residuals at `values`, summed in the order of
+    /// [`Self::linearize`] (so that the two agree exactly at the same point); `None` if a
+    /// residual cannot be evaluated.
+    pub fn cost_at(&mut self, problem: &Problem, values: &[f64]) -> Option<f64> {
+        let mut total = 0.0;
+        problem.fill_rotations(values, &mut self.rot);
+        let (state_res, lm_res) = (
+            std::mem::take(&mut self.state_res),
+            std::mem::take(&mut self.lm_res),
+        );
+        let mut ok = true;
+        for p in state_res.iter().chain(&lm_res) {
+            match self.evaluate_cost(problem, values, p) {
+                Some(rho) => total += rho,
+                None => {
+                    ok = false;
+                    break;
+                }
+            }
+        }
+        self.state_res = state_res;
+        self.lm_res = lm_res;
+        ok.then_some(0.5 * total)
+    }
+
+    /// Evaluates one residual with Jacobians and adds its rows; returns its `ρ(‖r‖²)`.
+    fn accumulate(&mut self, problem: &Problem, p: &ResidualPlan) -> Option<f64> {
+        let m = p.m;
+        let slots = &self.slots[p.slots.0..p.slots.1];
+        let nb = slots.len();
+        let rho;
+        {
+            let mut rest: &mut [f64] = &mut self.jac[..p.jlen];
+            let mut small: [Option<&mut [f64]>; 16] = Default::default();
+            let mut heap: Vec<Option<&mut [f64]>>;
+            let js: &mut [Option<&mut [f64]>] = if nb <= small.len() {
+                &mut small[..nb]
+            } else {
+                heap = (0..nb).map(|_| None).collect();
+                &mut heap
+            };
+            for (k, s) in slots.iter().enumerate() {
+                if s.jpos != NONE {
+                    let (head, tail) = std::mem::take(&mut rest).split_at_mut(m * s.t);
+                    js[k] = Some(head);
+                    rest = tail;
+                }
+            }
+            rho = problem.evaluate_residual_with(
+                &problem.values,
+                Some(&self.rot),
+                p.ri,
+                &mut self.r[..m],
+                Some(js),
+            )?;
+        }
+        let r = &self.r[..m];
+        let jac = &self.jac[..p.jlen];
+        let n = self.n;
+        // The landmark's own rows and its Jacobian, if any.
+        let lm = (p.landmark != NONE).then(|| {
+            let s = slots[p.landmark];
+            (s.t, &jac[s.jpos..s.jpos + m * s.t])
+        });
+        if let Some((tl, jl)) = lm {
+            let (ho, go) = (self.lhoff[p.lm], self.loff[p.lm]);
+            let hll = &mut self.hll[ho..ho + tl * tl];
+            let gl = &mut self.gl[go..go + tl];
+            for rr in 0..m {
+                let row = &jl[rr * tl..rr * tl + tl];
+                for i in 0..tl {
+                    gl[i] += row[i] * r[rr];
+                    for j in 0..tl {
+                        hll[i * tl + j] += row[i] * row[j];
+                    }
+                }
+            }
+        }
+        if m == 2 {
+            // Reprojection residuals: both rows in one pass over each block.
+            let (r0, r1) = (r[0], r[1]);
+            for (a, sa) in slots.iter().enumerate() {
+                let oa = sa.offset;
+                if oa == NONE {
+                    continue;
+                }
+                let ta = sa.t;
+                let (a0, a1) = jac[sa.jpos..sa.jpos + 2 * ta].split_at(ta);
+                for ((g, x0), x1) in self.gx[oa..oa + ta].iter_mut().zip(a0).zip(a1) {
+                    *g += x0 * r0 + x1 * r1;
+                }
+                // Diagonal block: upper triangle only (`mirror_upper` fills the rest).
+                if ta == 6 {
+                    // Pose blocks: fixed sizes, unrolled.
+                    let (b0, b1): (&[f64; 6], &[f64; 6]) =
+                        (a0.try_into().unwrap(), a1.try_into().unwrap());
+                    for i in 0..6 {
+                        let (x0, x1) = (b0[i], b1[i]);
+                        let s0 = (oa + i) * n + oa;
+                        let row: &mut [f64; 6] = (&mut self.hxx[s0..s0 + 6]).try_into().unwrap();
+                        for j in i..6 {
+                            row[j] += x0 * b0[j] + x1 * b1[j];
+                        }
+                    }
+                } else {
+                    for i in 0..ta {
+                        let (x0, x1) = (a0[i], a1[i]);
+                        let s0 = (oa + i) * n + oa;
+                        let row = &mut self.hxx[s0 + i..s0 + ta];
+                        for ((hv, y0), y1) in row.iter_mut().zip(&a0[i..]).zip(&a1[i..]) {
+                            *hv += x0 * y0 + x1 * y1;
+                        }
+                    }
+                }
+                for sb in &slots[a + 1..] {
+                    if sb.offset == NONE {
+                        continue;
+                    }
+                    let jb = &jac[sb.jpos..sb.jpos + 2 * sb.t];
+                    let ja = &jac[sa.jpos..sa.jpos + 2 * ta];
+                    add_jtj(&mut self.hxx, n, (oa, ta, ja), (sb.offset, sb.t, jb), 2);
+                }
+                if let Some((tl, jl)) = lm {
+                    let c = self.couplings[sa.coupling];
+                    let wb = &mut self.w[c.pos..c.pos + ta * tl];
+                    if tl == 1 {
+                        let (j0, j1) = (jl[0], jl[1]);
+                        for ((w, x0), x1) in wb.iter_mut().zip(a0).zip(a1) {
+                            *w += x0 * j0 + x1 * j1;
+                        }
+                    } else {
+                        for i in 0..ta {
+                            for j in 0..tl {
+                                wb[i * tl + j] += a0[i] * jl[j] + a1[i] * jl[tl + j];
+                            }
+                        }
+                    }
+                }
+            }
+            return Some(rho);
+        }
+        for (a, sa) in slots.iter().enumerate() {
+            let oa = sa.offset;
+            if oa == NONE {
+                continue;
+            }
+            let ta = sa.t;
+            let ja = &jac[sa.jpos..sa.jpos + m * ta];
+            let gx = &mut self.gx[oa..oa + ta];
+            for rr in 0..m {
+                let rv = r[rr];
+                for (g, j) in gx.iter_mut().zip(&ja[rr * ta..rr * ta + ta]) {
+                    *g += j * rv;
+                }
+            }
+            for sb in &slots[a..] {
+                if sb.offset == NONE {
+                    continue;
+                }
+                let jb = &jac[sb.jpos..sb.jpos + m * sb.t];
+                add_jtj(&mut self.hxx, n, (oa, ta, ja), (sb.offset, sb.t, jb), m);
+            }
+            if let Some((tl, jl)) = lm {
+                let c = self.couplings[sa.coupling];
+                let wb = &mut self.w[c.pos..c.pos + ta * tl];
+                for rr in 0..m {
+                    for i in 0..ta {
+                        let av = ja[rr * ta + i];
+                        for j in 0..tl {
+                            wb[i * tl + j] += av * jl[rr * tl + j];
+                        }
+                    }
+                }
+            }
+        }
+        Some(rho)
+    }
+
+    /// Adds a factor's directly computed normal equations (see `Factor::normal_equations`);
+    /// `false` if the factor does not provide them.
+    fn accumulate_direct(&mut self, problem: &Problem, p: &ResidualPlan) -> bool {
+        let res = &problem.residuals[p.ri];
+        let slots = &self.slots[p.slots.0..p.slots.1];
+        let total: usize = slots.iter().map(|s| s.t).sum();
+        self.direct_h.clear();
+        self.direct_h.resize(total * total, 0.0);
+        self.direct_g.clear();
+        self.direct_g.resize(total, 0.0);
+        let (h, g) = (&mut self.direct_h, &mut self.direct_g);
+        let direct = problem.with_residual_params(&problem.values, p.ri, |params| {
+            res.factor.normal_equations(params, h, g)
+        });
+        if direct.is_none() {
+            return false;
+        }
+        let (h, g, n) = (&self.direct_h, &self.direct_g, self.n);
+        let mut la = 0;
+        for sa in slots {
+            let (oa, ta) = (sa.offset, sa.t);
+            if oa != NONE {
+                for i in 0..ta {
+                    self.gx[oa + i] += g[la + i];
+                }
+                let mut lb = 0;
+                for sb in slots {
+                    let (ob, tb) = (sb.offset, sb.t);
+                    if ob != NONE && ob >= oa {
+                        for i in 0..ta {
+                            let src = &h[(la + i) * total + lb..(la + i) * total + lb + tb];
+                            let dst = &mut self.hxx[(oa + i) * n + ob..(oa + i) * n + ob + tb];
+                            for (d, s) in dst.iter_mut().zip(src) {
+                                *d += s;
+                            }
+                        }
+                    }
+                    lb += tb;
+                }
+            }
+            la += ta;
+        }
+        true
+    }
+
+    /// `vᵀ H v` for a full-space vector (undamped Hessian).
+    pub(super) fn quadratic(&self, v: &Step) -> f64 {
+        let n = self.n;
+        let mut s = 0.0;
+        for i in 0..n {
+            s += v.dx[i] * dot(&self.hxx[i * n..i * n + n], &v.dx);
+        }
+        for l in 0..self.lt.len() {
+            let t = self.lt[l];
+            let (ho, go) = (self.lhoff[l], self.loff[l]);
+            let vl = &v.dl[go..go + t];
+            let hll = &self.hll[ho..ho + t * t];
+            for i in 0..t {
+                for j in 0..t {
+                    s += vl[i] * hll[i * t + j] * vl[j];
+                }
+            }
+            for c in &self.couplings[self.cstart[l]..self.cstart[l + 1]] {
+                for i in 0..c.t {
+                    for j in 0..t {
+                        s += 2.0 * v.dx[c.offset + i] * self.w[c.pos + i * t + j] * vl[j];
+                    }
+                }
+            }
+        }
+        s
+    }
+
+    pub(super) fn gradient_dot(&self, v: &Step) -> f64 {
+        let s: f64 = self.gx.iter().zip(&v.dx).map(|(a, b)| a * b).sum();
+        s + self.gl.iter().zip(&v.dl).map(|(a, b)| a * b).sum::<f64>()
+    }
+
+    pub(super) fn gradient_max_norm(&self) -> f64 {
+        self.gx
+            .iter()
+            .chain(&self.gl)
+            .fold(0.0f64, |a, g| a.max(g.abs()))
+    }
+
+    pub(super) fn gradient_step(&self) -> Step {
+        Step {
+            dx: self.gx.iter().map(|g| -g).collect(),
+            dl: self.gl.iter().map(|g| -g).collect(),
+        }
+    }
+}
+
+/// Plans and evaluates the normal equations of `residual_ids` (all if `None`) at the current
+/// values; `None` if a residual cannot be evaluated.
+pub(crate) fn linearize(
+    problem: &Problem,
+    layout: &Layout,
+    residual_ids: Option<&[usize]>,
+) -> Option<NormalEquations> {
+    let mut eqs = NormalEquations::new(problem, layout, residual_ids);
+    eqs.linearize(problem).then_some(eqs)
+}

@@ -1,0 +1,479 @@
+//! Landmark elimination by the Schur complement (Ceres' `SchurEliminator` in spirit): the
+//! damped reduced system over the states, its solution and the landmarks' back-substitution.
+//! Inverse-depth landmarks are folded in either block pair by block pair (sparse problems) or
+//! as one dense product over the coupled coordinates (small windows); see
+//! `NormalEquations::dense_schur`.
+
+use faer::dyn_stack::MemBuffer;
+use faer::linalg::matmul::matmul;
+use faer::{Accum, MatMut, MatRef, Par};
+use nalgebra::{DMatrix, DVector};
+
+use super::dense::dense_cholesky_solve;
+use super::normal_equations::{NormalEquations, linearize, mirror_upper};
+use super::plan::{Layout, NONE};
+use crate::problem::graph::{BlockId, Problem, ResidualId};
+
+impl NormalEquations {
+    /// Eliminates landmark blocks from the reduced system by the Schur complement, in place:
+    /// `a ← a − W C⁻¹ Wᵀ` (upper block triangle; call [`mirror_upper`] after) and
+    /// `rhs ← rhs + W C⁻¹ g_l`, with `C = H_ll + λ·diag(max(H_ll, min_diag))` per landmark.
+    /// `rhs` is the negative gradient (the Gauss-Newton right-hand side `−g`). Writes each
+    /// landmark's `C⁻¹` into `cinv` (laid out like `hll`) and whether it exists into `valid`.
+    /// A landmark whose `C` is not positive definite is an error (`false`), or skipped when
+    /// `skip_singular` (marginalization: a landmark without information folds nothing in).
+    #[allow(clippy::too_many_arguments)]
+    pub fn eliminate(
+        &self,
+        lambda: f64,
+        min_diag: f64,
+        a: &mut [f64],
+        rhs: &mut [f64],
+        cinv: &mut [f64],
+        valid: &mut [bool],
+        skip_singular: bool,
+        z: &mut SchurScratch,
+    ) -> bool {
+        let n = self.n;
+        let mut wc: Vec<f64> = Vec::new();
+        let (zd, nl) = (self.zdim, self.lt.len());
+        if self.dense_schur {
+            z.z1.clear();
+            z.z1.resize(zd * nl, 0.0);
+            z.z2.clear();
+            z.z2.resize(zd * nl, 0.0);
+        }
+        let mut dense = false;
+        for l in 0..self.lt.len() {
+            let t = self.lt[l];
+            let (ho, go) = (self.lhoff[l], self.loff[l]);
+            let cs = &self.couplings[self.cstart[l]..self.cstart[l + 1]];
+            let gl = &self.gl[go..go + t];
+            if t == 1 {
+                // Inverse depths: C is a scalar.
+                let h = self.hll[ho];
+                let c = h + lambda * h.max(min_diag);
+                let ci = 1.0 / c;
+                if !(c > 0.0 && ci.is_finite()) {
+                    valid[l] = false;
+                    if skip_singular {
+                        continue;
+                    }
+                    return false;
+                }
+                cinv[ho] = ci;
+                valid[l] = true;
+                let gs = ci * gl[0];
+                if self.dense_schur {
+                    // W C⁻¹ Wᵀ goes in as column l of Z₁ (W) and Z₂ (W C⁻¹), multiplied out
+                    // below.
+                    let zd = self.zdim;
+                    let (col1, col2) = (
+                        &mut z.z1[l * zd..(l + 1) * zd],
+                        &mut z.z2[l * zd..(l + 1) * zd],
+                    );
+                    for ca in cs {
+                        let wa = &self.w[ca.pos..ca.pos + ca.t];
+                        for (r, w) in rhs[ca.offset..ca.offset + ca.t].iter_mut().zip(wa) {
+                            *r += w * gs;
+                        }
+                        col1[ca.z..ca.z + ca.t].copy_from_slice(wa);
+                        for (o, w) in col2[ca.z..ca.z + ca.t].iter_mut().zip(wa) {
+                            *o = w * ci;
+                        }
+                    }
+                    dense = true;
+                } else {
+                    // W C⁻¹ Wᵀ as an outer product per block pair.
+                    for (ia, ca) in cs.iter().enumerate() {
+                        let wa = &self.w[ca.pos..ca.pos + ca.t];
+                        for (r, w) in rhs[ca.offset..ca.offset + ca.t].iter_mut().zip(wa) {
+                            *r += w * gs;
+                        }
+                        // Diagonal block: upper triangle only (`mirror_upper` fills the rest).
+                        for (i, wi) in wa.iter().enumerate() {
+                            let si = wi * ci;
+                            let s = (ca.offset + i) * n + ca.offset;
+                            for (hv, w) in a[s + i..s + ca.t].iter_mut().zip(&wa[i..]) {
+                                *hv -= si * w;
+                            }
+                        }
+                        if ca.t == 6 {
+                            // Pose blocks (the usual case): fixed sizes, unrolled.
+                            let wa: &[f64; 6] = wa.try_into().unwrap();
+                            let mut sa = [0.0; 6];
+                            for i in 0..6 {
+                                sa[i] = wa[i] * ci;
+                            }
+                            for cb in &cs[ia + 1..] {
+                                if cb.t != 6 {
+                                    continue;
+                                }
+                                let wb: &[f64; 6] = self.w[cb.pos..cb.pos + 6].try_into().unwrap();
+                                for i in 0..6 {
+                                    let s = (ca.offset + i) * n + cb.offset;
+                                    let row: &mut [f64; 6] = (&mut a[s..s + 6]).try_into().unwrap();
+                                    for j in 0..6 {
+                                        row[j] -= sa[i] * wb[j];
+                                    }
+                                }
+                            }
+                        }
+                        for cb in &cs[ia + 1..] {
+                            if ca.t == 6 && cb.t == 6 {
+                                continue;
+                            }
+                            let wb = &self.w[cb.pos..cb.pos + cb.t];
+                            for (i, wi) in wa.iter().enumerate() {
+                                let si = wi * ci;
+                                let s = (ca.offset + i) * n + cb.offset;
+                                for (hv, w) in a[s..s + cb.t].iter_mut().zip(wb) {
+                                    *hv -= si * w;
+                                }
+                            }
+                        }
+                    }
+                }
+                continue;
+            }
+            let mut c = self.hll[ho..ho + t * t].to_vec();
+            for i in 0..t {
+                let d = c[i * t + i];
+                c[i * t + i] += lambda * d.max(min_diag);
+            }
+            let ci = match small_spd_inverse(&c, t).filter(|c| c.iter().all(|v| v.is_finite())) {
+                Some(ci) => ci,
+                None => {
+                    valid[l] = false;
+                    if skip_singular {
+                        continue;
+                    }
+                    return false;
+                }
+            };
+            cinv[ho..ho + t * t].copy_from_slice(&ci);
+            valid[l] = true;
+            for (ia, ca) in cs.iter().enumerate() {
+                let ta = ca.t;
+                // wc = W_a C⁻¹ (ta × t).
+                wc.clear();
+                wc.resize(ta * t, 0.0);
+                let wa = &self.w[ca.pos..ca.pos + ta * t];
+                for i in 0..ta {
+                    for j in 0..t {
+                        wc[i * t + j] = (0..t).map(|k| wa[i * t + k] * ci[k * t + j]).sum();
+                    }
+                }
+                for i in 0..ta {
+                    rhs[ca.offset + i] += (0..t).map(|j| wc[i * t + j] * gl[j]).sum::<f64>();
+                }
+                for cb in &cs[ia..] {
+                    let wb = &self.w[cb.pos..cb.pos + cb.t * t];
+                    for i in 0..ta {
+                        let s = (ca.offset + i) * n + cb.offset;
+                        for (jb, hv) in a[s..s + cb.t].iter_mut().enumerate() {
+                            let mut acc = 0.0;
+                            for k in 0..t {
+                                acc += wc[i * t + k] * wb[jb * t + k];
+                            }
+                            *hv -= acc;
+                        }
+                    }
+                }
+            }
+        }
+        if dense {
+            // Σ_l w_l c_l⁻¹ w_lᵀ over the coupled coordinates as one product Z₂ Z₁ᵀ (dense, but
+            // only over the coordinates landmarks couple to), subtracted from the upper
+            // triangle of `a`.
+            z.s.clear();
+            z.s.resize(zd * zd, 0.0);
+            matmul(
+                MatMut::from_column_major_slice_mut(&mut z.s, zd, zd),
+                Accum::Replace,
+                MatRef::from_column_major_slice(&z.z2, zd, nl),
+                MatRef::from_column_major_slice(&z.z1, zd, nl).transpose(),
+                1.0,
+                Par::Seq,
+            );
+            for (bi, &(oi, ti, zi)) in self.zblocks.iter().enumerate() {
+                for &(oj, tj, zj) in &self.zblocks[bi..] {
+                    for i in 0..ti {
+                        let row = (oi + i) * n + oj;
+                        let j0 = if oj == oi { i } else { 0 };
+                        for j in j0..tj {
+                            a[row + j] -= z.s[(zi + i) + (zj + j) * zd];
+                        }
+                    }
+                }
+            }
+        }
+        true
+    }
+}
+
+/// Scratch of [`NormalEquations::eliminate`], reused across calls.
+#[derive(Default)]
+pub(crate) struct SchurScratch {
+    z1: Vec<f64>,
+    z2: Vec<f64>,
+    s: Vec<f64>,
+}
+
+/// Inverts a small symmetric positive-definite matrix (row-major); `None` if not PD.
+pub(crate) fn small_spd_inverse(a: &[f64], t: usize) -> Option<Vec<f64>> {
+    if t == 1 {
+        return (a[0] > 0.0).then(|| vec![1.0 / a[0]]);
+    }
+    let m = DMatrix::from_row_slice(t, t, a);
+    let inv = m.cholesky()?.inverse();
+    Some(inv.transpose().as_slice().to_vec())
+}
+
+/// Dot product with four independent partial sums (vectorizable; a fixed summation order, so
+/// results are deterministic).
+#[inline(always)]
+pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let b = &b[..a.len()];
+    let (ac, ar) = a.as_chunks::<4>();
+    let (bc, br) = b.as_chunks::<4>();
+    let mut s = [0.0; 4];
+    for (x, y) in ac.iter().zip(bc) {
+        for k in 0..4 {
+            s[k] += x[k] * y[k];
+        }
+    }
+    let mut t = (s[0] + s[2]) + (s[1] + s[3]);
+    for (x, y) in ar.iter().zip(br) {
+        t += x * y;
+    }
+    t
+}
+
+/// A step in the full space: reduced states then stacked landmarks.
+pub(crate) struct Step {
+    pub dx: Vec<f64>,
+    pub dl: Vec<f64>,
+}
+
+/// Buffers of the damped reduced system, reused across the steps of a solve.
+#[derive(Default)]
+pub(crate) struct ReducedSystem {
+    a: Vec<f64>,
+    rhs: Vec<f64>,
+    cinv: Vec<f64>,
+    valid: Vec<bool>,
+    scratch: Option<(usize, MemBuffer)>,
+    schur: SchurScratch,
+}
+
+impl NormalEquations {
+    /// Solves `(H + λD) δ = −g` by eliminating landmarks, with `D = diag(max(H, min_diag))`;
+    /// `None` if the reduced matrix is not positive definite.
+    pub fn solve_damped(
+        &self,
+        lambda: f64,
+        min_diag: f64,
+        sys: &mut ReducedSystem,
+    ) -> Option<Step> {
+        let n = self.n;
+        sys.a.clear();
+        sys.a.extend_from_slice(&self.hxx);
+        sys.rhs.clear();
+        sys.rhs.extend(self.gx.iter().map(|g| -g));
+        for i in 0..n {
+            let d = sys.a[i * n + i];
+            sys.a[i * n + i] += lambda * d.max(min_diag);
+        }
+        sys.cinv.resize(self.hll.len(), 0.0);
+        sys.valid.resize(self.lt.len(), false);
+        if !self.eliminate(
+            lambda,
+            min_diag,
+            &mut sys.a,
+            &mut sys.rhs,
+            &mut sys.cinv,
+            &mut sys.valid,
+            false,
+            &mut sys.schur,
+        ) {
+            return None;
+        }
+        // The Cholesky reads the lower triangle: copy the upper (written above) onto it.
+        mirror_upper(&mut sys.a, n);
+        let mut dx = std::mem::take(&mut sys.rhs);
+        if !dense_cholesky_solve(&mut sys.a, n, &mut dx, &mut sys.scratch) {
+            return None;
+        }
+        // Back-substitution: δl = C⁻¹ (−g_l − Wᵀ δx).
+        let mut dl = vec![0.0; self.gl.len()];
+        for l in 0..self.lt.len() {
+            let t = self.lt[l];
+            let (ho, go) = (self.lhoff[l], self.loff[l]);
+            let cs = &self.couplings[self.cstart[l]..self.cstart[l + 1]];
+            if t == 1 {
+                let mut rhs = -self.gl[go];
+                for c in cs {
+                    rhs -= dot(&self.w[c.pos..c.pos + c.t], &dx[c.offset..c.offset + c.t]);
+                }
+                dl[go] = sys.cinv[ho] * rhs;
+                continue;
+            }
+            let mut rhs: Vec<f64> = self.gl[go..go + t].iter().map(|g| -g).collect();
+            for c in cs {
+                for i in 0..c.t {
+                    for j in 0..t {
+                        rhs[j] -= self.w[c.pos + i * t + j] * dx[c.offset + i];
+                    }
+                }
+            }
+            let ci = &sys.cinv[ho..ho + t * t];
+            for i in 0..t {
+                dl[go + i] = (0..t).map(|j| ci[i * t + j] * rhs[j]).sum();
+            }
+        }
+        if dx.iter().chain(&dl).any(|v| !v.is_finite()) {
+            return None;
+        }
+        Some(Step { dx, dl })
+    }
+}
+
+/// The normal equations `H δ = −g` of the residuals `residual_ids` at the problem's current
+/// values over the blocks `states` (tangent coordinates stacked in this order), with the blocks
+/// `eliminated` folded in by the (undamped) Schur complement: `H = H_xx − H_xl H_ll⁻¹ H_lx`,
+/// `g = g_x − H_xl H_ll⁻¹ g_l`. An eliminated block must be a landmark block (a residual touches
+/// at most one); one without information folds nothing in. Every block the residuals touch must
+/// be in `states`, in `eliminated` or constant. `None` if a residual cannot be evaluated.
+///
+/// This is the linear API marginalization builds on (`states` = removed states, then kept).
+pub fn schur_complement_system(
+    problem: &Problem,
+    residual_ids: &[ResidualId],
+    states: &[BlockId],
+    eliminated: &[BlockId],
+) -> Option<(DMatrix<f64>, DVector<f64>)> {
+    let nblocks = problem.blocks.len();
+    let mut state_offset = vec![NONE; nblocks];
+    let mut landmark_slot = vec![NONE; nblocks];
+    let (mut landmarks, mut landmark_offset) = (Vec::new(), Vec::new());
+    let mut n_landmark = 0;
+    for b in eliminated {
+        landmark_slot[b.0] = landmarks.len();
+        landmarks.push(b.0);
+        landmark_offset.push(n_landmark);
+        n_landmark += problem.blocks[b.0].manifold.tangent_size();
+    }
+    let mut n = 0;
+    for b in states {
+        state_offset[b.0] = n;
+        n += problem.blocks[b.0].manifold.tangent_size();
+    }
+    let layout = Layout {
+        state_offset,
+        landmark_slot,
+        landmarks,
+        landmark_offset,
+        n,
+        n_landmark,
+    };
+    let ids: Vec<usize> = residual_ids.iter().map(|r| r.0).collect();
+    let eqs = linearize(problem, &layout, Some(&ids))?;
+    let mut h = eqs.hxx.clone();
+    let mut neg_g: Vec<f64> = eqs.gx.iter().map(|v| -v).collect();
+    let mut cinv = vec![0.0; eqs.hll.len()];
+    let mut valid = vec![false; eqs.num_landmarks()];
+    eqs.eliminate(
+        0.0,
+        0.0,
+        &mut h,
+        &mut neg_g,
+        &mut cinv,
+        &mut valid,
+        true,
+        &mut SchurScratch::default(),
+    );
+    mirror_upper(&mut h, n);
+    Some((
+        DMatrix::from_row_slice(n, n, &h),
+        DVector::from_iterator(n, neg_g.iter().map(|v| -v)),
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use super::*;
+    use crate::problem::solver::dense_normal_equations;
+    use crate::problem::{BlockKind, Euclidean, LinearFactor};
+
+    /// Deterministic pseudo-random numbers in [−1, 1] (no RNG dependency in the library).
+    fn lcg(state: &mut u64) -> f64 {
+        *state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((*state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+    }
+
+    #[test]
+    fn schur_step_equals_dense_solve() {
+        let mut seed = 7u64;
+        let mut p = Problem::new();
+        let states: Vec<_> = (0..4)
+            .map(|_| {
+                p.add_block(&[0.0; 6], Arc::new(Euclidean::new(6)), BlockKind::State)
+                    .unwrap()
+            })
+            .collect();
+        let lms: Vec<_> = (0..12)
+            .map(|_| {
+                p.add_block(&[0.5], Arc::new(Euclidean::new(1)), BlockKind::Landmark)
+                    .unwrap()
+            })
+            .collect();
+        for (li, l) in lms.iter().enumerate() {
+            for s in states.iter().skip(li % 2) {
+                let a = vec![
+                    (0..12).map(|_| lcg(&mut seed)).collect(),
+                    (0..2).map(|_| lcg(&mut seed)).collect(),
+                ];
+                let b = (0..2).map(|_| lcg(&mut seed)).collect();
+                let f = LinearFactor::new(a, b, vec![6, 1]).unwrap();
+                p.add_factor(Arc::new(f), None, &[*s, *l]).unwrap();
+            }
+        }
+        let prior_a = vec![
+            (0..36)
+                .map(|i| if i % 7 == 0 { 1.0 } else { 0.0 })
+                .collect(),
+        ];
+        let f = LinearFactor::new(prior_a, vec![0.1; 6], vec![6]).unwrap();
+        p.add_factor(Arc::new(f), None, &[states[0]]).unwrap();
+        let layout = Layout::new(&p);
+        let mut eqs = linearize(&p, &layout, None).unwrap();
+        let (h, g, _) = dense_normal_equations(&p).unwrap();
+        // Both elimination paths: block pair by block pair, and one dense product.
+        for (dense_schur, lambda) in [false, true]
+            .into_iter()
+            .flat_map(|d| [0.0, 1e-3, 10.0].map(|l| (d, l)))
+        {
+            eqs.dense_schur = dense_schur;
+            let step = eqs
+                .solve_damped(lambda, 1e-6, &mut ReducedSystem::default())
+                .unwrap();
+            let d = DMatrix::from_diagonal(&h.diagonal().map(|v| v.max(1e-6)));
+            let dense = (&h + d * lambda).cholesky().unwrap().solve(&(-&g));
+            let ours: Vec<f64> = step.dx.iter().chain(&step.dl).copied().collect();
+            let err = ours
+                .iter()
+                .zip(dense.iter())
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            assert!(
+                err < 1e-9 * dense.amax().max(1.0),
+                "dense_schur={dense_schur} λ={lambda}: {err:e}"
+            );
+        }
+    }
+}
