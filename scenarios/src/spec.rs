@@ -66,7 +66,7 @@ use estimator::imu::ImuNoise;
 use estimator::problem::Method;
 use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 use serde::Deserialize;
-use sim::camera::{CameraConfig as SimCamera, RigConfig};
+use sim::camera::{CameraConfig as SimCamera, RigConfig, TrackIds};
 use sim::faults::Fault;
 use sim::imu::{ImuConfig, ImuWindow};
 use sim::motion::{Lissajous, RandomWaypoints, Replay};
@@ -433,10 +433,27 @@ pub struct RigSpec {
     /// `max_features` (default false).
     #[serde(default)]
     pub reseed: bool,
+    /// Feature ids of the feature-level cameras: `"realistic"` (default: a new id for every
+    /// track, as a tracker outputs; a re-acquired landmark is a new track; noisy pixels outside
+    /// the image are dropped) or `"landmark"` (the landmark's id, stable over time: ideal
+    /// re-association, and observations are kept whatever their noise).
+    #[serde(default)]
+    pub track_ids: TrackIdsSpec,
     /// The cameras; index = `cam_id` (0 = left).
     pub cameras: Vec<CameraSpec>,
     /// The IMU.
     pub imu: ImuSpec,
+}
+
+/// `rig.track_ids`: how the feature-level cameras assign feature ids.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum TrackIdsSpec {
+    /// A new id for every track (what a tracker outputs).
+    #[default]
+    Realistic,
+    /// The landmark id, stable over time (ideal association).
+    Landmark,
 }
 
 /// Camera projection models.
@@ -483,7 +500,8 @@ pub struct CameraSpec {
     pub min_depth_m: Option<f64>,
     /// Farthest visible depth (m, default 40).
     pub max_depth_m: Option<f64>,
-    /// Longest track (frames); default unlimited.
+    /// Longest track (frames; the landmark then rests as many frames in this camera); default
+    /// unlimited, as the image front end's tracks (lost only when the feature is).
     pub max_track_length: Option<u32>,
 }
 
@@ -1526,6 +1544,10 @@ impl Scenario {
             rate_hz: s.rig.rate_hz,
             td_ns: (s.rig.time_offset_s * 1e9).round() as i64,
             reseed: s.rig.reseed,
+            track_ids: match s.rig.track_ids {
+                TrackIdsSpec::Realistic => TrackIds::Realistic,
+                TrackIdsSpec::Landmark => TrackIds::Landmark,
+            },
         };
         let imu_cfg = ImuConfig {
             name: "imu".into(),

@@ -17,9 +17,21 @@
 //! the landmark rests for as many frames in that camera), camera `c > 0` first adopts landmarks
 //! that cameras `0..c` report in the same frame (stereo association by landmark id), and free
 //! slots up to `max_features` are filled with new visible landmarks spread over an 8 × 6 image
-//! grid, in an order drawn from the camera's own stream `<name>/select`. Feature ids are the
-//! landmark ids, stable across cameras and time. A camera's output depends only on itself and
-//! the cameras before it, so appending a camera never changes the others.
+//! grid, in an order drawn from the camera's own stream `<name>/select`. A camera's output
+//! depends only on itself and the cameras before it, so appending a camera never changes the
+//! others.
+//!
+//! # Feature ids
+//! [`TrackIds::Realistic`] (the default) gives ids as a tracker would: a track that a camera
+//! starts gets a new id, kept while the camera tracks it and taken over by later cameras that
+//! adopt it (stereo association); a landmark lost and later re-acquired is a new track with a
+//! new id, and an observation whose noisy pixel falls outside the image is dropped and ends its
+//! track. The id is `key | camera << 40 | episode << 48`: the landmark (its scene index, or
+//! for a seeded landmark `1 << 39 | seeder << 32 | k`), the camera that started the track, and
+//! how many tracks of that landmark the camera started before (modulo 2¹⁶), so
+//! [`RigSim::landmark`] still resolves it and a camera's ids never depend on later cameras. [`TrackIds::Landmark`] reports the
+//! landmark ids themselves, stable across cameras and time: ideal association, where a
+//! landmark seen again after a gap is re-associated for free (for studies that want it).
 //!
 //! # Re-seeding
 //! Where a view runs short — fewer than `max_features` after the steps above — the camera seeds
@@ -83,6 +95,22 @@ impl CameraConfig {
     }
 }
 
+/// How feature ids are assigned (see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TrackIds {
+    /// A new id for every track, as a tracker outputs.
+    #[default]
+    Realistic,
+    /// The landmark's id, stable over time (ideal re-association).
+    Landmark,
+}
+
+/// Bits of a realistic feature id that name the landmark (see [`RigSim::landmark_key`]).
+const KEY_BITS: u64 = 40;
+/// Bits of a realistic feature id that hold the camera that started the track; the episode
+/// takes the remaining 16.
+const CAMERA_BITS: u64 = 8;
+
 /// A synchronized camera rig.
 #[derive(Clone, Debug)]
 pub struct RigConfig {
@@ -95,6 +123,8 @@ pub struct RigConfig {
     /// Seed new landmarks where a view runs short (see the module docs). Off by default: the
     /// presets' landmark density already fills most views, and seeding changes the stream.
     pub reseed: bool,
+    /// How feature ids are assigned (default [`TrackIds::Realistic`]).
+    pub track_ids: TrackIds,
 }
 
 impl RigConfig {
@@ -105,6 +135,7 @@ impl RigConfig {
             rate_hz: 20.0,
             td_ns: 0,
             reseed: false,
+            track_ids: TrackIds::Realistic,
         }
     }
 
@@ -152,6 +183,10 @@ struct CamState {
     track_start: Vec<u32>,
     /// Frame index before which each landmark may not be re-tracked.
     rest_until: Vec<u32>,
+    /// Feature id of each landmark's current track (meaningful while it is tracked).
+    track_id: Vec<u64>,
+    /// Tracks of each landmark this camera has started (realistic ids).
+    episodes: Vec<u32>,
 }
 
 /// A landmark's true projection in one camera.
@@ -203,6 +238,8 @@ impl RigSim {
                 tracked: Vec::new(),
                 track_start: vec![u32::MAX; n],
                 rest_until: vec![0; n],
+                track_id: vec![0; n],
+                episodes: vec![0; n],
             })
             .collect();
         Self {
@@ -227,7 +264,7 @@ impl RigSim {
         &self.seeded
     }
 
-    /// Internal index (into the per-camera track arrays) of feature id `id`.
+    /// Internal index (into the per-camera track arrays) of landmark id `id`.
     fn index_of(&self, id: u64) -> usize {
         if id < SEEDED_ID_BASE {
             id as usize
@@ -236,15 +273,67 @@ impl RigSim {
         }
     }
 
-    /// The landmark with feature id `id` (scene or seeded), if it exists.
-    pub fn landmark(&self, id: u64) -> Option<&Landmark> {
-        let n = self.scene.landmarks.len();
+    /// Internal index of landmark id `id`, if it exists.
+    fn landmark_index(&self, id: u64) -> Option<usize> {
         if id < SEEDED_ID_BASE {
-            self.scene.landmarks.get(id as usize)
+            ((id as usize) < self.scene.landmarks.len()).then_some(id as usize)
         } else {
-            let i = *self.seeded_index.get(&id)?;
-            Some(&self.seeded[i - n].0)
+            self.seeded_index.get(&id).copied()
         }
+    }
+
+    /// Internal index of the landmark a reported feature id belongs to, if it exists.
+    fn feature_index(&self, feature_id: u64) -> Option<usize> {
+        let ix = match self.cfg.track_ids {
+            TrackIds::Landmark if feature_id < SEEDED_ID_BASE => feature_id as usize,
+            TrackIds::Landmark => *self.seeded_index.get(&feature_id)?,
+            TrackIds::Realistic => {
+                let key = feature_id & ((1 << KEY_BITS) - 1);
+                if key & (1 << (KEY_BITS - 1)) == 0 {
+                    key as usize
+                } else {
+                    let local = key & !(1 << (KEY_BITS - 1));
+                    *self.seeded_index.get(&(SEEDED_ID_BASE + local))?
+                }
+            }
+        };
+        (ix < self.scene.landmarks.len() + self.seeded.len()).then_some(ix)
+    }
+
+    /// The landmark at internal index `ix`.
+    fn landmark_at(&self, ix: usize) -> &Landmark {
+        let n = self.scene.landmarks.len();
+        if ix < n {
+            &self.scene.landmarks[ix]
+        } else {
+            &self.seeded[ix - n].0
+        }
+    }
+
+    /// The landmark that feature id `id` (as the rig reported it) observes, if it exists.
+    pub fn landmark(&self, id: u64) -> Option<&Landmark> {
+        Some(self.landmark_at(self.feature_index(id)?))
+    }
+
+    /// A new feature id for a track of the landmark at index `ix` that camera `ci` starts.
+    fn new_track_id(&mut self, ci: usize, ix: usize) -> u64 {
+        let st = &mut self.cams[ci];
+        let id = match self.cfg.track_ids {
+            TrackIds::Landmark => self.landmark_at(ix).id,
+            TrackIds::Realistic => {
+                let e = u64::from(st.episodes[ix] & 0xffff);
+                st.episodes[ix] = st.episodes[ix].wrapping_add(1);
+                let lm_id = self.landmark_at(ix).id;
+                let key = if lm_id < SEEDED_ID_BASE {
+                    lm_id
+                } else {
+                    (lm_id - SEEDED_ID_BASE) | 1 << (KEY_BITS - 1)
+                };
+                key | (ci as u64) << KEY_BITS | e << (KEY_BITS + CAMERA_BITS)
+            }
+        };
+        self.cams[ci].track_id[ix] = id;
+        id
     }
 
     /// The configuration.
@@ -303,7 +392,7 @@ impl RigSim {
         o: &Vector3<f64>,
         id: u64,
     ) -> Option<Projection> {
-        let lm = self.landmark(id)?;
+        let lm = self.landmark_at(self.landmark_index(id)?);
         if lm.normal.dot(&(o - lm.p)) <= 0.0 {
             return None;
         }
@@ -400,27 +489,30 @@ impl RigSim {
                 if kept.len() >= c.max_features {
                     break;
                 }
+                let Some(i) = self.feature_index(f.feature_id) else {
+                    continue;
+                };
                 // Seeded landmarks of later cameras do not exist for this one.
-                if self
-                    .seeded_index
-                    .get(&f.feature_id)
-                    .is_some_and(|&i| self.seeded[i - self.scene.landmarks.len()].1 > ci)
-                {
+                let n_scene = self.scene.landmarks.len();
+                if i >= n_scene && self.seeded[i - n_scene].1 > ci {
                     continue;
                 }
-                let i = self.index_of(f.feature_id);
                 let st = &self.cams[ci];
                 if st.rest_until[i] > frame || st.track_start[i] != u32::MAX {
                     continue;
                 }
-                if let Some(p) = self.project_one(c, &t_c_w, &o, f.feature_id) {
+                let id = self.landmark_at(i).id;
+                if let Some(p) = self.project_one(c, &t_c_w, &o, id) {
                     occupancy[cell(&p.uv)] += 1;
-                    self.cams[ci].track_start[i] = frame;
+                    let st = &mut self.cams[ci];
+                    st.track_start[i] = frame;
+                    st.track_id[i] = f.feature_id;
                     kept.push(p);
                 }
             }
         }
-        // 3. New features, spread over the grid.
+        // 3. New features, spread over the grid (`started`: tracks this camera begins).
+        let mut started: Vec<usize> = Vec::new();
         if kept.len() < c.max_features {
             let cands: Vec<Projection> = self
                 .visible(ci, t_w_b)
@@ -446,6 +538,7 @@ impl RigSim {
                 if occupancy[k] < cap {
                     occupancy[k] += 1;
                     st.track_start[ix] = frame;
+                    started.push(ix);
                     kept.push(p);
                 } else {
                     rest.push((p, ix));
@@ -456,6 +549,7 @@ impl RigSim {
                     break;
                 }
                 st.track_start[ix] = frame;
+                started.push(ix);
                 kept.push(p);
             }
         }
@@ -498,28 +592,47 @@ impl RigSim {
                     for cs in self.cams.iter_mut() {
                         cs.track_start.push(u32::MAX);
                         cs.rest_until.push(0);
+                        cs.track_id.push(0);
+                        cs.episodes.push(0);
                     }
                     if let Some(p) = self.project_one(&c, &t_c_w, &o, id) {
                         occupancy[k] += 1;
                         self.cams[ci].track_start[ix] = frame;
+                        started.push(ix);
                         kept.push(p);
                     }
                 }
             }
         }
+        started.sort_unstable();
+        for ix in started {
+            self.new_track_id(ci, ix);
+        }
         kept.sort_by_key(|p| p.id);
+        let c = &self.cfg.cameras[ci];
+        let (sigma, realistic) = (c.pixel_sigma, self.cfg.track_ids == TrackIds::Realistic);
+        let kept_ix: Vec<usize> = kept.iter().map(|p| self.index_of(p.id)).collect();
         let st = &mut self.cams[ci];
-        st.tracked = kept.iter().map(|p| p.id).collect();
-        let sigma = c.pixel_sigma;
-        kept.iter()
-            .map(|p| {
-                let nx: f64 = StandardNormal.sample(&mut st.noise);
-                let ny: f64 = StandardNormal.sample(&mut st.noise);
-                FeatureObservation {
-                    feature_id: p.id,
-                    uv: p.uv + Vector2::new(nx, ny) * sigma,
-                }
-            })
-            .collect()
+        st.tracked.clear();
+        let mut out = Vec::with_capacity(kept.len());
+        // Noise is drawn for every tracked landmark, in landmark-id order.
+        for (p, ix) in kept.iter().zip(kept_ix) {
+            let nx: f64 = StandardNormal.sample(&mut st.noise);
+            let ny: f64 = StandardNormal.sample(&mut st.noise);
+            let uv = p.uv + Vector2::new(nx, ny) * sigma;
+            let inside = uv.x >= -0.5 && uv.y >= -0.5 && uv.x < w - 0.5 && uv.y < h - 0.5;
+            if realistic && !inside {
+                // A tracker cannot report a pixel outside the image: the track ends.
+                st.track_start[ix] = u32::MAX;
+                continue;
+            }
+            st.tracked.push(p.id);
+            out.push(FeatureObservation {
+                feature_id: st.track_id[ix],
+                uv,
+            });
+        }
+        out.sort_by_key(|f| f.feature_id);
+        out
     }
 }

@@ -4,7 +4,7 @@
 mod common;
 
 use nalgebra::Vector3;
-use sim::camera::RigSim;
+use sim::camera::{RigSim, TrackIds};
 use sim::scene::{Aabb, Scene, Surface};
 use sim::stream::Measurement;
 use sim::{World, WorldConfig};
@@ -41,7 +41,7 @@ fn measurements_reproject_within_noise_and_are_unoccluded() {
             );
             assert!(cf.features.len() <= c.max_features);
             for o in &cf.features {
-                let lm = scene.landmarks[o.feature_id as usize];
+                let lm = stream.landmark(o.feature_id).unwrap();
                 let p_c = t_w_c.inverse().transform(&lm.p);
                 let uv = c.model.project(&p_c).unwrap();
                 let e = (uv - o.uv).norm();
@@ -146,7 +146,6 @@ fn euroc_radtan_rig_reprojects_through_the_distortion() {
     })
     .unwrap();
     let rig = world.config().rig.clone().unwrap();
-    let scene = world.scene().clone();
     let mut stream = world.stream();
     let (mut n, mut sum_sq) = (0usize, 0.0);
     while let Some(m) = stream.next() {
@@ -158,7 +157,7 @@ fn euroc_radtan_rig_reprojects_through_the_distortion() {
             for o in &cf.features {
                 let uv = c
                     .model
-                    .project(&t_c_w.transform(&scene.landmarks[o.feature_id as usize].p))
+                    .project(&t_c_w.transform(&stream.landmark(o.feature_id).unwrap().p))
                     .unwrap();
                 sum_sq += (uv - o.uv).norm_squared();
                 n += 1;
@@ -309,4 +308,84 @@ fn machine_hall_and_outdoor_presets_give_consistent_features() {
             "{preset:?}: only {mean:.1} features per camera and frame"
         );
     }
+}
+
+/// Per camera: feature id → the frames it was reported in.
+fn reports_by_id(
+    track_ids: TrackIds,
+    seed: u64,
+) -> Vec<std::collections::BTreeMap<u64, Vec<usize>>> {
+    let mut rig = common::rig(2);
+    rig.track_ids = track_ids;
+    for c in &mut rig.cameras {
+        // Large noise, so that some noisy pixels leave the image.
+        c.pixel_sigma = 2.0;
+    }
+    let world = World::new(WorldConfig {
+        seed,
+        duration_s: 30.0,
+        rig: Some(rig.clone()),
+        ..WorldConfig::default()
+    })
+    .unwrap();
+    let mut stream = world.stream();
+    let mut by_id = vec![std::collections::BTreeMap::<u64, Vec<usize>>::new(); 2];
+    let (mut frame, mut outside) = (0, 0);
+    while let Some(m) = stream.next() {
+        let Measurement::Frame(f) = m else { continue };
+        for cf in &f.cameras {
+            let (w, h) = (
+                f64::from(rig.cameras[cf.cam_id].model.width()),
+                f64::from(rig.cameras[cf.cam_id].model.height()),
+            );
+            for o in &cf.features {
+                assert!(stream.landmark(o.feature_id).is_some());
+                let inside =
+                    o.uv.x >= -0.5 && o.uv.y >= -0.5 && o.uv.x < w - 0.5 && o.uv.y < h - 0.5;
+                outside += usize::from(!inside);
+                by_id[cf.cam_id]
+                    .entry(o.feature_id)
+                    .or_default()
+                    .push(frame);
+            }
+        }
+        frame += 1;
+    }
+    match track_ids {
+        TrackIds::Realistic => assert_eq!(outside, 0, "realistic tracks report pixels outside"),
+        TrackIds::Landmark => assert!(outside > 0, "the noise should push some pixels out"),
+    }
+    by_id
+}
+
+/// Ids reported again after a gap of frames in camera 0 (which starts every track it has).
+fn reappearing(by_id: &std::collections::BTreeMap<u64, Vec<usize>>) -> usize {
+    by_id
+        .values()
+        .filter(|frames| frames.windows(2).any(|w| w[1] != w[0] + 1))
+        .count()
+}
+
+#[test]
+fn realistic_track_ids_are_new_after_every_reacquisition() {
+    let realistic = reports_by_id(TrackIds::Realistic, 4);
+    let ideal = reports_by_id(TrackIds::Landmark, 4);
+    // With landmark ids, landmarks that leave the view come back under the same id.
+    let back = reappearing(&ideal[0]);
+    assert!(back > 100, "{back} landmark ids reappear after a gap");
+    // A tracker's ids never do: each is one unbroken run of frames in the camera that began it.
+    assert_eq!(reappearing(&realistic[0]), 0);
+    // Stereo association still shares ids: most of cam1's tracks are cam0's.
+    let shared = realistic[1]
+        .keys()
+        .filter(|id| realistic[0].contains_key(id))
+        .count();
+    assert!(
+        shared * 10 > realistic[1].len() * 8,
+        "{shared} of {} cam1 ids come from cam0",
+        realistic[1].len()
+    );
+    // More tracks than landmarks: re-acquisitions are new tracks.
+    let landmarks: std::collections::BTreeSet<u64> = ideal[0].keys().copied().collect();
+    assert!(realistic[0].len() > landmarks.len() + back / 2);
 }
