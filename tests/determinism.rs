@@ -19,6 +19,7 @@ fn run_into(tag: &str, seed: Option<u64>) -> PathBuf {
     let options = RunOptions {
         seed,
         duration_s: Some(6.0),
+        ..Default::default()
     };
     let output = run(&scenario, &options, &mut |_| {}).unwrap();
     let eval = report::evaluate(&output, scenario.spec.suite);

@@ -159,6 +159,7 @@ fn a_run_that_never_tracks_fails_on_the_default_expectations() {
     let options = scenarios::run::RunOptions {
         seed: None,
         duration_s: Some(20.0),
+        ..Default::default()
     };
     let output = scenarios::run::run(&scenario, &options, &mut |_| {}).expect("runs");
     let eval = scenarios::report::evaluate(&output, scenario.spec.suite);

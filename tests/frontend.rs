@@ -33,6 +33,7 @@ fn run_report(name: &str, seconds: Option<f64>) -> (Report, Vec<u8>) {
     let options = RunOptions {
         seed: None,
         duration_s: seconds,
+        ..Default::default()
     };
     let output = run(&scenario, &options, &mut |_| {}).unwrap();
     let eval = report::evaluate(&output, scenario.spec.suite);

@@ -41,6 +41,7 @@ fn scenario_bytes(scenario: &Scenario, seconds: f64) -> (Vec<u8>, report::Report
     let options = RunOptions {
         seed: None,
         duration_s: Some(seconds),
+        ..Default::default()
     };
     let output = run(scenario, &options, &mut |_| {}).unwrap();
     let eval = report::evaluate(&output, scenario.spec.suite);
@@ -80,6 +81,7 @@ fn export_writes_rendered_images_in_the_euroc_layout() {
     let options = RunOptions {
         seed: None,
         duration_s: Some(0.2),
+        ..Default::default()
     };
     let s = scenarios::export::export(&scenario, &options, &dir).unwrap();
     assert_eq!(s.frames, 5);

@@ -12,6 +12,7 @@
 //! - [`images`], [`tracks_image`] — `vio render`: images, depth, and the front end's tracks;
 //! - [`selfcheck`] — a quick end-to-end check of the estimator's mathematics.
 
+pub mod batch;
 pub mod catalog;
 pub mod dataset;
 pub mod export;

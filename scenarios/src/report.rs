@@ -43,6 +43,7 @@ use estimator::estimator::Status;
 use estimator::geometry::Pose;
 use serde::Serialize;
 
+use crate::batch::{self, BatchReport};
 use crate::dataset::{self, StampedPose};
 use crate::frontend::FrontendStats;
 use crate::metrics::{self, Alignment, AteResult, MetricsError, RpeOptions, RpeResult};
@@ -304,6 +305,9 @@ pub struct Report {
     pub events: Vec<EventReport>,
     /// The scenario's faults.
     pub faults: Vec<FaultReport>,
+    /// The window against the full batch over its keyframes (`vio run --batch-reference`;
+    /// `null` otherwise).
+    pub batch_reference: Option<BatchReport>,
     /// Checked expectations.
     pub expectations: Vec<ExpectationResult>,
     /// True when every expectation holds.
@@ -438,6 +442,7 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
         frontend: run.frontend,
         events,
         faults,
+        batch_reference: batch::batch_report(run, eval.alignment),
         expectations: Vec::new(),
         passed: true,
         vio_version: env!("CARGO_PKG_VERSION"),
@@ -555,6 +560,9 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
         "sensors       {} suite switches, {} IMU samples excluded as spikes, {} saturated",
         r.suite_switches, r.imu_samples_excluded, r.imu_samples_saturated
     );
+    if let Some(b) = &r.batch_reference {
+        let _ = writeln!(s, "batch ref     {}", batch::summary_line(b));
+    }
     for e in r
         .events
         .iter()

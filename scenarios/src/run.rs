@@ -7,6 +7,8 @@
 use std::time::Instant;
 
 use estimator::estimator::{Estimate, Estimator, EventKind as EstimatorEventKind, Status};
+use estimator::geometry::Pose;
+use estimator::problem::{SolverOptions, SolverSummary};
 use sim::World;
 use sim::stream::{GroundTruth, Measurement, Stream};
 
@@ -20,6 +22,22 @@ pub struct RunOptions {
     pub seed: Option<u64>,
     /// Duration (s) instead of the scenario's `trajectory.duration_s`.
     pub duration_s: Option<f64>,
+    /// Also solve the full batch over the window's keyframes at the end
+    /// ([`RunOutput::batch_reference`]).
+    pub batch_reference: bool,
+}
+
+/// The window against the full batch on the same measurements
+/// ([`RunOptions::batch_reference`]).
+#[derive(Clone, Debug)]
+pub struct BatchReference {
+    /// Every frame's pose as it left the window, `(t_ns, T_w_b)`, in order.
+    pub finalized: Vec<(i64, Pose)>,
+    /// The batch solution over the keyframes (marginalized ones, then the final window),
+    /// `(t_ns, T_w_b)` (`Estimator::batch_solve_keyframes`).
+    pub batch: Vec<(i64, Pose)>,
+    /// The batch solve's statistics.
+    pub summary: Option<SolverSummary>,
 }
 
 /// Wall time spent on one frame (s). Measured for reports only.
@@ -116,6 +134,8 @@ pub struct RunOutput {
     /// The image front end's statistics against ground truth (rendered scenarios tracked by
     /// the KLT front end).
     pub frontend: Option<FrontendStats>,
+    /// The batch reference, when asked for.
+    pub batch_reference: Option<BatchReference>,
 }
 
 /// Errors that stop a run.
@@ -199,7 +219,8 @@ pub fn run(
     progress: &mut dyn FnMut(f64),
 ) -> Result<RunOutput, RunError> {
     let world_cfg = scenario.world_config(options.seed, options.duration_s)?;
-    let est_cfg = scenario.estimator_config()?;
+    let mut est_cfg = scenario.estimator_config()?;
+    est_cfg.record_history |= options.batch_reference;
     let seed = world_cfg.seed;
     let tracker_cfg = scenario.tracker_config(seed)?;
     let uses_imu = est_cfg.suite.uses_imu();
@@ -228,6 +249,7 @@ pub fn run(
         imu_samples_saturated: 0,
         renderer,
         frontend: None,
+        batch_reference: None,
     };
     let mut render_s = 0.0;
     let mut status = estimator.status();
@@ -351,8 +373,31 @@ pub fn run(
     }
     out.frontend = frontend.map(|f| f.stats());
     stream_result(scenario, &stream)?;
+    if options.batch_reference {
+        out.batch_reference = Some(batch_reference(&mut estimator));
+    }
     progress(1.0);
     Ok(out)
+}
+
+/// Iterations of the batch reference solve: it starts from the window's estimates, so a few
+/// Gauss-Newton steps converge (the same cap as the estimator's batch tests).
+const BATCH_ITERATIONS: usize = 20;
+
+/// The frames as they left the window and the keyframe batch solved at the end of a run.
+fn batch_reference(estimator: &mut Estimator) -> BatchReference {
+    let options = SolverOptions {
+        max_iterations: BATCH_ITERATIONS,
+        ..Default::default()
+    };
+    let (batch, summary) = estimator
+        .batch_solve_keyframes(&options)
+        .map_or((Vec::new(), None), |(b, s)| (b, Some(s)));
+    BatchReference {
+        finalized: estimator.take_finalized(),
+        batch,
+        summary,
+    }
 }
 
 /// The image front end for a rendered scenario: the estimator's cameras, the scene and the

@@ -14,6 +14,7 @@ fn short_run_has_no_rpe_and_matches_eval_of_its_files() {
     let options = RunOptions {
         seed: None,
         duration_s: Some(1.0),
+        ..Default::default()
     };
     let output = run(&scenario, &options, &mut |_| {}).unwrap();
     let eval = report::evaluate(&output, scenario.spec.suite);

@@ -41,6 +41,7 @@ pub fn run_catalog(name: &str, duration_s: Option<f64>) -> Arc<Done> {
             &RunOptions {
                 seed: None,
                 duration_s,
+                ..Default::default()
             },
             &mut |_| {},
         )

@@ -112,7 +112,11 @@ pub enum EstimatorError {
 /// History kept for [`Estimator::batch_solve`].
 #[derive(Clone, Debug, Default)]
 struct History {
+    /// Every frame as it was solved as the newest while tracking.
     frames: Vec<WindowFrame>,
+    /// The keyframes as they were marginalized while tracking (their IMU intervals joined
+    /// across the frames dropped between them).
+    keyframes: Vec<WindowFrame>,
     /// Per frame seq: the observations (feature id, observation).
     observations: Vec<(u64, Vec<(u64, Observation)>)>,
 }
@@ -608,6 +612,9 @@ impl Estimator {
             };
             if self.status == Status::Tracking {
                 self.finalized.push((removed.t_ns, removed.pose));
+                if let Some(h) = self.history.as_mut().filter(|_| keyframe) {
+                    h.keyframes.push(removed.clone());
+                }
             }
             if had_prior && imu_active && self.window.prior.is_none() {
                 self.events.push(Event {
@@ -749,11 +756,36 @@ impl Estimator {
     /// smoothed estimates `(t_ns, T_w_b)` of every frame, or `None` without history.
     pub fn batch_solve(&self, options: &crate::problem::SolverOptions) -> Option<Vec<(i64, Pose)>> {
         let history = self.history.as_ref()?;
+        Some(self.solve_batch(history, history.frames.iter(), options).0)
+    }
+
+    /// The full batch over the window's own states: every keyframe marginalized while
+    /// tracking, then the frames in the window now, with the observations each had and the IMU
+    /// intervals that joined them, solved at once without marginalization, starting from the
+    /// estimates they had as they left the window. What the window would have estimated had it
+    /// kept everything: the reference for what marginalization loses. Requires
+    /// `record_history`; `None` without history. Also returns the solve's statistics.
+    pub fn batch_solve_keyframes(
+        &self,
+        options: &crate::problem::SolverOptions,
+    ) -> Option<(Vec<(i64, Pose)>, SolverSummary)> {
+        let history = self.history.as_ref()?;
+        let tracking = self.status == Status::Tracking;
+        let window = self.window.frames.iter().filter(|_| tracking);
+        Some(self.solve_batch(history, history.keyframes.iter().chain(window), options))
+    }
+
+    fn solve_batch<'a>(
+        &self,
+        history: &History,
+        frames: impl Iterator<Item = &'a WindowFrame>,
+        options: &crate::problem::SolverOptions,
+    ) -> (Vec<(i64, Pose)>, SolverSummary) {
         let uses_imu = self.config.suite.uses_imu();
         // A window over every frame processed while tracking, chained by their own IMU
         // intervals, with today's extrinsics and time offset and no prior.
         let mut window = Window::new(self.window.extrinsics.clone(), self.window.td);
-        for f in &history.frames {
+        for f in frames {
             let mut f = f.clone();
             if window.frames.is_empty() {
                 f.preint = None;
@@ -779,8 +811,9 @@ impl Estimator {
         triangulation::triangulate_tracks(&mut window, &self.config, &self.focal);
         let imu_active = uses_imu && self.status == Status::Tracking;
         let mut built = window.build(&self.problem_settings(), imu_active);
-        solve(&mut built.problem, options);
+        let summary = solve(&mut built.problem, options);
         window.write_back(&built, &self.config);
-        Some(window.frames.iter().map(|f| (f.t_ns, f.pose)).collect())
+        let poses = window.frames.iter().map(|f| (f.t_ns, f.pose)).collect();
+        (poses, summary)
     }
 }

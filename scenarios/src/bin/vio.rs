@@ -38,6 +38,10 @@ enum Command {
         /// Simulated duration (s) instead of the scenario's `trajectory.duration_s`.
         #[arg(long)]
         duration: Option<f64>,
+        /// Also solve the full batch over the window's keyframes at the end and report the
+        /// window's and the causal ATE against it (`batch_reference` in report.json).
+        #[arg(long)]
+        batch_reference: bool,
     },
     /// List the built-in scenarios.
     List,
@@ -252,7 +256,16 @@ fn main() -> ExitCode {
             out,
             seed,
             duration,
-        } => run_command(scenario, out, seed, duration),
+            batch_reference,
+        } => run_command(
+            scenario,
+            out,
+            RunOptions {
+                seed,
+                duration_s: duration,
+                batch_reference,
+            },
+        ),
         Command::Export {
             scenario,
             out,
@@ -266,6 +279,7 @@ fn main() -> ExitCode {
             let options = RunOptions {
                 seed,
                 duration_s: duration,
+                ..Default::default()
             };
             match scenarios::export::export(&scenario, &options, &out) {
                 Ok(s) => {
@@ -434,17 +448,12 @@ fn tracks_command(
     ExitCode::SUCCESS
 }
 
-fn run_command(
-    scenario: Option<String>,
-    out: Option<PathBuf>,
-    seed: Option<u64>,
-    duration: Option<f64>,
-) -> ExitCode {
+fn run_command(scenario: Option<String>, out: Option<PathBuf>, options: RunOptions) -> ExitCode {
     let scenario = match load_scenario(scenario.as_deref()) {
         Ok(s) => s,
         Err(code) => return code,
     };
-    if let Some(d) = duration
+    if let Some(d) = options.duration_s
         && !(d.is_finite() && d > 0.0)
     {
         eprintln!("error: --duration must be a finite number of seconds > 0");
@@ -465,10 +474,6 @@ fn run_command(
             .progress_chars("=> "),
     );
     bar.set_prefix(scenario.name.clone());
-    let options = RunOptions {
-        seed,
-        duration_s: duration,
-    };
     let result = run(&scenario, &options, &mut |f| {
         bar.set_position((f * 1000.0).round() as u64)
     });
