@@ -19,6 +19,7 @@ pub mod export;
 pub mod frontend;
 pub mod images;
 pub mod metrics;
+pub mod nees;
 pub mod plot;
 pub mod recovery;
 pub mod report;

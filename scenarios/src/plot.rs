@@ -229,3 +229,72 @@ fn draw(d: &PlotData, buf: &mut [u8]) -> DrawResult {
     root.present()?;
     Ok(())
 }
+
+/// One panel of `nees.png`: a metric's run-averaged NEES over time and its 95 % band.
+#[derive(Clone, Debug)]
+pub struct NeesPanel {
+    /// Panel caption.
+    pub title: String,
+    /// `(t s, NEES)`.
+    pub series: Vec<(f64, f64)>,
+    /// The band `[lo, hi]`.
+    pub band: [f64; 2],
+}
+
+/// `nees.png`: one panel per metric, the NEES on a log scale with the band's bounds.
+pub fn nees_png(title: &str, panels: &[NeesPanel]) -> Result<Vec<u8>, String> {
+    register()?;
+    let (w, h) = (1000u32, 260 * panels.len().max(1) as u32 + 60);
+    let mut buf = vec![0u8; (w * h * 3) as usize];
+    draw_nees(title, panels, (w, h), &mut buf).map_err(|e| format!("cannot draw the plot: {e}"))?;
+    let img = image::RgbImage::from_raw(w, h, buf).ok_or("plot buffer has the wrong size")?;
+    let mut png = Cursor::new(Vec::new());
+    img.write_to(&mut png, image::ImageFormat::Png)
+        .map_err(|e| format!("cannot encode the plot: {e}"))?;
+    Ok(png.into_inner())
+}
+
+fn draw_nees(title: &str, panels: &[NeesPanel], size: (u32, u32), buf: &mut [u8]) -> DrawResult {
+    let root = BitMapBackend::with_buffer(buf, size).into_drawing_area();
+    root.fill(&WHITE)?;
+    let root = root.titled(title, ("sans-serif", 24).into_font())?;
+    let areas = root.split_evenly((panels.len().max(1), 1));
+    let band_color = RGBColor(60, 120, 200);
+    let nees_color = RGBColor(214, 39, 40);
+    for (p, area) in panels.iter().zip(&areas) {
+        let t1 = p.series.last().map_or(1.0, |s| s.0).max(1e-3);
+        let t0 = p.series.first().map_or(0.0, |s| s.0).min(t1 - 1e-3);
+        let (mut lo, mut hi) = (p.band[0], p.band[1]);
+        for &(_, v) in &p.series {
+            if v.is_finite() && v > 0.0 {
+                lo = lo.min(v);
+                hi = hi.max(v);
+            }
+        }
+        let (lo, hi) = (lo.max(1e-3) * 0.8, hi * 1.25);
+        let mut chart = ChartBuilder::on(area)
+            .caption(&p.title, ("sans-serif", 18).into_font())
+            .margin(10)
+            .x_label_area_size(30)
+            .y_label_area_size(60)
+            .build_cartesian_2d(t0..t1, (lo..hi).log_scale())?;
+        chart
+            .configure_mesh()
+            .x_desc("t [s]")
+            .y_desc("NEES")
+            .label_style(("sans-serif", 13))
+            .draw()?;
+        for b in p.band {
+            chart.draw_series(LineSeries::new(
+                [(t0, b), (t1, b)],
+                band_color.stroke_width(2),
+            ))?;
+        }
+        chart.draw_series(LineSeries::new(
+            p.series.iter().copied().filter(|(_, v)| *v > 0.0),
+            nees_color.stroke_width(1),
+        ))?;
+    }
+    root.present()?;
+    Ok(())
+}

@@ -25,6 +25,8 @@ pub struct RunOptions {
     /// Also solve the full batch over the window's keyframes at the end
     /// ([`RunOutput::batch_reference`]).
     pub batch_reference: bool,
+    /// Compute the newest state's covariance with every estimate (`vio nees`).
+    pub covariance: bool,
 }
 
 /// The window against the full batch on the same measurements
@@ -221,6 +223,7 @@ pub fn run(
     let world_cfg = scenario.world_config(options.seed, options.duration_s)?;
     let mut est_cfg = scenario.estimator_config()?;
     est_cfg.record_history |= options.batch_reference;
+    est_cfg.compute_covariance |= options.covariance;
     let seed = world_cfg.seed;
     let tracker_cfg = scenario.tracker_config(seed)?;
     let uses_imu = est_cfg.suite.uses_imu();

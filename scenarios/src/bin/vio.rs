@@ -43,6 +43,27 @@ enum Command {
         #[arg(long)]
         batch_reference: bool,
     },
+    /// Monte-Carlo consistency: run the scenario with seeds 1..=N and write the NEES of the
+    /// observable states (body velocity, biases, roll/pitch) averaged over the runs, with their
+    /// 95 % χ² bands, as `OUT/nees.json` and `OUT/nees.png`. Exit 1 when a time-averaged NEES
+    /// leaves its band.
+    Nees {
+        /// A catalog scenario name or a path to a scenario .toml file; default: the default
+        /// scenario.
+        scenario: Option<String>,
+        /// Number of seeds (runs): seeds 1..=N.
+        #[arg(long, default_value_t = 25)]
+        seeds: u64,
+        /// Simulated duration (s) instead of the scenario's `trajectory.duration_s`.
+        #[arg(long)]
+        duration: Option<f64>,
+        /// Output folder [default: ./vio-out/NAME-nees].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Worker threads [default: the machine's cores]; the result does not depend on it.
+        #[arg(long)]
+        threads: Option<usize>,
+    },
     /// List the built-in scenarios.
     List,
     /// Write a scenario's simulated measurements and ground truth in the EuRoC ASL layout
@@ -264,6 +285,7 @@ fn main() -> ExitCode {
                 seed,
                 duration_s: duration,
                 batch_reference,
+                ..Default::default()
             },
         ),
         Command::Export {
@@ -307,6 +329,13 @@ fn main() -> ExitCode {
             seed,
             tracks,
         } => render_command(scenario, at, &out, seed, tracks),
+        Command::Nees {
+            scenario,
+            seeds,
+            duration,
+            out,
+            threads,
+        } => nees_command(scenario, seeds, duration, out, threads),
         Command::List => {
             for e in catalog::entries() {
                 match Scenario::load(e.name) {
@@ -347,6 +376,52 @@ fn main() -> ExitCode {
 
 /// Loads a catalog scenario or file (default: the default scenario); bad input prints the
 /// error and becomes exit code 2.
+fn nees_command(
+    scenario: Option<String>,
+    seeds: u64,
+    duration: Option<f64>,
+    out: Option<PathBuf>,
+    threads: Option<usize>,
+) -> ExitCode {
+    let scenario = match load_scenario(scenario.as_deref()) {
+        Ok(s) => s,
+        Err(code) => return code,
+    };
+    if seeds == 0 || duration.is_some_and(|d| !(d.is_finite() && d > 0.0)) {
+        eprintln!("error: --seeds must be >= 1 and --duration a finite number of seconds > 0");
+        return ExitCode::from(BAD_INPUT);
+    }
+    let options = scenarios::nees::NeesOptions {
+        seeds: (1..=seeds).collect(),
+        duration_s: duration,
+        threads: threads.unwrap_or_else(|| {
+            std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+        }),
+    };
+    let r = match scenarios::nees::run_nees(&scenario, &options) {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(BAD_INPUT);
+        }
+    };
+    let out_dir =
+        out.unwrap_or_else(|| PathBuf::from("vio-out").join(format!("{}-nees", scenario.name)));
+    say(&scenarios::nees::summary(&r));
+    match scenarios::nees::write_outputs(&out_dir, &r) {
+        Ok(files) => say(&format!("files         {}\n", files.join(", "))),
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(BAD_INPUT);
+        }
+    }
+    if r.passed {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    }
+}
+
 fn load_scenario(name: Option<&str>) -> Result<Scenario, ExitCode> {
     Scenario::load(name.unwrap_or(catalog::DEFAULT)).map_err(|e| {
         eprintln!("error: {e}");

@@ -1,0 +1,329 @@
+//! Monte-Carlo consistency (`vio nees`): N seeds of one scenario, each run deterministic and
+//! independent (run in parallel, gathered in seed order), and the NEES of the estimator's
+//! newest-state covariance averaged over the runs at every frame time, for the states an
+//! IMU suite can observe:
+//! - `velocity`: the body-frame velocity (3 dof; the world-frame one rotates with the
+//!   unobservable yaw);
+//! - `accel_bias`, `gyro_bias` (3 dof each);
+//! - `roll_pitch`: the tilt, the world x and y components of the rotation error (2 dof), after
+//!   the run's position+yaw alignment (the ATE's).
+//!
+//! For N runs, `N · ε̄ₖ` of a consistent estimator is χ²(N·dof) at each time k, so ε̄ₖ lies in
+//! `[χ²₀.₀₂₅(N·dof), χ²₀.₉₇₅(N·dof)] / N` with 95 % probability. A metric passes when its
+//! average over time lies in that band. Only frames at which every run is tracking and has a
+//! covariance count. Quantiles by the Wilson–Hilferty approximation (relative error < 1 % for
+//! N·dof ≥ 10, < 0.02 % at N·dof = 75: 25 runs of 3 dof).
+
+use std::collections::BTreeMap;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use estimator::estimator::Status;
+use estimator::geometry::{skew, so3_log};
+use nalgebra::{DMatrix, Matrix3, SMatrix, Vector3};
+use serde::Serialize;
+
+use crate::metrics::{self, Alignment};
+use crate::run::{RunError, RunOptions, RunOutput, run};
+use crate::spec::{Scenario, SuiteSpec};
+
+/// The metrics, in report order: name and degrees of freedom.
+pub const METRICS: [(&str, usize); 4] = [
+    ("velocity", 3),
+    ("accel_bias", 3),
+    ("gyro_bias", 3),
+    ("roll_pitch", 2),
+];
+
+/// Settings of a NEES study.
+#[derive(Clone, Debug)]
+pub struct NeesOptions {
+    /// The seeds, one run each.
+    pub seeds: Vec<u64>,
+    /// Duration (s) instead of the scenario's.
+    pub duration_s: Option<f64>,
+    /// Worker threads (the result does not depend on it).
+    pub threads: usize,
+}
+
+/// One metric's NEES over time.
+#[derive(Clone, Debug, Serialize)]
+pub struct NeesMetric {
+    /// Metric name (see [`METRICS`]).
+    pub name: &'static str,
+    /// Degrees of freedom.
+    pub dof: usize,
+    /// The two-sided 95 % band of the run-averaged NEES.
+    pub band: [f64; 2],
+    /// Run-averaged NEES averaged over time.
+    pub time_average: f64,
+    /// Whether `time_average` lies in `band`.
+    pub inside: bool,
+    /// Fraction of frame times whose run-averaged NEES lies in the band.
+    pub fraction_in_band: f64,
+    /// `(t s, run-averaged NEES)` at every counted frame time.
+    pub series: Vec<(f64, f64)>,
+}
+
+/// `nees.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct NeesReport {
+    /// Scenario name.
+    pub scenario: String,
+    /// The seeds run.
+    pub seeds: Vec<u64>,
+    /// Each run's position ATE (m), in seed order.
+    pub ate_rmse_m: Vec<Option<f64>>,
+    /// Median back-end time per frame with the covariance computed, over all runs (ms).
+    pub backend_ms_median: f64,
+    /// The metrics.
+    pub metrics: Vec<NeesMetric>,
+    /// Whether every metric's time average is inside its band.
+    pub passed: bool,
+}
+
+/// χ² quantile with `k` degrees of freedom at the standard normal quantile `z`
+/// (Wilson–Hilferty).
+pub fn chi2_quantile(k: f64, z: f64) -> f64 {
+    let h = 2.0 / (9.0 * k);
+    k * (1.0 - h + z * h.sqrt()).powi(3)
+}
+
+/// The two-sided 95 % band of the NEES averaged over `runs` runs.
+pub fn band(runs: usize, dof: usize) -> [f64; 2] {
+    const Z: f64 = 1.959_963_984_540_054;
+    let k = (runs * dof) as f64;
+    [
+        chi2_quantile(k, -Z) / runs as f64,
+        chi2_quantile(k, Z) / runs as f64,
+    ]
+}
+
+/// Runs the study: every seed of `options`, then the metrics.
+pub fn run_nees(scenario: &Scenario, options: &NeesOptions) -> Result<NeesReport, RunError> {
+    if scenario.spec.suite == SuiteSpec::Stereo {
+        return Err(RunError::Estimator {
+            file: scenario.file_label(),
+            message: "vio nees needs an IMU suite (stereo_imu or mono_imu)".into(),
+        });
+    }
+    let n = options.seeds.len();
+    let results: Mutex<Vec<Option<Result<RunOutput, RunError>>>> =
+        Mutex::new((0..n).map(|_| None).collect());
+    let next = AtomicUsize::new(0);
+    std::thread::scope(|s| {
+        for _ in 0..options.threads.clamp(1, n.max(1)) {
+            s.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    if i >= n {
+                        break;
+                    }
+                    let run_options = RunOptions {
+                        seed: Some(options.seeds[i]),
+                        duration_s: options.duration_s,
+                        covariance: true,
+                        ..Default::default()
+                    };
+                    let out = run(scenario, &run_options, &mut |_| {});
+                    results.lock().expect("no worker panicked")[i] = Some(out);
+                }
+            });
+        }
+    });
+    let mut runs = Vec::with_capacity(n);
+    for r in results.into_inner().expect("no worker panicked") {
+        runs.push(r.expect("every seed ran")?);
+    }
+    Ok(report(scenario, options, &runs))
+}
+
+/// NEES of every metric at one frame of one run, `None` where it cannot be computed.
+type FrameNees = [Option<f64>; 4];
+
+fn quadratic<const D: usize>(e: &SMatrix<f64, D, 1>, p: &SMatrix<f64, D, D>) -> Option<f64> {
+    p.cholesky().map(|c| e.dot(&c.solve(e)))
+}
+
+/// Per tracking frame with a covariance: `(t_ns, NEES of each metric)`.
+fn run_nees_series(out: &RunOutput) -> Vec<(i64, FrameNees)> {
+    let frames: Vec<_> = out
+        .frames
+        .iter()
+        .filter(|f| f.estimate.status == Status::Tracking)
+        .collect();
+    let gt: Vec<_> = frames.iter().map(|f| f.truth.pose).collect();
+    let est: Vec<_> = frames.iter().map(|f| f.estimate.T_w_b).collect();
+    let Ok(align) = metrics::estimate_alignment(&gt, &est, Alignment::PosYaw) else {
+        return Vec::new();
+    };
+    frames
+        .iter()
+        .filter_map(|f| {
+            let e = &f.estimate;
+            let p: &DMatrix<f64> = e.covariance.as_ref().filter(|p| p.nrows() == 15)?;
+            let t = &f.truth;
+            let r_est = e.T_w_b.q.to_rotation_matrix().into_inner();
+            // Velocity in the body frame: δv_b = [v_b]× δθ + Rᵀ δv_w.
+            let v_b = r_est.transpose() * e.v_w;
+            let v_b_true = t.pose.q.to_rotation_matrix().into_inner().transpose() * t.v_w;
+            let mut j = DMatrix::zeros(3, 15);
+            j.view_mut((0, 3), (3, 3)).copy_from(&skew(&v_b));
+            j.view_mut((0, 6), (3, 3)).copy_from(&r_est.transpose());
+            let pv: Matrix3<f64> = (&j * p * j.transpose()).fixed_view::<3, 3>(0, 0).into();
+            let velocity = quadratic(&(v_b_true - v_b), &pv);
+            let block = |o: usize| -> Matrix3<f64> { p.fixed_view::<3, 3>(o, o).into() };
+            let accel = quadratic(&(t.accel_bias - e.ba), &block(9));
+            let gyro = quadratic(&(t.gyro_bias - e.bg), &block(12));
+            // Tilt: the aligned estimate's rotation error in the world, x and y.
+            let q_aligned = align.transform_pose(&e.T_w_b).q;
+            let r_aligned = q_aligned.to_rotation_matrix().into_inner();
+            let dtheta_w: Vector3<f64> = r_aligned * so3_log(&(q_aligned.inverse() * t.pose.q));
+            let jt = r_aligned.fixed_rows::<2>(0).into_owned();
+            let p_tilt = jt * block(3) * jt.transpose();
+            let tilt = quadratic(&dtheta_w.fixed_rows::<2>(0).into_owned(), &p_tilt);
+            Some((e.t_ns, [velocity, accel, gyro, tilt]))
+        })
+        .collect()
+}
+
+fn report(scenario: &Scenario, options: &NeesOptions, runs: &[RunOutput]) -> NeesReport {
+    let n = runs.len();
+    // Per metric: frame time → (sum, count) over the runs.
+    let mut sums: Vec<BTreeMap<i64, (f64, usize)>> = vec![BTreeMap::new(); METRICS.len()];
+    for out in runs {
+        for (t, values) in run_nees_series(out) {
+            for (m, v) in values.iter().enumerate() {
+                if let Some(v) = v {
+                    let e = sums[m].entry(t).or_insert((0.0, 0));
+                    e.0 += v;
+                    e.1 += 1;
+                }
+            }
+        }
+    }
+    let metrics = METRICS
+        .iter()
+        .zip(&sums)
+        .map(|(&(name, dof), by_t)| {
+            let band = band(n, dof);
+            let series: Vec<(f64, f64)> = by_t
+                .iter()
+                .filter(|(_, (_, c))| *c == n)
+                .map(|(t, (s, _))| (*t as f64 * 1e-9, s / n as f64))
+                .collect();
+            let k = series.len().max(1) as f64;
+            let time_average = series.iter().map(|(_, v)| v).sum::<f64>() / k;
+            let in_band = series
+                .iter()
+                .filter(|(_, v)| (band[0]..=band[1]).contains(v))
+                .count();
+            NeesMetric {
+                name,
+                dof,
+                band,
+                time_average,
+                inside: !series.is_empty() && (band[0]..=band[1]).contains(&time_average),
+                fraction_in_band: in_band as f64 / k,
+                series,
+            }
+        })
+        .collect::<Vec<_>>();
+    let mut backend: Vec<f64> = runs
+        .iter()
+        .flat_map(|r| r.frames.iter().map(|f| f.timing.backend_s * 1e3))
+        .collect();
+    backend.sort_by(f64::total_cmp);
+    let ate_rmse_m = runs
+        .iter()
+        .map(|r| crate::report::evaluate(r, scenario.spec.suite).ate_rmse_m())
+        .collect();
+    NeesReport {
+        scenario: scenario.name.clone(),
+        seeds: options.seeds.clone(),
+        ate_rmse_m,
+        backend_ms_median: backend.get(backend.len() / 2).copied().unwrap_or(0.0),
+        passed: metrics.iter().all(|m| m.inside),
+        metrics,
+    }
+}
+
+/// The lines `vio nees` prints.
+pub fn summary(r: &NeesReport) -> String {
+    let mut s = format!(
+        "scenario      {} ({} seeds: {}..={})\n",
+        r.scenario,
+        r.seeds.len(),
+        r.seeds.first().copied().unwrap_or(0),
+        r.seeds.last().copied().unwrap_or(0)
+    );
+    for m in &r.metrics {
+        s += &format!(
+            "  {:<11} dof {}  NEES {:>8.3}  band [{:.3}, {:.3}]  {}  ({:.0} % of {} frame times in band)\n",
+            m.name,
+            m.dof,
+            m.time_average,
+            m.band[0],
+            m.band[1],
+            if m.inside { "inside " } else { "OUTSIDE" },
+            100.0 * m.fraction_in_band,
+            m.series.len()
+        );
+    }
+    s += &format!(
+        "backend       {:.2} ms per frame (median, covariance included)\nresult        {}\n",
+        r.backend_ms_median,
+        if r.passed {
+            "PASS"
+        } else {
+            "FAIL (a time-averaged NEES leaves its band)"
+        }
+    );
+    s
+}
+
+/// Writes `nees.json` and `nees.png` into `dir` (created if needed); the written paths.
+pub fn write_outputs(dir: &std::path::Path, r: &NeesReport) -> Result<Vec<String>, String> {
+    let fail = |p: &std::path::Path, e: &dyn std::fmt::Display| format!("{}: {e}", p.display());
+    std::fs::create_dir_all(dir).map_err(|e| fail(dir, &e))?;
+    let json_path = dir.join("nees.json");
+    let json = serde_json::to_string_pretty(r).map_err(|e| fail(&json_path, &e))?;
+    std::fs::write(&json_path, json + "\n").map_err(|e| fail(&json_path, &e))?;
+    let panels: Vec<crate::plot::NeesPanel> = r
+        .metrics
+        .iter()
+        .map(|m| crate::plot::NeesPanel {
+            title: format!(
+                "{} ({} dof): time average {:.2}, 95 % band [{:.2}, {:.2}]",
+                m.name, m.dof, m.time_average, m.band[0], m.band[1]
+            ),
+            series: m.series.clone(),
+            band: m.band,
+        })
+        .collect();
+    let title = format!("{}: NEES averaged over {} seeds", r.scenario, r.seeds.len());
+    let png = crate::plot::nees_png(&title, &panels)?;
+    let png_path = dir.join("nees.png");
+    std::fs::write(&png_path, png).map_err(|e| fail(&png_path, &e))?;
+    Ok(vec![
+        json_path.display().to_string(),
+        png_path.display().to_string(),
+    ])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chi2_quantiles_match_the_tables() {
+        // χ² tables: k = 75: 52.942 (2.5 %), 100.839 (97.5 %); k = 10: 3.247, 20.483.
+        let z = 1.959_963_984_540_054;
+        for (k, lo, hi, tol) in [(75.0, 52.942, 100.839, 3e-4), (10.0, 3.247, 20.483, 1e-2)] {
+            assert!((chi2_quantile(k, -z) / lo - 1.0).abs() < tol, "k {k}");
+            assert!((chi2_quantile(k, z) / hi - 1.0).abs() < tol, "k {k}");
+        }
+        let b = band(25, 3);
+        assert!((b[0] - 52.942 / 25.0).abs() < 0.01 && (b[1] - 100.839 / 25.0).abs() < 0.01);
+    }
+}
