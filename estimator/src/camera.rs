@@ -131,7 +131,7 @@ fn check_intrinsics(
 
 /// True if `uv` lies in `[-0.5, width − 0.5] × [-0.5, height − 0.5]` (the image's pixel area).
 #[inline]
-fn in_image(width: u32, height: u32, uv: &Vector2<f64>) -> bool {
+pub fn in_image(width: u32, height: u32, uv: &Vector2<f64>) -> bool {
     uv.x >= -0.5
         && uv.x <= f64::from(width) - 0.5
         && uv.y >= -0.5

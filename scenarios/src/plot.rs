@@ -60,18 +60,26 @@ fn padded(lo: f64, hi: f64, min_span: f64, margin: f64) -> (f64, f64) {
 
 /// Renders the plot as PNG bytes.
 pub fn trajectory_png(data: &PlotData) -> Result<Vec<u8>, String> {
+    render_png(SIZE, |buf| draw(data, buf))
+}
+
+type DrawResult = Result<(), Box<dyn std::error::Error>>;
+
+/// Draws into a white-initialized RGB buffer of `(w, h)` with the embedded font registered and
+/// encodes it as PNG.
+fn render_png(
+    (w, h): (u32, u32),
+    draw: impl FnOnce(&mut [u8]) -> DrawResult,
+) -> Result<Vec<u8>, String> {
     register()?;
-    let (w, h) = SIZE;
     let mut buf = vec![0u8; (w * h * 3) as usize];
-    draw(data, &mut buf).map_err(|e| format!("cannot draw the plot: {e}"))?;
+    draw(&mut buf).map_err(|e| format!("cannot draw the plot: {e}"))?;
     let img = image::RgbImage::from_raw(w, h, buf).ok_or("plot buffer has the wrong size")?;
     let mut png = Cursor::new(Vec::new());
     img.write_to(&mut png, image::ImageFormat::Png)
         .map_err(|e| format!("cannot encode the plot: {e}"))?;
     Ok(png.into_inner())
 }
-
-type DrawResult = Result<(), Box<dyn std::error::Error>>;
 
 fn draw(d: &PlotData, buf: &mut [u8]) -> DrawResult {
     let root = BitMapBackend::with_buffer(buf, SIZE).into_drawing_area();
@@ -243,15 +251,8 @@ pub struct NeesPanel {
 
 /// `nees.png`: one panel per metric, the NEES on a log scale with the band's bounds.
 pub fn nees_png(title: &str, panels: &[NeesPanel]) -> Result<Vec<u8>, String> {
-    register()?;
-    let (w, h) = (1000u32, 260 * panels.len().max(1) as u32 + 60);
-    let mut buf = vec![0u8; (w * h * 3) as usize];
-    draw_nees(title, panels, (w, h), &mut buf).map_err(|e| format!("cannot draw the plot: {e}"))?;
-    let img = image::RgbImage::from_raw(w, h, buf).ok_or("plot buffer has the wrong size")?;
-    let mut png = Cursor::new(Vec::new());
-    img.write_to(&mut png, image::ImageFormat::Png)
-        .map_err(|e| format!("cannot encode the plot: {e}"))?;
-    Ok(png.into_inner())
+    let size = (1000u32, 260 * panels.len().max(1) as u32 + 60);
+    render_png(size, |buf| draw_nees(title, panels, size, buf))
 }
 
 fn draw_nees(title: &str, panels: &[NeesPanel], size: (u32, u32), buf: &mut [u8]) -> DrawResult {

@@ -29,9 +29,10 @@
 //! track. The id is `key | camera << 40 | episode << 48`: the landmark (its scene index, or
 //! for a seeded landmark `1 << 39 | seeder << 32 | k`), the camera that started the track, and
 //! how many tracks of that landmark the camera started before (modulo 2¹⁶), so
-//! [`RigSim::landmark`] still resolves it and a camera's ids never depend on later cameras. [`TrackIds::Landmark`] reports the
-//! landmark ids themselves, stable across cameras and time: ideal association, where a
-//! landmark seen again after a gap is re-associated for free (for studies that want it).
+//! [`RigSim::landmark`] still resolves it and a camera's ids never depend on later cameras.
+//! [`TrackIds::Landmark`] reports the landmark ids themselves, stable across cameras and time:
+//! ideal association, where a landmark seen again after a gap is re-associated for free (for
+//! studies that want it).
 //!
 //! # Re-seeding
 //! Where a view runs short — fewer than `max_features` after the steps above — the camera seeds
@@ -48,7 +49,7 @@
 use crate::motion::TruthBuffer;
 use crate::rng::sensor_rng;
 use crate::scene::{Landmark, Scene};
-use estimator::camera::CameraModel;
+use estimator::camera::{CameraModel, in_image};
 use estimator::frontend::{CameraFeatures, FeatureFrame, FeatureObservation};
 use estimator::geometry::Pose;
 use nalgebra::{Vector2, Vector3};
@@ -105,8 +106,30 @@ pub enum TrackIds {
     Landmark,
 }
 
-/// Bits of a realistic feature id that name the landmark (see [`RigSim::landmark_key`]).
+/// Bits of a realistic feature id that name the landmark (see the module docs).
 const KEY_BITS: u64 = 40;
+/// The key bit that marks a seeded landmark.
+const SEEDED_KEY_BIT: u64 = 1 << (KEY_BITS - 1);
+
+/// The key of landmark id `id` in a realistic feature id (a scene id as is; a seeded id
+/// `SEEDED_ID_BASE + (seeder << 32) + k` as `SEEDED_KEY_BIT | seeder << 32 | k`).
+fn landmark_key(id: u64) -> u64 {
+    if id < SEEDED_ID_BASE {
+        id
+    } else {
+        (id - SEEDED_ID_BASE) | SEEDED_KEY_BIT
+    }
+}
+
+/// The landmark id a realistic feature id names (the inverse of [`landmark_key`]).
+fn key_landmark_id(feature_id: u64) -> u64 {
+    let key = feature_id & ((1 << KEY_BITS) - 1);
+    if key & SEEDED_KEY_BIT == 0 {
+        key
+    } else {
+        SEEDED_ID_BASE + (key & !SEEDED_KEY_BIT)
+    }
+}
 /// Bits of a realistic feature id that hold the camera that started the track; the episode
 /// takes the remaining 16.
 const CAMERA_BITS: u64 = 8;
@@ -264,16 +287,12 @@ impl RigSim {
         &self.seeded
     }
 
-    /// Internal index (into the per-camera track arrays) of landmark id `id`.
+    /// Internal index of landmark id `id`, which must exist.
     fn index_of(&self, id: u64) -> usize {
-        if id < SEEDED_ID_BASE {
-            id as usize
-        } else {
-            self.seeded_index[&id]
-        }
+        self.landmark_index(id).expect("a landmark the rig knows")
     }
 
-    /// Internal index of landmark id `id`, if it exists.
+    /// Internal index (into the per-camera track arrays) of landmark id `id`, if it exists.
     fn landmark_index(&self, id: u64) -> Option<usize> {
         if id < SEEDED_ID_BASE {
             ((id as usize) < self.scene.landmarks.len()).then_some(id as usize)
@@ -284,20 +303,10 @@ impl RigSim {
 
     /// Internal index of the landmark a reported feature id belongs to, if it exists.
     fn feature_index(&self, feature_id: u64) -> Option<usize> {
-        let ix = match self.cfg.track_ids {
-            TrackIds::Landmark if feature_id < SEEDED_ID_BASE => feature_id as usize,
-            TrackIds::Landmark => *self.seeded_index.get(&feature_id)?,
-            TrackIds::Realistic => {
-                let key = feature_id & ((1 << KEY_BITS) - 1);
-                if key & (1 << (KEY_BITS - 1)) == 0 {
-                    key as usize
-                } else {
-                    let local = key & !(1 << (KEY_BITS - 1));
-                    *self.seeded_index.get(&(SEEDED_ID_BASE + local))?
-                }
-            }
-        };
-        (ix < self.scene.landmarks.len() + self.seeded.len()).then_some(ix)
+        match self.cfg.track_ids {
+            TrackIds::Landmark => self.landmark_index(feature_id),
+            TrackIds::Realistic => self.landmark_index(key_landmark_id(feature_id)),
+        }
     }
 
     /// The landmark at internal index `ix`.
@@ -315,25 +324,18 @@ impl RigSim {
         Some(self.landmark_at(self.feature_index(id)?))
     }
 
-    /// A new feature id for a track of the landmark at index `ix` that camera `ci` starts.
-    fn new_track_id(&mut self, ci: usize, ix: usize) -> u64 {
+    /// Gives the track of the landmark at index `ix` that camera `ci` starts its feature id.
+    fn start_track_id(&mut self, ci: usize, ix: usize) {
+        let lm_id = self.landmark_at(ix).id;
         let st = &mut self.cams[ci];
-        let id = match self.cfg.track_ids {
-            TrackIds::Landmark => self.landmark_at(ix).id,
+        st.track_id[ix] = match self.cfg.track_ids {
+            TrackIds::Landmark => lm_id,
             TrackIds::Realistic => {
                 let e = u64::from(st.episodes[ix] & 0xffff);
                 st.episodes[ix] = st.episodes[ix].wrapping_add(1);
-                let lm_id = self.landmark_at(ix).id;
-                let key = if lm_id < SEEDED_ID_BASE {
-                    lm_id
-                } else {
-                    (lm_id - SEEDED_ID_BASE) | 1 << (KEY_BITS - 1)
-                };
-                key | (ci as u64) << KEY_BITS | e << (KEY_BITS + CAMERA_BITS)
+                landmark_key(lm_id) | (ci as u64) << KEY_BITS | e << (KEY_BITS + CAMERA_BITS)
             }
         };
-        self.cams[ci].track_id[ix] = id;
-        id
     }
 
     /// The configuration.
@@ -606,7 +608,7 @@ impl RigSim {
         }
         started.sort_unstable();
         for ix in started {
-            self.new_track_id(ci, ix);
+            self.start_track_id(ci, ix);
         }
         kept.sort_by_key(|p| p.id);
         let c = &self.cfg.cameras[ci];
@@ -620,8 +622,7 @@ impl RigSim {
             let nx: f64 = StandardNormal.sample(&mut st.noise);
             let ny: f64 = StandardNormal.sample(&mut st.noise);
             let uv = p.uv + Vector2::new(nx, ny) * sigma;
-            let inside = uv.x >= -0.5 && uv.y >= -0.5 && uv.x < w - 0.5 && uv.y < h - 0.5;
-            if realistic && !inside {
+            if realistic && !in_image(c.model.width(), c.model.height(), &uv) {
                 // A tracker cannot report a pixel outside the image: the track ends.
                 st.track_start[ix] = u32::MAX;
                 continue;

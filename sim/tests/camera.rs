@@ -3,6 +3,7 @@
 
 mod common;
 
+use estimator::camera::in_image;
 use nalgebra::Vector3;
 use sim::camera::{RigSim, TrackIds};
 use sim::scene::{Aabb, Scene, Surface};
@@ -334,14 +335,10 @@ fn reports_by_id(
     while let Some(m) = stream.next() {
         let Measurement::Frame(f) = m else { continue };
         for cf in &f.cameras {
-            let (w, h) = (
-                f64::from(rig.cameras[cf.cam_id].model.width()),
-                f64::from(rig.cameras[cf.cam_id].model.height()),
-            );
+            let model = &rig.cameras[cf.cam_id].model;
             for o in &cf.features {
                 assert!(stream.landmark(o.feature_id).is_some());
-                let inside =
-                    o.uv.x >= -0.5 && o.uv.y >= -0.5 && o.uv.x < w - 0.5 && o.uv.y < h - 0.5;
+                let inside = in_image(model.width(), model.height(), &o.uv);
                 outside += usize::from(!inside);
                 by_id[cf.cam_id]
                     .entry(o.feature_id)

@@ -1,0 +1,89 @@
+//! The full-batch references (`record_history`): every recorded frame, or the window's own
+//! keyframes, solved at once without marginalization, on the measurements the window had.
+
+use super::features::Observation;
+use super::triangulation;
+use super::window::{Window, WindowFrame};
+use super::{Estimator, Status};
+use crate::geometry::Pose;
+use crate::problem::{SolverOptions, SolverSummary, solve};
+
+/// What the estimator keeps, with `record_history`, for the batch solves.
+#[derive(Clone, Debug, Default)]
+pub(super) struct History {
+    /// Every frame as it was solved as the newest while tracking.
+    pub(super) frames: Vec<WindowFrame>,
+    /// The keyframes as they were marginalized while tracking (their IMU intervals joined
+    /// across the frames dropped between them).
+    pub(super) keyframes: Vec<WindowFrame>,
+    /// Per frame seq: the observations (feature id, observation).
+    pub(super) observations: Vec<(u64, Vec<(u64, Observation)>)>,
+}
+
+impl Estimator {
+    /// Solves all recorded frames at once without marginalization (the "physical limit"
+    /// reference), starting from the causal estimates. Requires `record_history`. Returns the
+    /// smoothed estimates `(t_ns, T_w_b)` of every frame, or `None` without history.
+    pub fn batch_solve(&self, options: &SolverOptions) -> Option<Vec<(i64, Pose)>> {
+        let history = self.history.as_ref()?;
+        Some(self.solve_batch(history, history.frames.iter(), options).0)
+    }
+
+    /// The full batch over the window's own states: every keyframe marginalized while
+    /// tracking, then the frames in the window now, with the observations each had and the IMU
+    /// intervals that joined them, solved at once without marginalization, starting from the
+    /// estimates they had as they left the window. What the window would have estimated had it
+    /// kept everything: the reference for what marginalization loses. Requires
+    /// `record_history`; `None` without history. Also returns the solve's statistics.
+    pub fn batch_solve_keyframes(
+        &self,
+        options: &SolverOptions,
+    ) -> Option<(Vec<(i64, Pose)>, SolverSummary)> {
+        let history = self.history.as_ref()?;
+        let tracking = self.status == Status::Tracking;
+        let window = self.window.frames.iter().filter(|_| tracking);
+        Some(self.solve_batch(history, history.keyframes.iter().chain(window), options))
+    }
+
+    fn solve_batch<'a>(
+        &self,
+        history: &History,
+        frames: impl Iterator<Item = &'a WindowFrame>,
+        options: &SolverOptions,
+    ) -> (Vec<(i64, Pose)>, SolverSummary) {
+        let uses_imu = self.config.suite.uses_imu();
+        // A window over the given frames, chained by their own IMU intervals, with today's
+        // extrinsics and time offset and no prior.
+        let mut window = Window::new(self.window.extrinsics.clone(), self.window.td);
+        for f in frames {
+            let mut f = f.clone();
+            if window.frames.is_empty() {
+                f.preint = None;
+            }
+            window.frames.push_back(f);
+        }
+        // An interval is used only if it starts at the previous frame (not across a gap).
+        let frames = &mut window.frames;
+        for k in 1..frames.len() {
+            let contiguous = frames[k]
+                .preint
+                .as_ref()
+                .is_some_and(|p| p.start_ns() == frames[k - 1].t_ns);
+            if !contiguous {
+                frames[k].preint = None;
+            }
+        }
+        for (seq, obs) in &history.observations {
+            if window.frames.iter().any(|f| f.seq == *seq) {
+                window.features.add_frame(obs.clone());
+            }
+        }
+        triangulation::triangulate_tracks(&mut window, &self.config, &self.focal);
+        let imu_active = uses_imu && self.status == Status::Tracking;
+        let mut built = window.build(&self.problem_settings(), imu_active);
+        let summary = solve(&mut built.problem, options);
+        window.write_back(&built, &self.config);
+        let poses = window.frames.iter().map(|f| (f.t_ns, f.pose)).collect();
+        (poses, summary)
+    }
+}
