@@ -86,7 +86,7 @@ fn factors(c: &mut Criterion) {
         pose_i.to_array().to_vec(),
         pose_j.to_array().to_vec(),
         ex0.to_array().to_vec(),
-        vec![0.2],
+        vec![0.2, 0.001, -0.002],
         vec![0.003],
     ];
     bench_factor(c, "reprojection_two_frame_one_cam", &f, &p);
@@ -101,7 +101,7 @@ fn factors(c: &mut Criterion) {
         pose_j.to_array().to_vec(),
         ex0.to_array().to_vec(),
         ex1.to_array().to_vec(),
-        vec![0.2],
+        vec![0.2, 0.001, -0.002],
         vec![0.003],
     ];
     bench_factor(c, "reprojection_two_frame_two_cam", &f, &p);
@@ -114,7 +114,7 @@ fn factors(c: &mut Criterion) {
     let p = vec![
         ex0.to_array().to_vec(),
         ex1.to_array().to_vec(),
-        vec![0.2],
+        vec![0.2, 0.001, -0.002],
         vec![0.003],
     ];
     bench_factor(c, "reprojection_one_frame_two_cam", &f, &p);

@@ -7,8 +7,8 @@ use std::sync::Arc;
 
 use common::{pose, rotation, small_rotation, vec3};
 use estimator::factors::{
-    FeatureMeasurement, ImuFactor, PointProjection, ProjectionOneFrameTwoCam,
-    ProjectionTwoFrameOneCam, ProjectionTwoFrameTwoCam,
+    AnchorBearing, FeatureMeasurement, ImuFactor, PointProjection, ProjectionOneFrameTwoCam,
+    ProjectionTwoFrameOneCam, ProjectionTwoFrameTwoCam, WorldPointProjection,
 };
 use estimator::geometry::Pose;
 use estimator::imu::{ImuNoise, ImuSample, Preintegration};
@@ -113,6 +113,7 @@ proptest! {
         pose_i in pose(10.0), ex in pose(0.2), dq in small_rotation(0.4), dp in vec3(1.0),
         x in -0.85..0.85f64, y in -0.55..0.55f64, depth in 0.3..60.0f64,
         vel_i in vec3(2.0), vel_j in vec3(2.0), td in -0.03..0.03f64, noise in vec3(0.01),
+        corr in vec3(0.01),
     ) {
         let pose_j = Pose::new(pose_i.q * dq, pose_i.p + dp);
         let p_w = pose_i.compose(&ex).transform(&(Vector3::new(x, y, 1.0) * depth));
@@ -127,10 +128,37 @@ proptest! {
             pose_i.to_array().to_vec(),
             pose_j.to_array().to_vec(),
             ex.to_array().to_vec(),
-            vec![1.0 / depth],
+            vec![1.0 / depth, corr.x, corr.y],
             vec![td],
         ];
-        check(&factor, &params, &[&POSE, &POSE, &POSE, &R1, &R1]);
+        check(&factor, &params, &[&POSE, &POSE, &POSE, &R3, &R1]);
+    }
+
+    #[test]
+    fn world_point_projection_jacobians(
+        t_w_b in pose(10.0), ex in pose(0.2), x in -0.85..0.85f64, y in -0.55..0.55f64,
+        depth in 0.3..60.0f64, vel in vec3(2.0), td in -0.03..0.03f64, noise in vec3(0.01),
+    ) {
+        let x_w = t_w_b.compose(&ex).transform(&(Vector3::new(x, y, 1.0) * depth));
+        let factor = WorldPointProjection {
+            obs: measurement(Vector2::new(x, y) + noise.xy(), vel.xy(), 0.004),
+            weight: 460.0 / 1.5,
+        };
+        let params = vec![
+            t_w_b.to_array().to_vec(),
+            ex.to_array().to_vec(),
+            x_w.as_slice().to_vec(),
+            vec![td],
+        ];
+        check(&factor, &params, &[&POSE, &POSE, &R3, &R1]);
+    }
+
+    #[test]
+    fn anchor_bearing_jacobians(
+        inv_depth in 0.01..3.0f64, corr in vec3(0.05), weight in 10.0..1000.0f64,
+    ) {
+        let factor = AnchorBearing { weight };
+        check(&factor, &[vec![inv_depth, corr.x, corr.y]], &[&R3]);
     }
 
     #[test]
@@ -153,6 +181,7 @@ proptest! {
         dq in small_rotation(0.4), dp in vec3(1.0),
         x in -0.85..0.85f64, y in -0.55..0.55f64, depth in 0.3..60.0f64,
         vel_i in vec3(2.0), vel_j in vec3(2.0), td in -0.03..0.03f64, noise in vec3(0.01),
+        corr in vec3(0.01),
     ) {
         let pose_j = Pose::new(pose_i.q * dq, pose_i.p + dp);
         let p_w = pose_i.compose(&ex0).transform(&(Vector3::new(x, y, 1.0) * depth));
@@ -168,10 +197,10 @@ proptest! {
             pose_j.to_array().to_vec(),
             ex0.to_array().to_vec(),
             ex1.to_array().to_vec(),
-            vec![1.0 / depth],
+            vec![1.0 / depth, corr.x, corr.y],
             vec![td],
         ];
-        check(&factor, &params, &[&POSE, &POSE, &POSE, &POSE, &R1, &R1]);
+        check(&factor, &params, &[&POSE, &POSE, &POSE, &POSE, &R3, &R1]);
     }
 
     #[test]
@@ -179,6 +208,7 @@ proptest! {
         ex0 in pose(0.2), baseline in vec3(0.3), dq in small_rotation(0.2),
         x in -0.85..0.85f64, y in -0.55..0.55f64, depth in 0.3..60.0f64,
         vel_i in vec3(2.0), vel_j in vec3(2.0), td in -0.03..0.03f64, noise in vec3(0.01),
+        corr in vec3(0.01),
     ) {
         let ex1 = Pose::new(ex0.q * dq, ex0.p + baseline);
         let id = Pose::identity();
@@ -193,10 +223,10 @@ proptest! {
         let params = vec![
             ex0.to_array().to_vec(),
             ex1.to_array().to_vec(),
-            vec![1.0 / depth],
+            vec![1.0 / depth, corr.x, corr.y],
             vec![td],
         ];
-        check(&factor, &params, &[&POSE, &POSE, &R1, &R1]);
+        check(&factor, &params, &[&POSE, &POSE, &R3, &R1]);
     }
 
     #[test]

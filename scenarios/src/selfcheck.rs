@@ -5,8 +5,8 @@ use std::fmt::Write as _;
 use std::sync::Arc;
 
 use estimator::factors::{
-    FeatureMeasurement, ImuFactor, ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam,
-    ProjectionTwoFrameTwoCam,
+    AnchorBearing, FeatureMeasurement, ImuFactor, ProjectionOneFrameTwoCam,
+    ProjectionTwoFrameOneCam, ProjectionTwoFrameTwoCam,
 };
 use estimator::geometry::{Pose, so3_exp};
 use estimator::imu::{ImuNoise, ImuSample, Preintegration};
@@ -103,6 +103,7 @@ pub fn run() -> SelfCheck {
 
     let pose = PoseManifold;
     let r1 = Euclidean::new(1);
+    let r3 = Euclidean::new(3);
     let r9 = Euclidean::new(9);
     let ex0 = Pose::new(
         so3_exp(&Vector3::new(-1.2, 0.1, -1.5)),
@@ -139,8 +140,14 @@ pub fn run() -> SelfCheck {
                 obs_j: obs(0.15, 0.1),
                 weight: w,
             }),
-            vec![ps(&pose_i), ps(&pose_j2), ps(&ex0), vec![0.25], vec![0.004]],
-            vec![&pose, &pose, &pose, &r1, &r1],
+            vec![
+                ps(&pose_i),
+                ps(&pose_j2),
+                ps(&ex0),
+                vec![0.25, 0.002, -0.001],
+                vec![0.004],
+            ],
+            vec![&pose, &pose, &pose, &r3, &r1],
         ),
         (
             "reprojection, 2 frames 2 cameras",
@@ -154,10 +161,10 @@ pub fn run() -> SelfCheck {
                 ps(&pose_j2),
                 ps(&ex0),
                 ps(&ex1),
-                vec![0.25],
+                vec![0.25, 0.002, -0.001],
                 vec![0.004],
             ],
-            vec![&pose, &pose, &pose, &pose, &r1, &r1],
+            vec![&pose, &pose, &pose, &pose, &r3, &r1],
         ),
         (
             "reprojection, 1 frame 2 cameras",
@@ -166,8 +173,14 @@ pub fn run() -> SelfCheck {
                 obs_b: obs(0.07, 0.2),
                 weight: w,
             }),
-            vec![ps(&ex0), ps(&ex1), vec![0.25], vec![0.004]],
-            vec![&pose, &pose, &r1, &r1],
+            vec![ps(&ex0), ps(&ex1), vec![0.25, 0.002, -0.001], vec![0.004]],
+            vec![&pose, &pose, &r3, &r1],
+        ),
+        (
+            "anchor bearing",
+            Box::new(AnchorBearing { weight: w }),
+            vec![vec![0.25, 0.002, -0.001]],
+            vec![&r3],
         ),
         ("prior", Box::new(prior), vec![ps(&pose_j2)], vec![&pose]),
     ];

@@ -557,6 +557,8 @@ pub struct EstimatorSpec {
     pub solver_iterations: Option<usize>,
     /// `levenberg_marquardt` or `dogleg`.
     pub solver_method: Option<MethodSpec>,
+    /// The solve stops once an accepted step lowers the cost by less than this fraction.
+    pub solver_function_tolerance: Option<f64>,
     /// Keyframe parallax threshold (px).
     pub keyframe_parallax_px: Option<f64>,
     /// Keyframe when fewer features are tracked.
@@ -576,6 +578,16 @@ pub struct EstimatorSpec {
     pub estimate_td: Option<bool>,
     /// Estimate the camera extrinsics online.
     pub estimate_extrinsics: Option<bool>,
+    /// Keep using the tracks of a marginalized keyframe (VINS-Fusion; counts their
+    /// observations twice) instead of ending them.
+    pub reuse_marginalized_tracks: Option<bool>,
+    /// Frames a track must span before it enters the optimization.
+    pub min_track_frames: Option<usize>,
+    /// Persistent world points kept through marginalization (0: none).
+    pub max_persistent_points: Option<usize>,
+    /// Evaluate every factor's Jacobians of states in the marginalization prior at the
+    /// prior's linearization point (first-estimate Jacobians).
+    pub first_estimate_jacobians: Option<bool>,
 }
 
 /// Solver methods.
@@ -1618,6 +1630,9 @@ impl Scenario {
         if let Some(v) = e.solver_iterations {
             cfg.solver.max_iterations = v;
         }
+        if let Some(v) = e.solver_function_tolerance {
+            cfg.solver.function_tolerance = v;
+        }
         if let Some(m) = e.solver_method {
             cfg.solver.method = match m {
                 MethodSpec::LevenbergMarquardt => Method::LevenbergMarquardt,
@@ -1647,6 +1662,18 @@ impl Scenario {
         }
         if let Some(v) = e.estimate_extrinsics {
             cfg.estimate_extrinsics = v;
+        }
+        if let Some(v) = e.reuse_marginalized_tracks {
+            cfg.reuse_marginalized_tracks = v;
+        }
+        if let Some(v) = e.min_track_frames {
+            cfg.min_track_frames = v;
+        }
+        if let Some(v) = e.max_persistent_points {
+            cfg.max_persistent_points = v;
+        }
+        if let Some(v) = e.first_estimate_jacobians {
+            cfg.first_estimate_jacobians = v;
         }
         // The IMU's datasheet ranges: the estimator treats readings on them as clipped.
         let imu = &s.rig.imu;

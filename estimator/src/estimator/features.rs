@@ -35,9 +35,22 @@ pub(crate) struct Track {
     pub anchor_cam: usize,
     /// Inverse depth along the anchor camera's ray, once triangulated.
     pub inv_depth: Option<f64>,
+    /// Estimated correction of the anchor measurement's noise (normalized plane): the anchor
+    /// ray is `(x + cx, y + cy, 1)`. Zero whenever the depth is (re)set.
+    pub bearing: Vector2<f64>,
+    /// Key of the window's persistent world point that carries this track once it outlived
+    /// its anchor keyframe (`Window::points`); then every observation measures that point and
+    /// `inv_depth` is unused.
+    pub point: Option<u64>,
 }
 
 impl Track {
+    /// Sets (or clears) the inverse depth along the raw anchor measurement's ray.
+    pub fn set_inv_depth(&mut self, inv_depth: Option<f64>) {
+        self.inv_depth = inv_depth;
+        self.bearing = Vector2::zeros();
+    }
+
     /// The anchor's measurement.
     pub fn anchor_measurement(&self) -> Option<FeatureMeasurement> {
         self.obs.first()?.meas[self.anchor_cam]
@@ -102,6 +115,8 @@ impl FeatureManager {
                                 obs: vec![o],
                                 anchor_cam,
                                 inv_depth: None,
+                                bearing: Vector2::zeros(),
+                                point: None,
                             },
                         );
                     }
@@ -169,6 +184,8 @@ mod tests {
             obs: vec![obs(1, false, true), obs(2, true, true), obs(3, false, true)],
             anchor_cam: 0,
             inv_depth: None,
+            bearing: Vector2::zeros(),
+            point: None,
         };
         assert!(t.reanchor());
         assert_eq!((t.obs[0].seq, t.anchor_cam), (2, 0));

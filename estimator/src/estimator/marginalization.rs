@@ -30,13 +30,6 @@ pub(super) fn prior_without_oldest(
         .filter(|(_, k)| *k == 1)
         .map(|(r, _)| *r)
         .collect();
-    if let Some(r) = built.prior
-        && remove
-            .iter()
-            .any(|b| built.problem.residual_blocks(r).contains(b))
-    {
-        residuals.push(r);
-    }
     // Landmarks anchored in the oldest frame (sorted ids: membership by binary search).
     let mut anchored: Vec<u64> = Vec::new();
     for (id, lm) in &built.landmarks {
@@ -53,6 +46,31 @@ pub(super) fn prior_without_oldest(
             .filter(|(_, id)| anchored.binary_search(id).is_ok())
             .map(|(r, _)| *r),
     );
+    // Persistent points: their observations in the oldest frame go into the prior; a point
+    // observed in no later window frame leaves with it.
+    for (key, b) in &built.points {
+        let later = built
+            .point_obs
+            .iter()
+            .any(|(_, k, seq)| k == key && *seq != oldest);
+        if !later {
+            remove.push(*b);
+        }
+    }
+    residuals.extend(
+        built
+            .point_obs
+            .iter()
+            .filter(|(_, _, seq)| *seq == oldest)
+            .map(|(r, _, _)| *r),
+    );
+    if let Some(r) = built.prior
+        && remove
+            .iter()
+            .any(|b| built.problem.residual_blocks(r).contains(b))
+    {
+        residuals.push(r);
+    }
     residuals.sort();
     prior_from(built, &residuals, &remove)
 }

@@ -32,6 +32,7 @@ use nalgebra::{DMatrix, UnitQuaternion, Vector2, Vector3};
 
 use batch::History;
 pub use config::{CameraConfig, EstimatorConfig, Suite};
+pub use covariance::WindowSystem;
 pub use events::{Event, EventKind, LiveSuite};
 use features::Observation;
 pub use health::{FailureReason, HealthLimits};
@@ -555,6 +556,16 @@ impl Estimator {
             return self.estimate(&newest, keyframe, start, None);
         }
         let imu_active = uses_imu && self.status == Status::Tracking;
+        if imu_active
+            && keyframe
+            && self.window.frames.len() > self.config.window_size
+            && self.window.prior.is_some()
+            && !self.config.reuse_marginalized_tracks
+        {
+            // The oldest keyframe leaves after this solve: its live tracks continue as
+            // persistent points instead of ending with it.
+            self.window.promote_to_points(&self.config);
+        }
         let mut built = self.window.build(&self.problem_settings(), imu_active);
         let summary = solve(&mut built.problem, &self.config.solver);
         self.window.write_back(&built, &self.config);
@@ -576,7 +587,7 @@ impl Estimator {
         } else {
             None
         };
-        let landmarks = built.landmarks.len();
+        let landmarks = built.landmarks.len() + built.points.len();
         // The newest frame's state and (not yet merged) IMU interval, as solved.
         let newest = self.window.frames.back().expect("just pushed").clone();
         let window_full = self.window.frames.len() > self.config.window_size;
@@ -615,6 +626,7 @@ impl Estimator {
         }
         let marginalization_s = marg_start.elapsed().as_secs_f64();
         triangulation::reject_outliers(&mut self.window, &self.config);
+        self.window.drop_unused_points();
         if !uses_imu {
             self.status = Status::Tracking;
         }

@@ -59,7 +59,7 @@ pub(super) fn triangulate_tracks(window: &mut Window, config: &EstimatorConfig, 
                 .tracks
                 .get_mut(&id)
                 .expect("exists")
-                .inv_depth = Some(1.0 / p_c.z);
+                .set_inv_depth(Some(1.0 / p_c.z));
         }
     }
 }

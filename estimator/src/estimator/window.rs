@@ -5,15 +5,16 @@
 //! ([`Window::remove_oldest`], [`Window::remove_second_newest`]). What goes into the prior when a
 //! frame leaves is decided in [`super::marginalization`].
 
-use std::collections::VecDeque;
+use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 
 use nalgebra::Vector3;
 
 use super::config::EstimatorConfig;
-use super::features::FeatureManager;
+use super::features::{FeatureManager, Track};
 use crate::factors::{
-    ImuFactor, ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam, ProjectionTwoFrameTwoCam,
+    AnchorBearing, ImuFactor, LANDMARK_SIZE, ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam,
+    ProjectionTwoFrameTwoCam, WorldPointProjection,
 };
 use crate::geometry::Pose;
 use crate::imu::{ImuNoise, Preintegration};
@@ -42,6 +43,8 @@ pub(super) enum BlockRef {
     SpeedBias(u64),
     Extrinsic(usize),
     Td,
+    /// A persistent world point (`Window::points` key).
+    Point(u64),
 }
 
 /// The marginalization prior and the window states it constrains, in its block order.
@@ -55,8 +58,12 @@ pub(super) struct Built {
     /// (IMU factor, or bias random-walk factor across an IMU gap; index of its later frame in
     /// the window).
     pub imu: Vec<(ResidualId, usize)>,
-    /// (residual, track id).
+    /// (residual, track id) of the inverse-depth landmarks' factors.
     pub visual: Vec<(ResidualId, u64)>,
+    /// Persistent world points: (point key, block).
+    pub points: Vec<(u64, BlockId)>,
+    /// (residual, point key, frame seq) of every observation of a persistent world point.
+    pub point_obs: Vec<(ResidualId, u64, u64)>,
     pub prior: Option<ResidualId>,
 }
 
@@ -89,6 +96,12 @@ pub(super) struct Window {
     pub extrinsics: Vec<Pose>,
     /// Camera-IMU time offset (s).
     pub td: f64,
+    /// Persistent landmarks: world points `X_w` of tracks that outlived their anchor keyframe
+    /// (see [`Window::promote_to_points`]), by key. They are states carried through
+    /// marginalization, so a long track keeps contributing without any observation being
+    /// counted twice; a point leaves (into the prior) with its last observing keyframe.
+    pub points: BTreeMap<u64, Vector3<f64>>,
+    next_point: u64,
 }
 
 impl Window {
@@ -100,6 +113,8 @@ impl Window {
             prior: None,
             extrinsics,
             td,
+            points: BTreeMap::new(),
+            next_point: 0,
         }
     }
 
@@ -116,10 +131,13 @@ impl Window {
     /// World position of a track's landmark.
     pub fn track_world_point(&self, id: u64) -> Option<Vector3<f64>> {
         let t = self.features.tracks.get(&id)?;
+        if let Some(k) = t.point {
+            return self.points.get(&k).copied();
+        }
         let d = t.inv_depth?;
-        let m = t.anchor_measurement()?;
+        let m = t.anchor_measurement()?.point + t.bearing;
         let fi = self.frame_index(t.obs[0].seq)?;
-        let p_c = Vector3::new(m.point.x, m.point.y, 1.0) / d;
+        let p_c = Vector3::new(m.x, m.y, 1.0) / d;
         Some(self.camera_pose(fi, t.anchor_cam).transform(&p_c))
     }
 
@@ -161,6 +179,16 @@ impl Window {
         let td_block = problem
             .add_block(&[self.td], one.clone(), BlockKind::State)
             .expect("finite");
+        let point_m = Arc::new(Euclidean::new(3));
+        let mut points = Vec::with_capacity(self.points.len());
+        for (k, x) in &self.points {
+            // States, not eliminated landmarks: the prior couples them to the frames.
+            let b = problem
+                .add_block(x.as_slice(), point_m.clone(), BlockKind::State)
+                .expect("finite");
+            refs.push((BlockRef::Point(*k), b));
+            points.push((*k, b));
+        }
         // Vision alone cannot tell a time offset from motion: td is estimated only against
         // the IMU.
         problem.set_constant(td_block, !(config.estimate_td && imu_active));
@@ -171,6 +199,8 @@ impl Window {
             landmarks: Vec::new(),
             imu: Vec::new(),
             visual: Vec::new(),
+            points,
+            point_obs: Vec::new(),
             prior: None,
         };
         if !imu_active {
@@ -187,6 +217,15 @@ impl Window {
             if let Some(ids) = ids {
                 let f: Arc<dyn Factor> = factor.clone();
                 built.prior = built.problem.add_factor(f, None, &ids).ok();
+                if built.prior.is_some() && config.first_estimate_jacobians {
+                    // Every factor sees a prior state at the prior's linearization point.
+                    for (id, x0) in ids.iter().zip(factor.linearization_points()) {
+                        built
+                            .problem
+                            .set_linearization_point(*id, x0)
+                            .expect("the prior's own point fits its block");
+                    }
+                }
             }
         }
 
@@ -232,7 +271,7 @@ impl Window {
         td_block: BlockId,
     ) {
         let config = settings.config;
-        let one = Arc::new(Euclidean::new(1));
+        let landmark_m = Arc::new(Euclidean::new(LANDMARK_SIZE));
         let ex: Vec<BlockId> = (0..self.extrinsics.len())
             .map(|c| built.block(BlockRef::Extrinsic(c)).expect("extrinsic"))
             .collect();
@@ -252,6 +291,10 @@ impl Window {
                 .map(|i| pose_ids[i].1)
         };
         for (id, track) in &self.features.tracks {
+            if let Some(k) = track.point {
+                self.add_point_factors(built, settings, k, track, &weights, &ex, td_block);
+                continue;
+            }
             let Some(inv_depth) = track.inv_depth else {
                 continue;
             };
@@ -266,12 +309,24 @@ impl Window {
             let Some(pose_i) = pose_block(anchor.seq) else {
                 continue;
             };
+            let (bx, by) = (track.bearing.x, track.bearing.y);
             let lm = built
                 .problem
-                .add_block(&[inv_depth], one.clone(), BlockKind::Landmark)
+                .add_block(
+                    &[inv_depth, bx, by],
+                    landmark_m.clone(),
+                    BlockKind::Landmark,
+                )
                 .expect("finite");
             built.landmarks.push((*id, lm));
             let loss = Some(settings.huber.clone());
+            // The anchor observation: its noise is estimated, not taken as exact.
+            let bearing = AnchorBearing { weight: weights[a] };
+            let r = built
+                .problem
+                .add_factor(Arc::new(bearing), loss.clone(), &[lm])
+                .expect("sizes");
+            built.visual.push((r, *id));
             // The other cameras in the anchor frame.
             for c in (0..2).filter(|&c| c != a) {
                 let Some(obs_b) = anchor.meas[c] else {
@@ -325,6 +380,100 @@ impl Window {
         }
     }
 
+    /// The factors of a track carried by persistent world point `key`: one
+    /// [`WorldPointProjection`] per observation.
+    #[allow(clippy::too_many_arguments)]
+    fn add_point_factors(
+        &self,
+        built: &mut Built,
+        settings: &ProblemSettings<'_>,
+        key: u64,
+        track: &Track,
+        weights: &[f64],
+        ex: &[BlockId],
+        td_block: BlockId,
+    ) {
+        let Some(pb) = built
+            .points
+            .iter()
+            .find(|(k, _)| *k == key)
+            .map(|(_, b)| *b)
+        else {
+            return;
+        };
+        for o in &track.obs {
+            let Some(pose) = built.block(BlockRef::Pose(o.seq)) else {
+                continue;
+            };
+            for (c, m) in o.meas.iter().enumerate() {
+                let Some(obs) = *m else { continue };
+                let f = WorldPointProjection {
+                    obs,
+                    weight: weights[c],
+                };
+                let r = built
+                    .problem
+                    .add_factor(
+                        Arc::new(f),
+                        Some(settings.huber.clone()),
+                        &[pose, ex[c], pb, td_block],
+                    )
+                    .expect("sizes");
+                built.point_obs.push((r, key, o.seq));
+            }
+        }
+    }
+
+    /// Makes the live tracks anchored in the oldest frame persistent world points, before that
+    /// frame is marginalized (its inverse-depth landmarks would otherwise leave with it and
+    /// their tracks end): those seen in the newest frame, longest first, up to
+    /// `max_persistent_points` in the window. Exact at the current estimates.
+    pub fn promote_to_points(&mut self, config: &EstimatorConfig) {
+        let room = config
+            .max_persistent_points
+            .saturating_sub(self.points.len());
+        let (Some(oldest), Some(newest)) = (self.frames.front(), self.frames.back()) else {
+            return;
+        };
+        let (oldest, newest) = (oldest.seq, newest.seq);
+        let mut candidates: Vec<(usize, u64)> = self
+            .features
+            .tracks
+            .iter()
+            .filter(|(_, t)| {
+                t.point.is_none()
+                    && t.inv_depth.is_some()
+                    && t.obs[0].seq == oldest
+                    && t.obs.last().is_some_and(|o| o.seq == newest)
+            })
+            .map(|(id, t)| (t.obs.len(), *id))
+            .collect();
+        candidates.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
+        for (_, id) in candidates.into_iter().take(room) {
+            let Some(x) = self.track_world_point(id) else {
+                continue;
+            };
+            let key = self.next_point;
+            self.next_point += 1;
+            self.points.insert(key, x);
+            self.features.tracks.get_mut(&id).expect("candidate").point = Some(key);
+        }
+    }
+
+    /// Forgets persistent points that no track carries and no prior holds.
+    pub fn drop_unused_points(&mut self) {
+        let carried: Vec<u64> = self
+            .features
+            .tracks
+            .values()
+            .filter_map(|t| t.point)
+            .collect();
+        let prior = self.prior.as_ref().map(|(_, refs)| refs.as_slice());
+        self.points.retain(|k, _| {
+            carried.contains(k) || prior.is_some_and(|r| r.contains(&BlockRef::Point(*k)))
+        });
+    }
+
     /// Copies the solved values back into the window; landmarks outside the configured depth
     /// range lose their depth, and preintegrations are re-linearized when the biases moved.
     pub fn write_back(&mut self, built: &Built, config: &EstimatorConfig) {
@@ -347,13 +496,22 @@ impl Window {
         if let Some(b) = built.block(BlockRef::Td) {
             self.td = built.problem.values(b)[0];
         }
+        for (k, b) in &built.points {
+            if let Some(x) = self.points.get_mut(k) {
+                let v = built.problem.values(*b);
+                *x = Vector3::new(v[0], v[1], v[2]);
+            }
+        }
         for (id, b) in &built.landmarks {
-            let d = built.problem.values(*b)[0];
+            let l = built.problem.values(*b);
             if let Some(t) = self.features.tracks.get_mut(id) {
-                let depth = 1.0 / d;
-                t.inv_depth =
-                    (d.is_finite() && depth >= config.min_depth_m && depth <= config.max_depth_m)
-                        .then_some(d);
+                let (d, depth) = (l[0], 1.0 / l[0]);
+                if d.is_finite() && depth >= config.min_depth_m && depth <= config.max_depth_m {
+                    t.inv_depth = Some(d);
+                    t.bearing = nalgebra::Vector2::new(l[1], l[2]);
+                } else {
+                    t.set_inv_depth(None);
+                }
             }
         }
         // Keep the preintegrations' linearization points close to the estimates.
@@ -378,6 +536,15 @@ impl Window {
             if self.features.tracks[&id].obs[0].seq != removed_seq {
                 continue;
             }
+            let t = self.features.tracks.get_mut(&id).expect("exists");
+            if t.point.is_some() {
+                // A persistent point's observation in the removed frame is in the prior.
+                t.obs.remove(0);
+                if t.obs.is_empty() {
+                    self.features.tracks.remove(&id);
+                }
+                continue;
+            }
             if in_prior {
                 self.features.tracks.remove(&id);
                 continue;
@@ -389,12 +556,16 @@ impl Window {
                 self.features.tracks.remove(&id);
                 continue;
             }
-            t.inv_depth = None;
+            t.set_inv_depth(None);
             let (new_anchor, cam) = (t.obs[0].seq, t.anchor_cam);
             if let (Some(p_w), Some(fi)) = (world, self.frame_index(new_anchor)) {
                 let z = self.camera_pose(fi, cam).inverse().transform(&p_w).z;
                 if z >= config.min_depth_m && z <= config.max_depth_m {
-                    self.features.tracks.get_mut(&id).expect("exists").inv_depth = Some(1.0 / z);
+                    self.features
+                        .tracks
+                        .get_mut(&id)
+                        .expect("exists")
+                        .set_inv_depth(Some(1.0 / z));
                 }
             }
         }
@@ -419,10 +590,10 @@ impl Window {
                 continue;
             };
             t.obs.remove(k);
-            if k == 0 {
+            if k == 0 && t.point.is_none() {
                 // The anchor left: re-anchor and re-triangulate from what remains.
                 t.reanchor();
-                t.inv_depth = None;
+                t.set_inv_depth(None);
             }
             if t.obs.is_empty() {
                 self.features.tracks.remove(&id);

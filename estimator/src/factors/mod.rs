@@ -2,16 +2,16 @@
 //! factor live beside marginalization, in [`crate::problem`]).
 //!
 //! State blocks (ambient / tangent): pose `[p, q]` 7/6, speed-bias `[v, ba, bg]` 9/9,
-//! extrinsic `T_b_c` 7/6, inverse depth 1/1, camera-IMU time offset `td` 1/1 (s); the
-//! structure from motion's world point 3/3.
+//! extrinsic `T_b_c` 7/6, landmark `[inverse depth, anchor bearing correction]` 3/3, camera-IMU time offset `td` 1/1 (s); the
+//! world point 3/3 (the structure from motion's points and the window's persistent landmarks).
 
 mod imu;
 mod point;
 mod reprojection;
 
 pub use imu::ImuFactor;
-pub use point::PointProjection;
+pub use point::{PointProjection, WorldPointProjection};
 pub use reprojection::{
-    FeatureMeasurement, ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam,
-    ProjectionTwoFrameTwoCam,
+    AnchorBearing, FeatureMeasurement, LANDMARK_SIZE, ProjectionOneFrameTwoCam,
+    ProjectionTwoFrameOneCam, ProjectionTwoFrameTwoCam,
 };

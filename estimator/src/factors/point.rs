@@ -3,7 +3,6 @@
 
 use nalgebra::{Matrix2x3, Matrix3, Vector2, Vector3};
 
-#[cfg(doc)]
 use super::reprojection::FeatureMeasurement;
 use crate::geometry::{Pose, skew};
 use crate::problem::{Factor, write_row_major};
@@ -70,6 +69,88 @@ impl Factor for PointProjection {
             }
             if let Some(j) = jac[1].as_deref_mut() {
                 write_row_major(&(d_proj * r_t), j);
+            }
+        }
+        true
+    }
+}
+
+/// A persistent landmark's world point `X_w` seen by camera `c` of body frame `b`: the window's
+/// form of a landmark that outlives its anchor keyframe and is carried through
+/// marginalization (every view, the first included, is a residual, as in [`PointProjection`]).
+/// `r = weight · (π(R_b_cᵀ (R_w_bᵀ (X_w − p_w_b) − p_b_c)) − z(td))` with `z(td)` the
+/// measurement shifted to the time offset along its image velocity.
+///
+/// Parameter blocks: `T_w_b` (7/6), `T_b_c` (7/6), `X_w` (3/3), `td` (1/1).
+#[derive(Clone, Debug)]
+pub struct WorldPointProjection {
+    /// The observation.
+    pub obs: FeatureMeasurement,
+    /// Square-root information on the normalized plane (focal / pixel σ).
+    pub weight: f64,
+}
+
+impl Factor for WorldPointProjection {
+    fn residual_dim(&self) -> usize {
+        2
+    }
+    fn parameter_block_sizes(&self) -> &[usize] {
+        &[7, 7, 3, 1]
+    }
+    fn parameter_tangent_sizes(&self) -> &[usize] {
+        &[6, 6, 3, 1]
+    }
+    fn evaluate(
+        &self,
+        params: &[&[f64]],
+        residuals: &mut [f64],
+        jacobians: Option<&mut [Option<&mut [f64]>]>,
+    ) -> bool {
+        let t_w_b = Pose::from_slice(params[0]);
+        let t_b_c = Pose::from_slice(params[1]);
+        let x_w = Vector3::new(params[2][0], params[2][1], params[2][2]);
+        let td = params[3][0];
+        let rb_t: Matrix3<f64> = t_w_b.q.to_rotation_matrix().into_inner().transpose();
+        let rc_t: Matrix3<f64> = t_b_c.q.to_rotation_matrix().into_inner().transpose();
+        let p_b = rb_t * (x_w - t_w_b.p);
+        let p_c = rc_t * (p_b - t_b_c.p);
+        if !(p_c.z.is_finite() && p_c.z > 1e-9) {
+            return false;
+        }
+        let z_inv = 1.0 / p_c.z;
+        let z = self.obs.point_at_td(td);
+        residuals[0] = self.weight * (p_c.x * z_inv - z.x);
+        residuals[1] = self.weight * (p_c.y * z_inv - z.y);
+        if let Some(jac) = jacobians {
+            let d = Matrix2x3::new(
+                z_inv,
+                0.0,
+                -p_c.x * z_inv * z_inv,
+                0.0,
+                z_inv,
+                -p_c.y * z_inv * z_inv,
+            ) * self.weight;
+            // ∂r/∂p_b, then p_b = Exp(−δθ_b) R_bᵀ(X − p − δp), p_c = Exp(−δθ_c) R_cᵀ(p_b − t − δt).
+            let d_b = d * rc_t;
+            if let Some(j) = jac[0].as_deref_mut() {
+                let mut m = nalgebra::SMatrix::<f64, 2, 6>::zeros();
+                m.fixed_view_mut::<2, 3>(0, 0).copy_from(&(-d_b * rb_t));
+                m.fixed_view_mut::<2, 3>(0, 3)
+                    .copy_from(&(d_b * skew(&p_b)));
+                write_row_major(&m, j);
+            }
+            if let Some(j) = jac[1].as_deref_mut() {
+                let mut m = nalgebra::SMatrix::<f64, 2, 6>::zeros();
+                m.fixed_view_mut::<2, 3>(0, 0).copy_from(&(-d_b));
+                m.fixed_view_mut::<2, 3>(0, 3).copy_from(&(d * skew(&p_c)));
+                write_row_major(&m, j);
+            }
+            if let Some(j) = jac[2].as_deref_mut() {
+                write_row_major(&(d_b * rb_t), j);
+            }
+            if let Some(j) = jac[3].as_deref_mut() {
+                j[0] = self.weight * self.obs.velocity.x;
+                j[1] = self.weight * self.obs.velocity.y;
             }
         }
         true

@@ -1,7 +1,12 @@
 //! Reprojection factors with inverse depth anchored in the first observing frame.
 //!
-//! A feature is parameterized by its inverse depth `λ` along the anchor camera's normalized ray
-//! `(x, y, 1)`. Residuals live on the normalized image plane of the observing camera, as in
+//! A feature is a landmark block `[λ, cx, cy]`: its inverse depth `λ` along the anchor camera's
+//! normalized ray `(x + cx, y + cy, 1)`, where `(x, y)` is the anchor measurement and
+//! `(cx, cy)` the correction of that measurement's noise, estimated like everything else and
+//! held to zero by [`AnchorBearing`] with the measurement's weight. The anchor observation is
+//! thus a residual like any other rather than an exact ray (the 1-dof form VINS-Fusion uses,
+//! which credits every track's anchor with perfect accuracy and makes the window overconfident
+//! about the relative poses of anchor frames). Residuals live on the normalized image plane of the observing camera, as in
 //! VINS-Fusion: `r = w · (π(P_c) − z_obs)` with `π(P) = (P_x/P_z, P_y/P_z)` and `w` the square-root
 //! information (focal length / pixel σ for an isotropic pixel noise). Model-agnostic: any
 //! [`crate::camera::CameraModel`] that unprojects to z > 0 feeds it.
@@ -59,7 +64,7 @@ struct CoreOut<'a> {
     ex_b: Option<&'a mut [f64]>,
     /// One extrinsic block for both cameras (the same-camera factor): `∂/∂ex_a + ∂/∂ex_b`.
     ex_shared: Option<&'a mut [f64]>,
-    inv_depth: Option<&'a mut [f64]>,
+    landmark: Option<&'a mut [f64]>,
     td: Option<&'a mut [f64]>,
 }
 
@@ -70,7 +75,7 @@ impl CoreOut<'_> {
             || self.ex_a.is_some()
             || self.ex_b.is_some()
             || self.ex_shared.is_some()
-            || self.inv_depth.is_some()
+            || self.landmark.is_some()
             || self.td.is_some()
     }
 }
@@ -125,13 +130,14 @@ fn reproject_core(
     ex_a: &Pose,
     ex_b: &Pose,
     shared_ex: bool,
-    inv_depth: f64,
+    landmark: &[f64],
     td: f64,
     rotations: Rotations,
     residual: &mut [f64],
     out: &mut CoreOut,
 ) -> bool {
-    let ray_i = obs_i.at_td(td);
+    let inv_depth = landmark[0];
+    let ray_i = obs_i.at_td(td) + Vector3::new(landmark[1], landmark[2], 0.0);
     let ray_j = obs_j.at_td(td);
     let depth = 1.0 / inv_depth;
     let p_ca = ray_i * depth;
@@ -191,10 +197,8 @@ fn reproject_core(
     if let Some(o) = out.pose_j.as_deref_mut() {
         write_pose(o, &-d_w, &rows_times_skew(&d_bj, &p_bj));
     }
-    let need_ca = out.ex_a.is_some()
-        || out.ex_shared.is_some()
-        || out.inv_depth.is_some()
-        || out.td.is_some();
+    let need_ca =
+        out.ex_a.is_some() || out.ex_shared.is_some() || out.landmark.is_some() || out.td.is_some();
     if !need_ca && out.ex_b.is_none() {
         return true;
     }
@@ -210,10 +214,14 @@ fn reproject_core(
     if let Some(o) = out.ex_shared.as_deref_mut() {
         write_pose(o, &(d_bi - d_bj), &(ex_a_rot + ex_b_rot));
     }
-    if let Some(o) = out.inv_depth.as_deref_mut() {
+    if let Some(o) = out.landmark.as_deref_mut() {
+        // Columns: inverse depth, then the bearing correction (∂P_ca/∂c = depth · e_x, e_y).
         let j = d_ca * (-ray_i * (depth * depth));
-        o[0] = j.x;
-        o[1] = j.y;
+        for r in 0..2 {
+            o[r * LANDMARK_SIZE] = j[r];
+            o[r * LANDMARK_SIZE + 1] = d_ca[(r, 0)] * depth;
+            o[r * LANDMARK_SIZE + 2] = d_ca[(r, 1)] * depth;
+        }
     }
     if let Some(o) = out.td.as_deref_mut() {
         let vel_i = Vector3::new(obs_i.velocity.x, obs_i.velocity.y, 0.0);
@@ -249,7 +257,7 @@ fn split<'a, const N: usize>(
 
 /// A feature anchored in frame `i` and observed in frame `j` by the same camera.
 ///
-/// Parameter blocks: `pose_i` (7), `pose_j` (7), `T_b_c` (7), inverse depth (1), `td` (1).
+/// Parameter blocks: `pose_i` (7), `pose_j` (7), `T_b_c` (7), landmark `[λ, cx, cy]` (3), `td` (1).
 #[derive(Clone, Debug)]
 pub struct ProjectionTwoFrameOneCam {
     /// Anchor observation (frame i).
@@ -265,10 +273,10 @@ impl Factor for ProjectionTwoFrameOneCam {
         2
     }
     fn parameter_block_sizes(&self) -> &[usize] {
-        &[7, 7, 7, 1, 1]
+        &[7, 7, 7, LANDMARK_SIZE, 1]
     }
     fn parameter_tangent_sizes(&self) -> &[usize] {
-        &[6, 6, 6, 1, 1]
+        &[6, 6, 6, LANDMARK_SIZE, 1]
     }
     fn evaluate(
         &self,
@@ -286,12 +294,12 @@ impl Factor for ProjectionTwoFrameOneCam {
         mut jacobians: Option<&mut [Option<&mut [f64]>]>,
     ) -> bool {
         let ex = Pose::from_slice(params[2]);
-        let [pose_i, pose_j, ex_shared, inv_depth, td] = split::<5>(&mut jacobians);
+        let [pose_i, pose_j, ex_shared, landmark, td] = split::<5>(&mut jacobians);
         let mut out = CoreOut {
             pose_i,
             pose_j,
             ex_shared,
-            inv_depth,
+            landmark,
             td,
             ..CoreOut::default()
         };
@@ -304,7 +312,7 @@ impl Factor for ProjectionTwoFrameOneCam {
             &ex,
             &ex,
             true,
-            params[3][0],
+            params[3],
             params[4][0],
             Rotations {
                 pose_i: rotations[0],
@@ -320,7 +328,7 @@ impl Factor for ProjectionTwoFrameOneCam {
 
 /// A feature anchored in camera `a` of frame `i` and observed by another camera `b` in frame `j`.
 ///
-/// Parameter blocks: `pose_i` (7), `pose_j` (7), `T_b_ca` (7), `T_b_cb` (7), inverse depth (1),
+/// Parameter blocks: `pose_i` (7), `pose_j` (7), `T_b_ca` (7), `T_b_cb` (7), landmark (3),
 /// `td` (1).
 #[derive(Clone, Debug)]
 pub struct ProjectionTwoFrameTwoCam {
@@ -337,10 +345,10 @@ impl Factor for ProjectionTwoFrameTwoCam {
         2
     }
     fn parameter_block_sizes(&self) -> &[usize] {
-        &[7, 7, 7, 7, 1, 1]
+        &[7, 7, 7, 7, LANDMARK_SIZE, 1]
     }
     fn parameter_tangent_sizes(&self) -> &[usize] {
-        &[6, 6, 6, 6, 1, 1]
+        &[6, 6, 6, 6, LANDMARK_SIZE, 1]
     }
     fn evaluate(
         &self,
@@ -357,13 +365,13 @@ impl Factor for ProjectionTwoFrameTwoCam {
         residuals: &mut [f64],
         mut jacobians: Option<&mut [Option<&mut [f64]>]>,
     ) -> bool {
-        let [pose_i, pose_j, ex_a, ex_b, inv_depth, td] = split::<6>(&mut jacobians);
+        let [pose_i, pose_j, ex_a, ex_b, landmark, td] = split::<6>(&mut jacobians);
         let mut out = CoreOut {
             pose_i,
             pose_j,
             ex_a,
             ex_b,
-            inv_depth,
+            landmark,
             td,
             ..CoreOut::default()
         };
@@ -376,7 +384,7 @@ impl Factor for ProjectionTwoFrameTwoCam {
             &Pose::from_slice(params[2]),
             &Pose::from_slice(params[3]),
             false,
-            params[4][0],
+            params[4],
             params[5][0],
             Rotations {
                 pose_i: rotations[0],
@@ -392,7 +400,7 @@ impl Factor for ProjectionTwoFrameTwoCam {
 
 /// A feature anchored in camera `a` and observed by camera `b` in the same frame (stereo).
 ///
-/// Parameter blocks: `T_b_ca` (7), `T_b_cb` (7), inverse depth (1), `td` (1). The body pose
+/// Parameter blocks: `T_b_ca` (7), `T_b_cb` (7), landmark (3), `td` (1). The body pose
 /// cancels, so this factor constrains depth and the extrinsics only.
 #[derive(Clone, Debug)]
 pub struct ProjectionOneFrameTwoCam {
@@ -409,10 +417,10 @@ impl Factor for ProjectionOneFrameTwoCam {
         2
     }
     fn parameter_block_sizes(&self) -> &[usize] {
-        &[7, 7, 1, 1]
+        &[7, 7, LANDMARK_SIZE, 1]
     }
     fn parameter_tangent_sizes(&self) -> &[usize] {
-        &[6, 6, 1, 1]
+        &[6, 6, LANDMARK_SIZE, 1]
     }
     fn evaluate(
         &self,
@@ -429,11 +437,11 @@ impl Factor for ProjectionOneFrameTwoCam {
         residuals: &mut [f64],
         mut jacobians: Option<&mut [Option<&mut [f64]>]>,
     ) -> bool {
-        let [ex_a, ex_b, inv_depth, td] = split::<4>(&mut jacobians);
+        let [ex_a, ex_b, landmark, td] = split::<4>(&mut jacobians);
         let mut out = CoreOut {
             ex_a,
             ex_b,
-            inv_depth,
+            landmark,
             td,
             ..CoreOut::default()
         };
@@ -447,7 +455,7 @@ impl Factor for ProjectionOneFrameTwoCam {
             &Pose::from_slice(params[0]),
             &Pose::from_slice(params[1]),
             false,
-            params[2][0],
+            params[2],
             params[3][0],
             Rotations {
                 pose_i: Some(&IDENTITY),
@@ -458,6 +466,47 @@ impl Factor for ProjectionOneFrameTwoCam {
             residuals,
             &mut out,
         )
+    }
+}
+
+/// Size (ambient and tangent) of a landmark block `[λ, cx, cy]`.
+pub const LANDMARK_SIZE: usize = 3;
+
+/// The anchor observation of a landmark `[λ, cx, cy]` as a residual: `r = weight · (cx, cy)`,
+/// the correction of the anchor measurement's noise held to zero with that measurement's
+/// square-root information (the reprojection factors read the anchor ray through it).
+///
+/// Parameter block: the landmark (3).
+#[derive(Clone, Debug)]
+pub struct AnchorBearing {
+    /// Square-root information on the normalized plane (focal / pixel σ).
+    pub weight: f64,
+}
+
+impl Factor for AnchorBearing {
+    fn residual_dim(&self) -> usize {
+        2
+    }
+    fn parameter_block_sizes(&self) -> &[usize] {
+        &[LANDMARK_SIZE]
+    }
+    fn parameter_tangent_sizes(&self) -> &[usize] {
+        &[LANDMARK_SIZE]
+    }
+    fn evaluate(
+        &self,
+        params: &[&[f64]],
+        residuals: &mut [f64],
+        jacobians: Option<&mut [Option<&mut [f64]>]>,
+    ) -> bool {
+        residuals[0] = self.weight * params[0][1];
+        residuals[1] = self.weight * params[0][2];
+        if let Some(js) = jacobians
+            && let Some(j) = js[0].as_deref_mut()
+        {
+            j.copy_from_slice(&[0.0, self.weight, 0.0, 0.0, 0.0, self.weight]);
+        }
+        true
     }
 }
 
@@ -491,7 +540,13 @@ mod tests {
                     obs_j,
                     weight: 300.0,
                 }),
-                vec![pi.clone(), pj.clone(), ea.clone(), vec![0.4], vec![0.002]],
+                vec![
+                    pi.clone(),
+                    pj.clone(),
+                    ea.clone(),
+                    vec![0.4, 0.003, -0.002],
+                    vec![0.002],
+                ],
             ),
             (
                 Box::new(ProjectionTwoFrameTwoCam {
@@ -499,7 +554,14 @@ mod tests {
                     obs_j,
                     weight: 300.0,
                 }),
-                vec![pi, pj, ea.clone(), eb.clone(), vec![0.4], vec![0.002]],
+                vec![
+                    pi,
+                    pj,
+                    ea.clone(),
+                    eb.clone(),
+                    vec![0.4, 0.003, -0.002],
+                    vec![0.002],
+                ],
             ),
             (
                 Box::new(ProjectionOneFrameTwoCam {
@@ -507,7 +569,7 @@ mod tests {
                     obs_b: obs_j,
                     weight: 300.0,
                 }),
-                vec![ea, eb, vec![0.4], vec![0.002]],
+                vec![ea, eb, vec![0.4, 0.003, -0.002], vec![0.002]],
             ),
         ];
         for (f, params) in &factors {

@@ -44,9 +44,17 @@ pub trait Factor: Send + Sync {
     /// Optionally, the factor's Gauss-Newton contribution computed directly: `h = JᵀJ`
     /// (row-major, `T × T` with `T` the sum of the tangent sizes, blocks in parameter order),
     /// `g = Jᵀr`, returning `‖r‖²`. Factors with many residual rows over many blocks (the
-    /// marginalization prior) can do this far cheaper than the solver's `JᵀJ`. `None` (the
-    /// default) means "use `evaluate`". Must agree with `evaluate` exactly up to round-off.
-    fn normal_equations(&self, _params: &[&[f64]], _h: &mut [f64], _g: &mut [f64]) -> Option<f64> {
+    /// marginalization prior) can do this far cheaper than the solver's `JᵀJ`. `r` is taken at
+    /// `params`, `J` at `lin_params` (the first-estimate linearization points; the same
+    /// slices as `params` when there are none). `None` (the default) means "use `evaluate`".
+    /// Must agree with `evaluate` exactly up to round-off.
+    fn normal_equations(
+        &self,
+        _params: &[&[f64]],
+        _lin_params: &[&[f64]],
+        _h: &mut [f64],
+        _g: &mut [f64],
+    ) -> Option<f64> {
         None
     }
 }

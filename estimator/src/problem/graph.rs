@@ -34,6 +34,9 @@ pub(crate) struct Block {
     pub manifold: Arc<dyn Manifold>,
     pub kind: BlockKind,
     pub constant: bool,
+    /// First-estimate linearization point: where every factor's Jacobians with respect to this
+    /// block are evaluated (see [`Problem::set_linearization_point`]).
+    pub lin_point: Option<Box<[f64]>>,
 }
 
 /// The blocks of one residual, stored inline for the usual few (no allocation per residual).
@@ -151,9 +154,54 @@ impl Problem {
             manifold,
             kind,
             constant: false,
+            lin_point: None,
         });
         self.values.extend_from_slice(values);
         Ok(id)
+    }
+
+    /// Fixes where the Jacobians of every factor with respect to block `id` are evaluated
+    /// (first-estimate Jacobians, as in Basalt and OpenVINS): residuals are still evaluated at
+    /// the current values, but the Jacobian columns of this block — and the other blocks of
+    /// any factor touching it — come from `values` for this block. States constrained by a
+    /// marginalization prior keep the prior's linearization point this way, so every factor
+    /// sees them at one point and the window gains no information along directions that are
+    /// unobservable (global position and yaw).
+    pub fn set_linearization_point(
+        &mut self,
+        id: BlockId,
+        values: &[f64],
+    ) -> Result<(), ProblemError> {
+        let b = self
+            .blocks
+            .get_mut(id.0)
+            .ok_or(ProblemError::UnknownBlock(id))?;
+        if values.len() != b.ambient {
+            return Err(ProblemError::SizeMismatch {
+                expected: 1,
+                sizes: vec![b.ambient],
+                index: 0,
+                got: values.len(),
+            });
+        }
+        if values.iter().any(|v| !v.is_finite()) {
+            return Err(ProblemError::NonFinite);
+        }
+        b.lin_point = Some(values.into());
+        Ok(())
+    }
+
+    /// The first-estimate linearization point of block `id`, if it has one.
+    pub fn linearization_point(&self, id: BlockId) -> Option<&[f64]> {
+        self.blocks[id.0].lin_point.as_deref()
+    }
+
+    /// Whether residual `id` touches a block with a first-estimate linearization point.
+    fn uses_linearization_points(&self, id: usize) -> bool {
+        self.residuals[id]
+            .blocks
+            .iter()
+            .any(|b| self.blocks[b.0].lin_point.is_some())
     }
 
     /// Holds a block fixed (`true`) or lets the solver move it (`false`).
@@ -297,10 +345,58 @@ impl Problem {
         }
     }
 
+    /// Calls `f` with the slices at which residual `id`'s Jacobians are evaluated: each block's
+    /// first-estimate linearization point where it has one, its entry of `values` otherwise.
+    pub(crate) fn with_linearization_params<R>(
+        &self,
+        values: &[f64],
+        id: usize,
+        f: impl FnOnce(&[&[f64]]) -> R,
+    ) -> R {
+        let slices: Vec<&[f64]> = self.residuals[id]
+            .blocks
+            .iter()
+            .map(|b| {
+                let blk = &self.blocks[b.0];
+                blk.lin_point
+                    .as_deref()
+                    .unwrap_or(&values[blk.offset..blk.offset + blk.ambient])
+            })
+            .collect();
+        f(&slices)
+    }
+
+    /// The factor of residual `id` at `values`, without loss: `false` if it cannot be
+    /// evaluated there.
+    fn evaluate_factor(
+        &self,
+        values: &[f64],
+        rotations: Option<&[Matrix3<f64>]>,
+        id: usize,
+        r: &mut [f64],
+        jacobians: Option<&mut [Option<&mut [f64]>]>,
+    ) -> bool {
+        let res = &self.residuals[id];
+        self.with_residual_params(values, id, |params| match rotations {
+            Some(rot) if res.blocks.len() <= INLINE_BLOCKS => {
+                let mut rots: [Option<&Matrix3<f64>>; INLINE_BLOCKS] = [None; INLINE_BLOCKS];
+                for (k, b) in res.blocks.iter().enumerate() {
+                    if self.blocks[b.0].rotation.is_some() {
+                        rots[k] = Some(&rot[b.0]);
+                    }
+                }
+                res.factor
+                    .evaluate_with_rotations(params, &rots[..res.blocks.len()], r, jacobians)
+            }
+            _ => res.factor.evaluate(params, r, jacobians),
+        })
+    }
+
     /// Evaluates residual `id` at `values` (a full value vector), optionally with loss, into
-    /// `r`; Jacobians where requested. `rotations`, if given, holds [`Self::fill_rotations`]
-    /// for `values`. Returns the robustified `ρ(‖r‖²)` or `None` if the factor cannot be
-    /// evaluated.
+    /// `r`; Jacobians where requested (at the first-estimate linearization points of blocks
+    /// that have one, see [`Self::set_linearization_point`]). `rotations`, if given, holds
+    /// [`Self::fill_rotations`] for `values`. Returns the robustified `ρ(‖r‖²)` or `None` if
+    /// the factor cannot be evaluated.
     pub(crate) fn evaluate_residual_with(
         &self,
         values: &[f64],
@@ -312,23 +408,15 @@ impl Problem {
         let res = &self.residuals[id];
         let has_j = jacobians.is_some();
         let mut jacobians = jacobians;
-        let ok = self.with_residual_params(values, id, |params| match rotations {
-            Some(rot) if res.blocks.len() <= INLINE_BLOCKS => {
-                let mut rots: [Option<&Matrix3<f64>>; INLINE_BLOCKS] = [None; INLINE_BLOCKS];
-                for (k, b) in res.blocks.iter().enumerate() {
-                    if self.blocks[b.0].rotation.is_some() {
-                        rots[k] = Some(&rot[b.0]);
-                    }
-                }
-                res.factor.evaluate_with_rotations(
-                    params,
-                    &rots[..res.blocks.len()],
-                    r,
-                    jacobians.as_deref_mut(),
-                )
+        let ok = match jacobians.as_deref_mut() {
+            Some(js) if self.uses_linearization_points(id) => {
+                // Jacobians at the linearization points, then the residual at `values`.
+                self.with_linearization_params(values, id, |params| {
+                    res.factor.evaluate(params, r, Some(js))
+                }) && self.evaluate_factor(values, rotations, id, r, None)
             }
-            _ => res.factor.evaluate(params, r, jacobians.as_deref_mut()),
-        });
+            js => self.evaluate_factor(values, rotations, id, r, js),
+        };
         if !ok {
             return None;
         }

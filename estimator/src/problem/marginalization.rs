@@ -12,11 +12,13 @@
 //!    ~160-dimensional window prior, and drops directions with no information just the same.
 //!
 //! The prior keeps the linearization point of K (first-estimate Jacobians): its Jacobian never
-//! changes, so it cannot inject information along directions it had none in.
+//! changes, so it cannot inject information along directions it had none in. Blocks that
+//! already carry a first-estimate point ([`Problem::set_linearization_point`]) keep it: the
+//! residuals are linearized with Jacobians there and the prior is expressed around it.
 
 use std::sync::Arc;
 
-use nalgebra::{DMatrix, SymmetricEigen};
+use nalgebra::{DMatrix, DVector, SymmetricEigen};
 
 use super::graph::{BlockId, BlockKind, Problem, ResidualId};
 use super::prior::{PriorError, PriorFactor};
@@ -135,6 +137,34 @@ pub fn marginalize(
         (hkk, gk)
     };
 
+    // Blocks with a first-estimate linearization point keep it in the new prior: the system
+    // above is a model in `δ = x ⊟ x_now` with Jacobians at that point, re-expressed in
+    // `d = x ⊟ x̄ = δ + (x_now ⊟ x̄)`, so `g*` moves by `−H* (x_now ⊟ x̄)`.
+    let mut shift = DVector::zeros(nk);
+    let mut off = 0;
+    let mut points: Vec<Vec<f64>> = Vec::with_capacity(kept.len());
+    for b in &kept {
+        let m = &problem.blocks[b.0].manifold;
+        let t = m.tangent_size();
+        match problem.linearization_point(*b) {
+            Some(x0) => {
+                m.minus(
+                    problem.values(*b),
+                    x0,
+                    shift.as_mut_slice()[off..off + t].as_mut(),
+                );
+                points.push(x0.to_vec());
+            }
+            None => points.push(problem.values(*b).to_vec()),
+        }
+        off += t;
+    }
+    let g_star = if shift.iter().any(|v| *v != 0.0) {
+        &g_star - &h_star * &shift
+    } else {
+        g_star
+    };
+
     // 4. Square-root form by pivoted Cholesky.
     let (perm, l, rank) = pivoted_cholesky(&h_star, options.relative_rank_threshold);
     // J* = (P L)ᵀ: row r, column perm[i] holds L[i][r].
@@ -157,7 +187,6 @@ pub fn marginalize(
         .iter()
         .map(|b| problem.blocks[b.0].manifold.clone())
         .collect();
-    let points: Vec<Vec<f64>> = kept.iter().map(|b| problem.values(*b).to_vec()).collect();
     let factor = PriorFactor::new(manifolds, points, jac, r0)?;
     Ok(MarginalPrior {
         factor,

@@ -201,8 +201,15 @@ impl Factor for PriorFactor {
 
     /// `‖r‖² = r₀ᵀr₀ + 2 bᵀd + dᵀHd`, `g = Mᵀ(b + H d)`, `JᵀJ = Mᵀ H M` with `d = x ⊟ x̄`,
     /// `H = JᵀJ`, `b = Jᵀr₀` precomputed and `M` the block-diagonal minus-Jacobian (identity for
-    /// Euclidean blocks, `Jr⁻¹` for rotations): O(n²) instead of the O(m n²) of forming `JᵀJ`.
-    fn normal_equations(&self, params: &[&[f64]], h: &mut [f64], g: &mut [f64]) -> Option<f64> {
+    /// Euclidean blocks, `Jr⁻¹` for rotations) at `lin_params`: O(n²) instead of the O(m n²)
+    /// of forming `JᵀJ`.
+    fn normal_equations(
+        &self,
+        params: &[&[f64]],
+        lin_params: &[&[f64]],
+        h: &mut [f64],
+        g: &mut [f64],
+    ) -> Option<f64> {
         let n = self.tangent_dim();
         let mut d = vec![0.0; n];
         // Minus-Jacobian blocks; `None` where it is exactly the identity.
@@ -212,7 +219,7 @@ impl Factor for PriorFactor {
             let x0 = &self.linearization_points[k];
             manifold.minus(params[k], x0, &mut d[off..off + t]);
             let mut b = vec![0.0; t * t];
-            manifold.minus_jacobian(params[k], x0, &mut b);
+            manifold.minus_jacobian(lin_params[k], x0, &mut b);
             let identity =
                 (0..t).all(|i| (0..t).all(|j| b[i * t + j] == if i == j { 1.0 } else { 0.0 }));
             mj.push((!identity).then_some(b));
@@ -329,7 +336,9 @@ mod tests {
             off += t;
         }
         let (mut h, mut g) = (vec![0.0; n * n], vec![0.0; n]);
-        let cost = prior.normal_equations(&params, &mut h, &mut g).unwrap();
+        let cost = prior
+            .normal_equations(&params, &params, &mut h, &mut g)
+            .unwrap();
         let r_sq: f64 = r.iter().map(|v| v * v).sum();
         assert!(
             (cost - r_sq).abs() < 1e-10 * r_sq.max(1.0),

@@ -114,7 +114,7 @@ pub(in crate::estimator) fn initialize_mono_inertial(
         return Err(MonoInitFailure::Alignment);
     }
     for t in window.features.tracks.values_mut() {
-        t.inv_depth = None;
+        t.set_inv_depth(None);
     }
     window.prior = initial_prior(&window.frames[0], config);
     Ok(())

@@ -319,6 +319,15 @@ impl NormalEquations {
                         for ((w, x0), x1) in wb.iter_mut().zip(a0).zip(a1) {
                             *w += x0 * j0 + x1 * j1;
                         }
+                    } else if tl == 3 {
+                        // Landmarks `[λ, cx, cy]`: fixed sizes, unrolled.
+                        let l0: &[f64; 3] = jl[..3].try_into().unwrap();
+                        let l1: &[f64; 3] = jl[3..6].try_into().unwrap();
+                        for ((w, x0), x1) in wb.chunks_exact_mut(3).zip(a0).zip(a1) {
+                            for j in 0..3 {
+                                w[j] += x0 * l0[j] + x1 * l1[j];
+                            }
+                        }
                     } else {
                         for i in 0..ta {
                             for j in 0..tl {
@@ -379,7 +388,9 @@ impl NormalEquations {
         self.direct_g.resize(total, 0.0);
         let (h, g) = (&mut self.direct_h, &mut self.direct_g);
         let direct = problem.with_residual_params(&problem.values, p.ri, |params| {
-            res.factor.normal_equations(params, h, g)
+            problem.with_linearization_params(&problem.values, p.ri, |lin_params| {
+                res.factor.normal_equations(params, lin_params, h, g)
+            })
         });
         if direct.is_none() {
             return false;

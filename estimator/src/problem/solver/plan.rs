@@ -265,21 +265,21 @@ impl NormalEquations {
         }
         // Dense when its multiply-adds are within a small factor of the sparse updates' (the
         // dense product runs many times faster per multiply-add).
+        let lt: Vec<usize> = layout
+            .landmarks
+            .iter()
+            .map(|&b| problem.blocks[b].manifold.tangent_size())
+            .collect();
         let sparse_work: usize = (0..nl)
             .map(|l| {
                 let k: usize = couplings[cstart[l]..cstart[l + 1]]
                     .iter()
                     .map(|c| c.t)
                     .sum();
-                k * k
+                k * k * lt[l]
             })
             .sum();
-        let dense_schur = zdim * zdim * nl <= 8 * sparse_work;
-        let lt: Vec<usize> = layout
-            .landmarks
-            .iter()
-            .map(|&b| problem.blocks[b].manifold.tangent_size())
-            .collect();
+        let dense_schur = zdim * zdim * layout.n_landmark <= 8 * sparse_work;
         let mut lhoff = Vec::with_capacity(nl);
         let mut hlen = 0;
         for t in &lt {

@@ -36,7 +36,8 @@ impl NormalEquations {
     ) -> bool {
         let n = self.n;
         let mut wc: Vec<f64> = Vec::new();
-        let (zd, nl) = (self.zdim, self.lt.len());
+        // Columns of the dense product: one per landmark coordinate (stacked like `gl`).
+        let (zd, nl) = (self.zdim, self.gl.len());
         if self.dense_schur {
             z.z1.clear();
             z.z1.resize(zd * nl, 0.0);
@@ -69,8 +70,8 @@ impl NormalEquations {
                     // below.
                     let zd = self.zdim;
                     let (col1, col2) = (
-                        &mut z.z1[l * zd..(l + 1) * zd],
-                        &mut z.z2[l * zd..(l + 1) * zd],
+                        &mut z.z1[go * zd..(go + 1) * zd],
+                        &mut z.z2[go * zd..(go + 1) * zd],
                     );
                     for ca in cs {
                         let wa = &self.w[ca.pos..ca.pos + ca.t];
@@ -153,6 +154,42 @@ impl NormalEquations {
             };
             cinv[ho..ho + t * t].copy_from_slice(&ci);
             valid[l] = true;
+            if self.dense_schur && t <= MAX_DENSE_LANDMARK {
+                // W C⁻¹ Wᵀ = (W L⁻ᵀ)(W L⁻ᵀ)ᵀ with C = L Lᵀ: the t columns W L⁻ᵀ of this
+                // landmark go into Z₁ and Z₂ alike; the right-hand side gains (W L⁻ᵀ)(L⁻¹ g_l).
+                let Some(lc) = small_cholesky(&c, t) else {
+                    valid[l] = false;
+                    if skip_singular {
+                        continue;
+                    }
+                    return false;
+                };
+                // y = L⁻¹ g_l.
+                let mut y = [0.0; MAX_DENSE_LANDMARK];
+                for i in 0..t {
+                    let s: f64 = (0..i).map(|k| lc[i * t + k] * y[k]).sum();
+                    y[i] = (gl[i] - s) / lc[i * t + i];
+                }
+                for ca in cs {
+                    let wa = &self.w[ca.pos..ca.pos + ca.t * t];
+                    for i in 0..ca.t {
+                        // Row i of W L⁻ᵀ: m Lᵀ = w.
+                        let mut m = [0.0; MAX_DENSE_LANDMARK];
+                        for j in 0..t {
+                            let s: f64 = (0..j).map(|k| m[k] * lc[j * t + k]).sum();
+                            m[j] = (wa[i * t + j] - s) / lc[j * t + j];
+                        }
+                        rhs[ca.offset + i] += (0..t).map(|j| m[j] * y[j]).sum::<f64>();
+                        for j in 0..t {
+                            let at = (go + j) * zd + ca.z + i;
+                            z.z1[at] = m[j];
+                            z.z2[at] = m[j];
+                        }
+                    }
+                }
+                dense = true;
+                continue;
+            }
             for (ia, ca) in cs.iter().enumerate() {
                 let ta = ca.t;
                 // wc = W_a C⁻¹ (ta × t).
@@ -218,6 +255,31 @@ pub(crate) struct SchurScratch {
     z1: Vec<f64>,
     z2: Vec<f64>,
     s: Vec<f64>,
+}
+
+/// Largest landmark tangent size the dense Schur product takes (larger ones are eliminated
+/// block pair by block pair).
+const MAX_DENSE_LANDMARK: usize = 4;
+
+/// The lower Cholesky factor `L` (row-major, `L Lᵀ = a`) of a small symmetric matrix of size
+/// `t ≤ MAX_DENSE_LANDMARK`; `None` if `a` is not positive definite.
+fn small_cholesky(a: &[f64], t: usize) -> Option<[f64; MAX_DENSE_LANDMARK * MAX_DENSE_LANDMARK]> {
+    let mut l = [0.0; MAX_DENSE_LANDMARK * MAX_DENSE_LANDMARK];
+    for i in 0..t {
+        for j in 0..=i {
+            let s: f64 = (0..j).map(|k| l[i * t + k] * l[j * t + k]).sum();
+            if i == j {
+                let d = a[i * t + i] - s;
+                if !(d > 0.0 && d.is_finite()) {
+                    return None;
+                }
+                l[i * t + i] = d.sqrt();
+            } else {
+                l[i * t + j] = (0.5 * (a[i * t + j] + a[j * t + i]) - s) / l[j * t + j];
+            }
+        }
+    }
+    Some(l)
 }
 
 /// Inverts a small symmetric positive-definite matrix (row-major); `None` if not PD.
