@@ -588,6 +588,8 @@ pub struct EstimatorSpec {
     /// Evaluate every factor's Jacobians of states in the marginalization prior at the
     /// prior's linearization point (first-estimate Jacobians).
     pub first_estimate_jacobians: Option<bool>,
+    /// Also first-estimate Jacobians for the persistent world points.
+    pub first_estimate_points: Option<bool>,
 }
 
 /// Solver methods.
@@ -1674,6 +1676,9 @@ impl Scenario {
         }
         if let Some(v) = e.first_estimate_jacobians {
             cfg.first_estimate_jacobians = v;
+        }
+        if let Some(v) = e.first_estimate_points {
+            cfg.first_estimate_points = v;
         }
         // The IMU's datasheet ranges: the estimator treats readings on them as clipped.
         let imu = &s.rig.imu;

@@ -133,10 +133,20 @@ pub struct EstimatorConfig {
     /// position and yaw) instead of gaining information along it from the relinearized
     /// factors.
     pub first_estimate_jacobians: bool,
-    /// A track enters the optimization once seen in this many frames (it also needs two
-    /// measurements: a stereo pair counts). VINS-Fusion uses 4; on the synthetic room data of
-    /// the window tests (seed 1, 20 s) 3 and 4 raised the ATE from 3 cm to 26 and 51 cm, so the
-    /// default is 1 until that is understood.
+    /// With `first_estimate_jacobians`, also fix the Jacobians of the persistent world points
+    /// at their first estimate. That keeps the window's nullspace exact, but a point's first
+    /// estimate is frozen into every later observation of it for as long as it lives, and the
+    /// solution follows that stale linearization: seed 1, 60 s, ATE 0.0100 m with it against
+    /// 0.0090 m without on the default figure-eight, 0.0327 m against 0.0096 m when the left
+    /// camera dies at 20 s (mono on the right camera: less accurate first depths). Default
+    /// off: the points are relinearized, the frame states keep their first estimates.
+    pub first_estimate_points: bool,
+    /// A track enters the optimization once seen in this many window frames, or in every frame
+    /// of a window that has fewer (it also needs two measurements: a stereo pair counts).
+    /// VINS-Fusion uses 4. Before the "fewer" rule, 3 and 4 raised the ATE from 3 cm to 26 and
+    /// 51 cm: a starting window had no visual factor for its first frames (regression test
+    /// `min_track_frames_4_does_not_starve_a_starting_window`). Default 1: every triangulated
+    /// track counts at once.
     pub min_track_frames: usize,
     /// Keep every frame's factors to allow [`super::Estimator::batch_solve`] at the end.
     pub record_history: bool,
@@ -211,6 +221,7 @@ impl EstimatorConfig {
             max_persistent_points: 30,
             min_track_frames: 1,
             first_estimate_jacobians: true,
+            first_estimate_points: false,
             record_history: false,
             compute_covariance: false,
             imu_spike_threshold: Some((1.0, 10.0)),

@@ -38,6 +38,8 @@ pub struct WindowSystem {
     pub speed_biases: Vec<BlockId>,
     /// Landmark (inverse-depth) blocks.
     pub landmarks: Vec<BlockId>,
+    /// Persistent world-point blocks (states: the prior may hold them).
+    pub points: Vec<BlockId>,
 }
 
 impl Estimator {
@@ -58,11 +60,13 @@ impl Estimator {
             .filter_map(|s| built.block(BlockRef::SpeedBias(*s)))
             .collect();
         let landmarks = built.landmarks.iter().map(|(_, b)| *b).collect();
+        let points = built.points.iter().map(|(_, b)| *b).collect();
         Some(WindowSystem {
             problem: built.problem,
             poses,
             speed_biases,
             landmarks,
+            points,
         })
     }
 }

@@ -15,6 +15,11 @@ pub(crate) struct Observation {
     pub meas: [Option<FeatureMeasurement>; 2],
     /// Distorted pixels per camera (for reprojection-error checks).
     pub uv: [Option<Vector2<f64>>; 2],
+    /// Square-root information of each camera's measurement on the normalized plane: the
+    /// camera model's local magnification there (px per normalized unit, √|det ∂uv/∂xy|)
+    /// over the pixel σ. Distortion compresses the image edges, so the same pixel noise is a
+    /// larger error on the normalized plane there than at the centre.
+    pub weight: [f64; 2],
 }
 
 impl Observation {
@@ -161,6 +166,7 @@ mod tests {
             seq,
             meas: [m(left), m(right)],
             uv: [None, None],
+            weight: [300.0, 300.0],
         }
     }
 

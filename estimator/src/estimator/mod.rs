@@ -715,7 +715,14 @@ impl Estimator {
                     seq,
                     meas: [None, None],
                     uv: [None, None],
+                    weight: [0.0; 2],
                 });
+                let magnification = model
+                    .project_with_jacobian(&Vector3::new(point.x, point.y, 1.0))
+                    .map(|(_, j)| (j[(0, 0)] * j[(1, 1)] - j[(0, 1)] * j[(1, 0)]).abs().sqrt())
+                    .filter(|m| m.is_finite() && *m > 0.0)
+                    .unwrap_or(self.focal[cf.cam_id]);
+                o.weight[cf.cam_id] = magnification / self.config.cameras[cf.cam_id].pixel_sigma;
                 let mut velocity = Vector2::zeros();
                 if let Some((prev_seq, prev_pt)) =
                     self.window.features.last_in(f.feature_id, cf.cam_id)
@@ -741,7 +748,6 @@ impl Estimator {
     fn problem_settings(&self) -> ProblemSettings<'_> {
         ProblemSettings {
             config: &self.config,
-            focal: &self.focal,
             huber: &self.huber,
         }
     }

@@ -74,11 +74,9 @@ impl Built {
     }
 }
 
-/// What the window's problem needs besides the states: settings and per-camera weights.
+/// What the window's problem needs besides the states: settings and the robust loss.
 pub(super) struct ProblemSettings<'a> {
     pub config: &'a EstimatorConfig,
-    /// Effective focal length of each camera (px).
-    pub focal: &'a [f64],
     /// Robust loss of the reprojection factors.
     pub huber: &'a Arc<dyn LossFunction>,
 }
@@ -219,7 +217,10 @@ impl Window {
                 built.prior = built.problem.add_factor(f, None, &ids).ok();
                 if built.prior.is_some() && config.first_estimate_jacobians {
                     // Every factor sees a prior state at the prior's linearization point.
-                    for (id, x0) in ids.iter().zip(factor.linearization_points()) {
+                    for ((id, r), x0) in ids.iter().zip(blocks).zip(factor.linearization_points()) {
+                        if matches!(r, BlockRef::Point(_)) && !config.first_estimate_points {
+                            continue;
+                        }
                         built
                             .problem
                             .set_linearization_point(*id, x0)
@@ -272,11 +273,13 @@ impl Window {
     ) {
         let config = settings.config;
         let landmark_m = Arc::new(Euclidean::new(LANDMARK_SIZE));
+        // A track must span `min_track_frames` frames, or every frame of a window that is still
+        // shorter: otherwise a (re)starting window has no visual factor at all for its first
+        // frames, which then come out of nothing and poison the first triangulations
+        // (`min_track_frames = 4` gave 2 m errors over the first 3 s of the figure-eight).
+        let min_frames = config.min_track_frames.min(self.frames.len());
         let ex: Vec<BlockId> = (0..self.extrinsics.len())
             .map(|c| built.block(BlockRef::Extrinsic(c)).expect("extrinsic"))
-            .collect();
-        let weights: Vec<f64> = (0..self.extrinsics.len())
-            .map(|c| settings.focal[c] / config.cameras[c].pixel_sigma)
             .collect();
         // Pose block of each window frame, by seq (frames are in seq order).
         let pose_ids: Vec<(u64, BlockId)> = self
@@ -292,13 +295,13 @@ impl Window {
         };
         for (id, track) in &self.features.tracks {
             if let Some(k) = track.point {
-                self.add_point_factors(built, settings, k, track, &weights, &ex, td_block);
+                self.add_point_factors(built, settings, k, track, &ex, td_block);
                 continue;
             }
             let Some(inv_depth) = track.inv_depth else {
                 continue;
             };
-            if track.obs.len() < config.min_track_frames || track.measurement_count() < 2 {
+            if track.obs.len() < min_frames || track.measurement_count() < 2 {
                 continue;
             }
             let anchor = &track.obs[0];
@@ -321,7 +324,9 @@ impl Window {
             built.landmarks.push((*id, lm));
             let loss = Some(settings.huber.clone());
             // The anchor observation: its noise is estimated, not taken as exact.
-            let bearing = AnchorBearing { weight: weights[a] };
+            let bearing = AnchorBearing {
+                weight: anchor.weight[a],
+            };
             let r = built
                 .problem
                 .add_factor(Arc::new(bearing), loss.clone(), &[lm])
@@ -335,7 +340,7 @@ impl Window {
                 let f = ProjectionOneFrameTwoCam {
                     obs_a: obs_i,
                     obs_b,
-                    weight: weights[c],
+                    weight: anchor.weight[c],
                 };
                 let r = built
                     .problem
@@ -355,7 +360,7 @@ impl Window {
                         let f = ProjectionTwoFrameOneCam {
                             obs_i,
                             obs_j,
-                            weight: weights[c],
+                            weight: o.weight[c],
                         };
                         built.problem.add_factor(
                             Arc::new(f),
@@ -366,7 +371,7 @@ impl Window {
                         let f = ProjectionTwoFrameTwoCam {
                             obs_i,
                             obs_j,
-                            weight: weights[c],
+                            weight: o.weight[c],
                         };
                         built.problem.add_factor(
                             Arc::new(f),
@@ -389,7 +394,6 @@ impl Window {
         settings: &ProblemSettings<'_>,
         key: u64,
         track: &Track,
-        weights: &[f64],
         ex: &[BlockId],
         td_block: BlockId,
     ) {
@@ -409,7 +413,7 @@ impl Window {
                 let Some(obs) = *m else { continue };
                 let f = WorldPointProjection {
                     obs,
-                    weight: weights[c],
+                    weight: o.weight[c],
                 };
                 let r = built
                     .problem
