@@ -249,7 +249,7 @@ pub struct NeesPanel {
     pub band: [f64; 2],
 }
 
-/// `nees.png`: one panel per metric, the NEES on a log scale with the band's bounds.
+/// `nees.png`: one panel per metric, the NEES over time with the band's bounds.
 pub fn nees_png(title: &str, panels: &[NeesPanel]) -> Result<Vec<u8>, String> {
     let size = (1000u32, 260 * panels.len().max(1) as u32 + 60);
     render_png(size, |buf| draw_nees(title, panels, size, buf))
@@ -265,24 +265,26 @@ fn draw_nees(title: &str, panels: &[NeesPanel], size: (u32, u32), buf: &mut [u8]
     for (p, area) in panels.iter().zip(&areas) {
         let t1 = p.series.last().map_or(1.0, |s| s.0).max(1e-3);
         let t0 = p.series.first().map_or(0.0, |s| s.0).min(t1 - 1e-3);
-        let (mut lo, mut hi) = (p.band[0], p.band[1]);
-        for &(_, v) in &p.series {
-            if v.is_finite() && v > 0.0 {
-                lo = lo.min(v);
-                hi = hi.max(v);
-            }
-        }
-        let (lo, hi) = (lo.max(1e-3) * 0.8, hi * 1.25);
+        // Linear from 0 (a log axis inside one decade gets no or unreadable tick labels); the
+        // top at least 1.5× the band, at most 4×, so a start-up transient cannot squash it.
+        let peak = p
+            .series
+            .iter()
+            .map(|s| s.1)
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max);
+        let hi = 1.05 * peak.clamp(1.5 * p.band[1], 4.0 * p.band[1]);
         let mut chart = ChartBuilder::on(area)
             .caption(&p.title, ("sans-serif", 18).into_font())
             .margin(10)
             .x_label_area_size(30)
             .y_label_area_size(60)
-            .build_cartesian_2d(t0..t1, (lo..hi).log_scale())?;
+            .build_cartesian_2d(t0..t1, 0.0..hi)?;
         chart
             .configure_mesh()
             .x_desc("t [s]")
             .y_desc("NEES")
+            .y_label_formatter(&|v| format!("{v:.1}"))
             .label_style(("sans-serif", 13))
             .draw()?;
         for b in p.band {
@@ -292,7 +294,7 @@ fn draw_nees(title: &str, panels: &[NeesPanel], size: (u32, u32), buf: &mut [u8]
             ))?;
         }
         chart.draw_series(LineSeries::new(
-            p.series.iter().copied().filter(|(_, v)| *v > 0.0),
+            p.series.iter().map(|&(t, v)| (t, v.min(hi))),
             nees_color.stroke_width(1),
         ))?;
     }
