@@ -328,10 +328,38 @@ impl Problem {
         id: usize,
         f: impl FnOnce(&[&[f64]]) -> R,
     ) -> R {
+        self.with_params(values, id, false, f)
+    }
+
+    /// Calls `f` with the slices at which residual `id`'s Jacobians are evaluated: each block's
+    /// first-estimate linearization point where it has one, its entry of `values` otherwise.
+    #[inline]
+    pub(crate) fn with_linearization_params<R>(
+        &self,
+        values: &[f64],
+        id: usize,
+        f: impl FnOnce(&[&[f64]]) -> R,
+    ) -> R {
+        self.with_params(values, id, true, f)
+    }
+
+    /// The two above: `first_estimates` picks the blocks' linearization points where set.
+    #[inline]
+    fn with_params<R>(
+        &self,
+        values: &[f64],
+        id: usize,
+        first_estimates: bool,
+        f: impl FnOnce(&[&[f64]]) -> R,
+    ) -> R {
         let blocks = &self.residuals[id].blocks;
         let slice = |b: &BlockId| {
             let blk = &self.blocks[b.0];
-            &values[blk.offset..blk.offset + blk.ambient]
+            let own = &values[blk.offset..blk.offset + blk.ambient];
+            match &blk.lin_point {
+                Some(x0) if first_estimates => &x0[..],
+                _ => own,
+            }
         };
         let mut small: [&[f64]; 8] = [&[]; 8];
         if blocks.len() <= small.len() {
@@ -343,27 +371,6 @@ impl Problem {
             let large: Vec<&[f64]> = blocks.iter().map(slice).collect();
             f(&large)
         }
-    }
-
-    /// Calls `f` with the slices at which residual `id`'s Jacobians are evaluated: each block's
-    /// first-estimate linearization point where it has one, its entry of `values` otherwise.
-    pub(crate) fn with_linearization_params<R>(
-        &self,
-        values: &[f64],
-        id: usize,
-        f: impl FnOnce(&[&[f64]]) -> R,
-    ) -> R {
-        let slices: Vec<&[f64]> = self.residuals[id]
-            .blocks
-            .iter()
-            .map(|b| {
-                let blk = &self.blocks[b.0];
-                blk.lin_point
-                    .as_deref()
-                    .unwrap_or(&values[blk.offset..blk.offset + blk.ambient])
-            })
-            .collect();
-        f(&slices)
     }
 
     /// The factor of residual `id` at `values`, without loss: `false` if it cannot be
