@@ -3,9 +3,23 @@
 
 use nalgebra::{Matrix2x3, Matrix3, Vector2, Vector3};
 
-use super::reprojection::FeatureMeasurement;
+use super::reprojection::{FeatureMeasurement, write_pose};
 use crate::geometry::{Pose, skew};
 use crate::problem::{Factor, write_row_major};
+
+/// `weight · ∂π/∂p` for the pinhole projection `π(p) = (p_x/p_z, p_y/p_z)` at `p`.
+#[inline]
+fn weighted_projection_derivative(p: &Vector3<f64>, weight: f64) -> Matrix2x3<f64> {
+    let z_inv = 1.0 / p.z;
+    Matrix2x3::new(
+        z_inv,
+        0.0,
+        -p.x * z_inv * z_inv,
+        0.0,
+        z_inv,
+        -p.y * z_inv * z_inv,
+    ) * weight
+}
 
 /// A world point `X_w` seen by a camera with pose `T_w_c` at the normalized point `obs`:
 /// `r = weight · (π(R_w_cᵀ (X_w − p_w_c)) − obs)` with `π(x) = (x/z, y/z)`.
@@ -52,20 +66,9 @@ impl Factor for PointProjection {
         if let Some(jac) = jacobians {
             // ∂π/∂x_c, then x_c = Exp(−δθ) Rᵀ(X − p − δp): ∂/∂δp = −Rᵀ, ∂/∂δθ = [x_c]×,
             // ∂/∂X = Rᵀ.
-            let d_proj = Matrix2x3::new(
-                z_inv,
-                0.0,
-                -x_c.x * z_inv * z_inv,
-                0.0,
-                z_inv,
-                -x_c.y * z_inv * z_inv,
-            ) * self.weight;
+            let d_proj = weighted_projection_derivative(&x_c, self.weight);
             if let Some(j) = jac[0].as_deref_mut() {
-                let mut m = nalgebra::SMatrix::<f64, 2, 6>::zeros();
-                m.fixed_view_mut::<2, 3>(0, 0).copy_from(&(-d_proj * r_t));
-                m.fixed_view_mut::<2, 3>(0, 3)
-                    .copy_from(&(d_proj * skew(&x_c)));
-                write_row_major(&m, j);
+                write_pose(j, &(-d_proj * r_t), &(d_proj * skew(&x_c)));
             }
             if let Some(j) = jac[1].as_deref_mut() {
                 write_row_major(&(d_proj * r_t), j);
@@ -122,28 +125,14 @@ impl Factor for WorldPointProjection {
         residuals[0] = self.weight * (p_c.x * z_inv - z.x);
         residuals[1] = self.weight * (p_c.y * z_inv - z.y);
         if let Some(jac) = jacobians {
-            let d = Matrix2x3::new(
-                z_inv,
-                0.0,
-                -p_c.x * z_inv * z_inv,
-                0.0,
-                z_inv,
-                -p_c.y * z_inv * z_inv,
-            ) * self.weight;
+            let d = weighted_projection_derivative(&p_c, self.weight);
             // ∂r/∂p_b, then p_b = Exp(−δθ_b) R_bᵀ(X − p − δp), p_c = Exp(−δθ_c) R_cᵀ(p_b − t − δt).
             let d_b = d * rc_t;
             if let Some(j) = jac[0].as_deref_mut() {
-                let mut m = nalgebra::SMatrix::<f64, 2, 6>::zeros();
-                m.fixed_view_mut::<2, 3>(0, 0).copy_from(&(-d_b * rb_t));
-                m.fixed_view_mut::<2, 3>(0, 3)
-                    .copy_from(&(d_b * skew(&p_b)));
-                write_row_major(&m, j);
+                write_pose(j, &(-d_b * rb_t), &(d_b * skew(&p_b)));
             }
             if let Some(j) = jac[1].as_deref_mut() {
-                let mut m = nalgebra::SMatrix::<f64, 2, 6>::zeros();
-                m.fixed_view_mut::<2, 3>(0, 0).copy_from(&(-d_b));
-                m.fixed_view_mut::<2, 3>(0, 3).copy_from(&(d * skew(&p_c)));
-                write_row_major(&m, j);
+                write_pose(j, &(-d_b), &(d * skew(&p_c)));
             }
             if let Some(j) = jac[2].as_deref_mut() {
                 write_row_major(&(d_b * rb_t), j);

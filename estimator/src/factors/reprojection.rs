@@ -104,7 +104,7 @@ fn rows_times_skew(m: &Matrix2x3<f64>, p: &Vector3<f64>) -> Matrix2x3<f64> {
 
 /// Writes a pose Jacobian `[T | R]` (two 2×3 halves, translation then rotation) row-major.
 #[inline(always)]
-fn write_pose(out: &mut [f64], t: &Matrix2x3<f64>, r: &Matrix2x3<f64>) {
+pub(super) fn write_pose(out: &mut [f64], t: &Matrix2x3<f64>, r: &Matrix2x3<f64>) {
     for row in 0..2 {
         for c in 0..3 {
             out[row * 6 + c] = t[(row, c)];
