@@ -1,0 +1,105 @@
+//! [`SpecError`] and the lookups that give an error its key path and line.
+
+use std::fmt;
+
+/// A scenario error: names the file, the key path, the line when known, and what was wrong.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpecError {
+    /// The scenario file (or `catalog:<name>`).
+    pub file: String,
+    /// Dotted key path, e.g. `rig.cameras[1].intrinsics` (empty for the whole file).
+    pub key: String,
+    /// 1-based line, when known.
+    pub line: Option<usize>,
+    /// What was wrong / expected.
+    pub message: String,
+}
+
+impl fmt::Display for SpecError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.file)?;
+        if let Some(l) = self.line {
+            write!(f, ":{l}")?;
+        }
+        if !self.key.is_empty() {
+            write!(f, ": key `{}`", self.key)?;
+        }
+        write!(f, ": {}", self.message)
+    }
+}
+
+impl std::error::Error for SpecError {}
+
+/// The serde (snake_case) name of a fault kind.
+pub(crate) fn serde_name(k: impl fmt::Debug) -> String {
+    let dbg = format!("{k:?}");
+    let mut out = String::new();
+    for (i, ch) in dbg.chars().enumerate() {
+        if ch.is_uppercase() {
+            if i > 0 {
+                out.push('_');
+            }
+            out.extend(ch.to_lowercase());
+        } else {
+            out.push(ch);
+        }
+    }
+    out
+}
+
+/// 1-based line of a byte offset.
+pub(crate) fn line_of_offset(text: &str, offset: usize) -> usize {
+    text.as_bytes()[..offset.min(text.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}
+
+/// A serde path as `a.b[2].c`.
+pub(crate) fn path_string(path: &serde_path_to_error::Path) -> String {
+    use serde_path_to_error::Segment;
+    let mut s = String::new();
+    for seg in path.iter() {
+        match seg {
+            Segment::Seq { index } => s.push_str(&format!("[{index}]")),
+            Segment::Map { key } | Segment::Enum { variant: key } => {
+                if !s.is_empty() {
+                    s.push('.');
+                }
+                s.push_str(key);
+            }
+            Segment::Unknown => {}
+        }
+    }
+    s
+}
+
+/// Line of the deepest part of `key` (`a.b[2].c`) present in the document.
+pub(crate) fn line_of_key(text: &str, key: &str) -> Option<usize> {
+    let root = toml::de::DeTable::parse(text).ok()?;
+    let mut span: Option<std::ops::Range<usize>> = None;
+    let mut cur = toml::de::DeValue::Table(root.into_inner());
+    'outer: for part in key.split('.').filter(|p| !p.is_empty()) {
+        let (name, indices) = match part.find('[') {
+            Some(i) => (&part[..i], &part[i..]),
+            None => (part, ""),
+        };
+        let Some(next) = cur.get(name).cloned() else {
+            break;
+        };
+        span = Some(next.span());
+        cur = next.into_inner();
+        for idx in indices
+            .split(['[', ']'])
+            .filter_map(|s| s.parse::<usize>().ok())
+        {
+            let Some(n) = cur.get(idx).cloned() else {
+                break 'outer;
+            };
+            span = Some(n.span());
+            cur = n.into_inner();
+        }
+    }
+    span.map(|s| line_of_offset(text, s.start))
+}

@@ -1,0 +1,548 @@
+//! The mapping of a validated scenario onto the simulator's and the estimator's configurations.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use estimator::camera::{
+    Camera, CameraError, CameraModel, DoubleSphere, KannalaBrandt, Mei, PinholeRadtan,
+};
+use estimator::estimator::{CameraConfig as EstCamera, EstimatorConfig};
+use estimator::geometry::Pose;
+use estimator::imu::ImuNoise;
+use estimator::problem::Method;
+use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
+use sim::camera::{CameraConfig as SimCamera, RigConfig, TrackIds};
+use sim::faults::Fault;
+use sim::imu::{ImuConfig, ImuWindow};
+use sim::motion::{Lissajous, RandomWaypoints, Replay};
+use sim::scene::{SceneConfig, ScenePreset};
+use sim::{StaticStartConfig, TrajectoryConfig, WorldConfig};
+
+use super::error::serde_name;
+use super::schema::*;
+use super::{Origin, Scenario, SpecError};
+use crate::catalog;
+
+impl Scenario {
+    /// The projection model of camera `i`.
+    pub(super) fn camera_model(&self, i: usize) -> Result<Arc<dyn CameraModel>, SpecError> {
+        let c = &self.spec.rig.cameras[i];
+        let key = |k: &str| format!("rig.cameras[{i}].{k}");
+        let [w, h] = c.resolution;
+        let [fx, fy, cx, cy] = c.intrinsics;
+        let d = &c.distortion;
+        let need_d = |n: usize, what: &str| -> Result<(), SpecError> {
+            if d.len() == n {
+                Ok(())
+            } else {
+                Err(self.error(
+                    &key("distortion"),
+                    format!("expected {n} coefficients {what}, got {}", d.len()),
+                ))
+            }
+        };
+        let need = |v: Option<f64>, k: &str| {
+            v.ok_or_else(|| {
+                self.error(
+                    &key(k),
+                    format!("missing: the {} model needs `{k}`", serde_name(c.model)),
+                )
+            })
+        };
+        let forbid = |v: Option<f64>, k: &str| -> Result<(), SpecError> {
+            match v {
+                Some(_) => Err(self.error(
+                    &key(k),
+                    format!("not used by the {} model: remove it", serde_name(c.model)),
+                )),
+                None => Ok(()),
+            }
+        };
+        let cam_err = |e: CameraError| self.error(&key("intrinsics"), e.to_string());
+        let cam = match c.model {
+            ModelSpec::PinholeRadtan => {
+                need_d(4, "[k1, k2, p1, p2]")?;
+                forbid(c.xi, "xi")?;
+                forbid(c.alpha, "alpha")?;
+                Camera::PinholeRadtan(
+                    PinholeRadtan::new(w, h, fx, fy, cx, cy, d[0], d[1], d[2], d[3])
+                        .map_err(cam_err)?,
+                )
+            }
+            ModelSpec::KannalaBrandt => {
+                need_d(4, "[k1, k2, k3, k4]")?;
+                forbid(c.xi, "xi")?;
+                forbid(c.alpha, "alpha")?;
+                Camera::KannalaBrandt(
+                    KannalaBrandt::new(w, h, fx, fy, cx, cy, d[0], d[1], d[2], d[3])
+                        .map_err(cam_err)?,
+                )
+            }
+            ModelSpec::Mei => {
+                need_d(4, "[k1, k2, p1, p2]")?;
+                forbid(c.alpha, "alpha")?;
+                let xi = need(c.xi, "xi")?;
+                Camera::Mei(
+                    Mei::new(w, h, xi, fx, fy, cx, cy, d[0], d[1], d[2], d[3]).map_err(cam_err)?,
+                )
+            }
+            ModelSpec::DoubleSphere => {
+                need_d(0, "(none)")?;
+                let xi = need(c.xi, "xi")?;
+                let alpha = need(c.alpha, "alpha")?;
+                Camera::DoubleSphere(
+                    DoubleSphere::new(w, h, fx, fy, cx, cy, xi, alpha).map_err(cam_err)?,
+                )
+            }
+        };
+        Ok(Arc::new(cam))
+    }
+
+    /// `T_b_c` of camera `i`.
+    pub(super) fn extrinsic(&self, i: usize) -> Result<Pose, SpecError> {
+        let e = &self.spec.rig.cameras[i].T_b_c;
+        let key = format!("rig.cameras[{i}].T_b_c");
+        let t = Vector3::from(e.translation_m);
+        if !t.iter().all(|v| v.is_finite()) {
+            return Err(self.error(&format!("{key}.translation_m"), "expected finite values"));
+        }
+        let q = match (e.rotation, e.quaternion_xyzw) {
+            (Some(r), None) => {
+                let m = Matrix3::from_fn(|a, b| r[a][b]);
+                let ortho = (m.transpose() * m - Matrix3::identity()).amax();
+                if !(ortho < 1e-3 && (m.determinant() - 1.0).abs() < 1e-3) {
+                    return Err(self.error(
+                        &format!("{key}.rotation"),
+                        "expected a rotation matrix (orthonormal rows, determinant +1, to 1e-3)",
+                    ));
+                }
+                UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&m))
+            }
+            (None, Some(q)) => {
+                let quat = Quaternion::new(q[3], q[0], q[1], q[2]);
+                let unit = (quat.norm() - 1.0).abs() < 1e-3; // false for NaN
+                if !unit {
+                    return Err(self.error(
+                        &format!("{key}.quaternion_xyzw"),
+                        "expected a unit quaternion [qx, qy, qz, qw] (norm 1 to 1e-3)",
+                    ));
+                }
+                UnitQuaternion::new_normalize(quat)
+            }
+            _ => {
+                return Err(self.error(
+                    &key,
+                    "expected exactly one of `rotation` (3×3 rows) or `quaternion_xyzw`",
+                ));
+            }
+        };
+        Ok(Pose::new(q, t))
+    }
+
+    /// Fault `i` in sim form.
+    pub(super) fn fault(&self, i: usize) -> Result<Fault, SpecError> {
+        let f = &self.spec.faults[i];
+        let key = |k: &str| format!("faults[{i}].{k}");
+        let ns = |s: f64| (s * 1e9).round() as i64;
+        // (present, name) of every optional key, to reject keys the kind does not take.
+        let present: [(&str, bool); 13] = [
+            ("start_s", f.start_s.is_some()),
+            ("end_s", f.end_s.is_some()),
+            ("at_s", f.at_s.is_some()),
+            ("cam_id", f.cam_id.is_some()),
+            ("black_frames", f.black_frames.is_some()),
+            ("probability", f.probability.is_some()),
+            ("gyro_rad_s", f.gyro_rad_s.is_some()),
+            ("accel_m_s2", f.accel_m_s2.is_some()),
+            ("gyro_range_rad_s", f.gyro_range_rad_s.is_some()),
+            ("accel_range_m_s2", f.accel_range_m_s2.is_some()),
+            ("imu_sigma_s", f.imu_sigma_s.is_some()),
+            ("camera_sigma_s", f.camera_sigma_s.is_some()),
+            ("td_s", f.td_s.is_some()),
+        ];
+        let (required, optional): (&[&str], &[&str]) = match f.kind {
+            FaultKind::CameraBlackout => (&["start_s", "end_s"], &["black_frames"]),
+            FaultKind::CameraDeath => (&["cam_id", "at_s"], &[]),
+            FaultKind::FrameDrops => (&["start_s", "end_s", "probability"], &[]),
+            FaultKind::ImuDropout => (&["start_s", "end_s"], &[]),
+            FaultKind::ImuSpikes => (
+                &[
+                    "start_s",
+                    "end_s",
+                    "probability",
+                    "gyro_rad_s",
+                    "accel_m_s2",
+                ],
+                &[],
+            ),
+            FaultKind::ImuSaturation => (
+                &["start_s", "end_s", "gyro_range_rad_s", "accel_range_m_s2"],
+                &[],
+            ),
+            FaultKind::TimestampJitter => {
+                (&["start_s", "end_s"], &["imu_sigma_s", "camera_sigma_s"])
+            }
+            FaultKind::CameraTimeOffset => (&["at_s", "td_s"], &[]),
+        };
+        for (name, p) in present {
+            let req = required.contains(&name);
+            if req && !p {
+                return Err(self.error(
+                    &key(name),
+                    format!("missing: a {} fault needs `{name}`", serde_name(f.kind)),
+                ));
+            }
+            if p && !req && !optional.contains(&name) {
+                return Err(self.error(
+                    &key(name),
+                    format!(
+                        "not used by a {} fault (it takes {})",
+                        serde_name(f.kind),
+                        required
+                            .iter()
+                            .chain(optional)
+                            .copied()
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                ));
+            }
+        }
+        let (start, end) = (f.start_s.unwrap_or(0.0), f.end_s.unwrap_or(0.0));
+        if f.start_s.is_some() && !(start.is_finite() && end.is_finite() && end > start) {
+            return Err(self.error(&key("end_s"), "expected finite start_s < end_s"));
+        }
+        if let Some(p) = f.probability
+            && !(0.0..=1.0).contains(&p)
+        {
+            return Err(self.error(&key("probability"), "expected a probability in [0, 1]"));
+        }
+        if let Some(c) = f.cam_id
+            && c >= self.spec.rig.cameras.len()
+        {
+            return Err(self.error(
+                &key("cam_id"),
+                format!("expected a camera index < {}", self.spec.rig.cameras.len()),
+            ));
+        }
+        let (start_ns, end_ns) = (ns(start), ns(end));
+        Ok(match f.kind {
+            FaultKind::CameraBlackout => Fault::CameraBlackout {
+                start_ns,
+                end_ns,
+                black_frames: f.black_frames.unwrap_or(false),
+            },
+            FaultKind::CameraDeath => Fault::CameraDeath {
+                cam_id: f.cam_id.unwrap_or(0),
+                at_ns: ns(f.at_s.unwrap_or(0.0)),
+            },
+            FaultKind::FrameDrops => Fault::FrameDrops {
+                start_ns,
+                end_ns,
+                probability: f.probability.unwrap_or(0.0),
+            },
+            FaultKind::ImuDropout => Fault::ImuDropout { start_ns, end_ns },
+            FaultKind::ImuSpikes => Fault::ImuSpikes {
+                start_ns,
+                end_ns,
+                probability: f.probability.unwrap_or(0.0),
+                gyro: f.gyro_rad_s.unwrap_or(0.0),
+                accel: f.accel_m_s2.unwrap_or(0.0),
+            },
+            FaultKind::ImuSaturation => Fault::ImuSaturation {
+                start_ns,
+                end_ns,
+                gyro_range: f.gyro_range_rad_s.unwrap_or(f64::INFINITY),
+                accel_range: f.accel_range_m_s2.unwrap_or(f64::INFINITY),
+            },
+            FaultKind::TimestampJitter => Fault::TimestampJitter {
+                start_ns,
+                end_ns,
+                imu_sigma_ns: f.imu_sigma_s.unwrap_or(0.0) * 1e9,
+                camera_sigma_ns: f.camera_sigma_s.unwrap_or(0.0) * 1e9,
+            },
+            FaultKind::CameraTimeOffset => Fault::CameraTimeOffset {
+                start_ns: ns(f.at_s.unwrap_or(0.0)),
+                td_ns: ns(f.td_s.unwrap_or(0.0)),
+            },
+        })
+    }
+
+    /// Fault intervals `(kind, start s, end s)` for reports and plots (permanent faults end at
+    /// infinity).
+    pub fn fault_intervals(&self) -> Vec<(String, f64, f64)> {
+        self.spec
+            .faults
+            .iter()
+            .map(|f| {
+                let name = serde_name(f.kind);
+                match (f.start_s, f.end_s, f.at_s) {
+                    (Some(a), Some(b), _) => (name, a, b),
+                    (_, _, Some(a)) => (name, a, f64::INFINITY),
+                    _ => (name, 0.0, 0.0),
+                }
+            })
+            .collect()
+    }
+
+    /// The trajectory configuration (reads and fits a replayed file).
+    pub(super) fn trajectory(&self) -> Result<TrajectoryConfig, SpecError> {
+        let t = &self.spec.trajectory;
+        let v = Vector3::from;
+        if let Some(f) = t.figure_eight {
+            return Ok(TrajectoryConfig::Lissajous(Lissajous::figure_eight(
+                v(f.center),
+                f.half_width_m,
+                f.half_height_m,
+                f.period_s,
+            )));
+        }
+        if let Some(c) = t.circle {
+            return Ok(TrajectoryConfig::Lissajous(Lissajous::circle(
+                v(c.center),
+                c.radius_m,
+                c.period_s,
+            )));
+        }
+        if let Some(l) = t.lissajous {
+            return Ok(TrajectoryConfig::Lissajous(Lissajous {
+                center: v(l.center),
+                amplitude: v(l.amplitude_m),
+                freq_hz: v(l.freq_hz),
+                phase: v(l.phase_rad),
+                yaw0: l.yaw0_rad,
+                yaw_rate: l.yaw_rate_rad_s,
+                yaw_amplitude: l.yaw_amplitude_rad,
+                yaw_freq_hz: l.yaw_freq_hz,
+                tilt_amplitude: l.tilt_amplitude_rad,
+                tilt_freq_hz: l.tilt_freq_hz,
+                duration_s: None,
+            }));
+        }
+        if let Some(w) = t.waypoints {
+            return Ok(TrajectoryConfig::Waypoints(RandomWaypoints {
+                min: v(w.min),
+                max: v(w.max),
+                spacing_s: w.spacing_s,
+                max_yaw_step: w.max_yaw_step_rad,
+                max_tilt: w.max_tilt_rad,
+                duration_s: t.duration_s,
+            }));
+        }
+        let r = t
+            .replay
+            .as_ref()
+            .ok_or_else(|| self.error("trajectory", "no motion given"))?;
+        let key = "trajectory.replay.file";
+        let text = self.data_file(key, &r.file)?;
+        let samples = sim::motion::spline::parse_trajectory(&text)
+            .map_err(|e| self.error(key, format!("in {}: {e}", r.file)))?;
+        let replay = Replay::from_samples(
+            samples,
+            r.knot_spacing_s.unwrap_or(Replay::DEFAULT_KNOT_SPACING_S),
+        )
+        .map_err(|e| self.error(key, format!("in {}: {e}", r.file)))?;
+        Ok(TrajectoryConfig::Reference(Arc::new(replay)))
+    }
+
+    /// Reads a data file named in the scenario: relative to the scenario file, or embedded for
+    /// catalog scenarios.
+    pub(super) fn data_file(&self, key: &str, rel: &str) -> Result<String, SpecError> {
+        match &self.origin {
+            Origin::Catalog => catalog::data(rel)
+                .map(str::to_string)
+                .ok_or_else(|| self.error(key, format!("no embedded catalog data file `{rel}`"))),
+            Origin::File(p) => {
+                let base = p.parent().unwrap_or(Path::new("."));
+                let path = base.join(rel);
+                std::fs::read_to_string(&path).map_err(|e| {
+                    self.error(
+                        key,
+                        format!(
+                            "cannot read {} (relative to the scenario file): {e}",
+                            path.display()
+                        ),
+                    )
+                })
+            }
+        }
+    }
+
+    /// The simulator configuration; `seed` overrides `world.seed`, `duration_s` the
+    /// trajectory's duration.
+    pub fn world_config(
+        &self,
+        seed: Option<u64>,
+        duration_s: Option<f64>,
+    ) -> Result<WorldConfig, SpecError> {
+        let s = &self.spec;
+        let imu = &s.rig.imu;
+        let scene = SceneConfig {
+            preset: match s.world.scene {
+                SceneSpec::Room => ScenePreset::Room,
+                SceneSpec::MachineHall => ScenePreset::MachineHall,
+                SceneSpec::Outdoor => ScenePreset::Outdoor,
+            },
+            landmark_density: s
+                .world
+                .landmark_density
+                .unwrap_or(SceneConfig::default().landmark_density),
+        };
+        let mut cameras = Vec::new();
+        for (i, c) in s.rig.cameras.iter().enumerate() {
+            let mut sc = SimCamera::new(
+                c.name.as_deref().unwrap_or(&format!("cam{i}")),
+                self.models[i].clone(),
+                self.extrinsic(i)?,
+            );
+            sc.pixel_sigma = c.pixel_sigma_px;
+            if let Some(v) = c.max_features {
+                sc.max_features = v;
+            }
+            if let Some(v) = c.min_depth_m {
+                sc.min_depth = v;
+            }
+            if let Some(v) = c.max_depth_m {
+                sc.max_depth = v;
+            }
+            sc.max_track_length = c.max_track_length;
+            cameras.push(sc);
+        }
+        let rig = RigConfig {
+            cameras,
+            rate_hz: s.rig.rate_hz,
+            td_ns: (s.rig.time_offset_s * 1e9).round() as i64,
+            reseed: s.rig.reseed,
+            track_ids: match s.rig.track_ids {
+                TrackIdsSpec::Realistic => TrackIds::Realistic,
+                TrackIdsSpec::Landmark => TrackIds::Landmark,
+            },
+        };
+        let imu_cfg = ImuConfig {
+            name: "imu".into(),
+            rate_hz: imu.rate_hz,
+            window: ImuWindow::Centered,
+            noise: (!imu.noise_free).then(|| self.imu_noise()),
+            initial_gyro_bias: Vector3::from(imu.initial_gyro_bias_rad_s),
+            initial_accel_bias: Vector3::from(imu.initial_accel_bias_m_s2),
+            gyro_matrix: Matrix3::identity(),
+            accel_matrix: Matrix3::identity(),
+            gyro_range: imu.gyro_range_rad_s,
+            accel_range: imu.accel_range_m_s2,
+        };
+        let faults = (0..s.faults.len())
+            .map(|i| self.fault(i))
+            .collect::<Result<Vec<_>, _>>()?;
+        let duration = duration_s.unwrap_or(s.trajectory.duration_s);
+        // Physics at ≥ 1 kHz with a step that divides the IMU period.
+        let period = imu_cfg.period_ns();
+        let steps = (1..=20u32)
+            .find(|n| period % i64::from(*n) == 0 && period / i64::from(*n) <= 1_000_000)
+            .unwrap_or(1);
+        Ok(WorldConfig {
+            seed: seed.unwrap_or(s.world.seed),
+            duration_s: duration,
+            trajectory: self.trajectory()?,
+            static_start: s.trajectory.static_start.map(|ss| StaticStartConfig {
+                hold_s: ss.hold_s,
+                ramp_s: ss.ramp_s,
+            }),
+            physics_steps_per_imu: steps,
+            imu: imu_cfg,
+            scene,
+            rig: Some(rig),
+            faults,
+            ..WorldConfig::default()
+        })
+    }
+
+    /// The IMU noise densities of the file.
+    pub(super) fn imu_noise(&self) -> ImuNoise {
+        let imu = &self.spec.rig.imu;
+        ImuNoise {
+            gyroscope_noise_density: imu.gyroscope_noise_density,
+            accelerometer_noise_density: imu.accelerometer_noise_density,
+            gyroscope_random_walk: imu.gyroscope_random_walk,
+            accelerometer_random_walk: imu.accelerometer_random_walk,
+        }
+    }
+
+    /// The estimator configuration: the same camera models and extrinsics the simulator uses.
+    pub fn estimator_config(&self) -> Result<EstimatorConfig, SpecError> {
+        let s = &self.spec;
+        let e = &s.estimator;
+        let mut cameras = Vec::new();
+        let used = s.suite.suite().cameras();
+        for (i, c) in s.rig.cameras.iter().enumerate().take(used) {
+            cameras.push(EstCamera {
+                model: self.models[i].clone(),
+                T_b_c: self.extrinsic(i)?,
+                pixel_sigma: e.pixel_sigma_px.unwrap_or(c.pixel_sigma_px.max(0.5)),
+            });
+        }
+        let mut cfg = EstimatorConfig::new(s.suite.suite(), cameras, self.imu_noise());
+        if let Some(v) = e.window_size {
+            cfg.window_size = v;
+        }
+        if let Some(v) = e.solver_iterations {
+            cfg.solver.max_iterations = v;
+        }
+        if let Some(v) = e.solver_function_tolerance {
+            cfg.solver.function_tolerance = v;
+        }
+        if let Some(m) = e.solver_method {
+            cfg.solver.method = match m {
+                MethodSpec::LevenbergMarquardt => Method::LevenbergMarquardt,
+                MethodSpec::Dogleg => Method::Dogleg,
+            };
+        }
+        if let Some(v) = e.keyframe_parallax_px {
+            cfg.keyframe_parallax_px = v;
+        }
+        if let Some(v) = e.keyframe_min_tracked {
+            cfg.keyframe_min_tracked = v;
+        }
+        if let Some(v) = e.huber_sigma {
+            cfg.huber_sigma = v;
+        }
+        if let Some(v) = e.outlier_reprojection_px {
+            cfg.outlier_reprojection_px = v;
+        }
+        if let Some(v) = e.init_frames {
+            cfg.init_frames = v;
+        }
+        if let Some(v) = e.td_s {
+            cfg.td_s = v;
+        }
+        if let Some(v) = e.estimate_td {
+            cfg.estimate_td = v;
+        }
+        if let Some(v) = e.estimate_extrinsics {
+            cfg.estimate_extrinsics = v;
+        }
+        if let Some(v) = e.reuse_marginalized_tracks {
+            cfg.reuse_marginalized_tracks = v;
+        }
+        if let Some(v) = e.min_track_frames {
+            cfg.min_track_frames = v;
+        }
+        if let Some(v) = e.max_persistent_points {
+            cfg.max_persistent_points = v;
+        }
+        if let Some(v) = e.first_estimate_jacobians {
+            cfg.first_estimate_jacobians = v;
+        }
+        if let Some(v) = e.first_estimate_points {
+            cfg.first_estimate_points = v;
+        }
+        // The IMU's datasheet ranges: the estimator treats readings on them as clipped.
+        let imu = &s.rig.imu;
+        if imu.gyro_range_rad_s.is_some() || imu.accel_range_m_s2.is_some() {
+            cfg.imu_range = Some((
+                imu.gyro_range_rad_s.unwrap_or(f64::INFINITY),
+                imu.accel_range_m_s2.unwrap_or(f64::INFINITY),
+            ));
+        }
+        Ok(cfg)
+    }
+}

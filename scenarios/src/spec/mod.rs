@@ -1,0 +1,369 @@
+//! The scenario file schema (TOML) and its mapping onto [`sim::WorldConfig`] and
+//! [`estimator::estimator::EstimatorConfig`].
+//!
+//! A scenario file describes one run: the world (scene preset, seed), the trajectory (a generator
+//! or a replayed ground-truth file), the sensor rig (cameras and IMU), the sensor suite the
+//! estimator fuses, optional estimator settings, a fault timeline and the expectations `vio run`
+//! checks. Every table rejects unknown keys, so a typo is an error rather than a silently ignored
+//! setting. The built-in scenarios in `scenarios/catalog/` are the reference examples; a minimal
+//! file looks like this:
+//!
+//! ```toml
+//! description = "Stereo+IMU, a 20 s figure-eight in the room"
+//! suite = "stereo_imu"            # or "stereo", "mono_imu" (the first camera and the IMU)
+//!
+//! [world]
+//! scene = "room"
+//! seed = 1
+//!
+//! [trajectory]
+//! duration_s = 20.0
+//! figure_eight = { center = [-0.5, 0.5, 1.5], half_width_m = 2.0, half_height_m = 1.0, period_s = 20.0 }
+//!
+//! [rig]
+//! rate_hz = 20.0
+//!
+//! [[rig.cameras]]
+//! model = "pinhole_radtan"
+//! resolution = [752, 480]
+//! intrinsics = [458.654, 457.296, 367.215, 248.375]
+//! distortion = [-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05]
+//! T_b_c = { translation_m = [0.0, 0.055, 0.0], rotation = [[0, 0, 1], [-1, 0, 0], [0, -1, 0]] }
+//! pixel_sigma_px = 1.0
+//!
+//! [[rig.cameras]]
+//! model = "pinhole_radtan"
+//! resolution = [752, 480]
+//! intrinsics = [458.654, 457.296, 367.215, 248.375]
+//! distortion = [-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05]
+//! T_b_c = { translation_m = [0.0, -0.055, 0.0], rotation = [[0, 0, 1], [-1, 0, 0], [0, -1, 0]] }
+//! pixel_sigma_px = 1.0
+//!
+//! [rig.imu]
+//! rate_hz = 200.0
+//! gyroscope_noise_density = 1.6968e-4
+//! accelerometer_noise_density = 2.0e-3
+//! gyroscope_random_walk = 1.9393e-5
+//! accelerometer_random_walk = 3.0e-3
+//!
+//! [expectations]
+//! ate_rmse_m = { max = 0.1 }
+//! ```
+//!
+//! Errors ([`SpecError`]) name the file, the key path (`rig.cameras[1].intrinsics`), the line
+//! when it is known, and what was expected.
+
+//!
+//! The module is split by concern: [`schema`] holds the serde types as written, `validate` the
+//! checks every file passes before anything runs, `mapping` the translation onto the simulator's
+//! and the estimator's configurations, and [`error`] the error type and the key/line lookups.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use estimator::camera::CameraModel;
+use estimator::frontend::TrackerConfig;
+use sim::render::{GainStep, MotionBlur, Photometric, RenderBackend, RenderConfig, RenderError};
+
+use crate::catalog;
+pub use crate::tracker_spec::{FrontendSpec, TrackerSpec};
+
+pub mod error;
+mod mapping;
+pub mod schema;
+mod validate;
+
+pub use error::SpecError;
+use error::{line_of_key, line_of_offset, path_string};
+pub use schema::*;
+
+/// Where a scenario came from.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Origin {
+    /// A built-in catalog scenario (its data files are embedded too).
+    Catalog,
+    /// A file on disk; relative data paths resolve against its directory.
+    File(PathBuf),
+}
+
+/// A parsed, validated scenario.
+#[derive(Clone, Debug)]
+pub struct Scenario {
+    /// Name: the catalog name or the file stem.
+    pub name: String,
+    /// Where it came from.
+    pub origin: Origin,
+    /// The parsed file.
+    pub spec: ScenarioSpec,
+    /// The file's text (kept for line lookups in later errors).
+    text: String,
+    /// The camera models, built once: the simulator and the estimator share these.
+    models: Vec<Arc<dyn CameraModel>>,
+}
+
+impl Scenario {
+    /// Loads a catalog scenario by name, or else a `.toml` file by path.
+    pub fn load(name_or_path: &str) -> Result<Self, SpecError> {
+        if let Some(entry) = catalog::get(name_or_path) {
+            return Self::parse(entry.name, Origin::Catalog, entry.text);
+        }
+        let path = Path::new(name_or_path);
+        if path.extension().is_some_and(|e| e == "toml") || path.exists() {
+            return Self::from_file(path);
+        }
+        Err(SpecError {
+            file: name_or_path.into(),
+            key: String::new(),
+            line: None,
+            message: format!(
+                "no catalog scenario of that name and no such file (catalog: {})",
+                catalog::names().join(", ")
+            ),
+        })
+    }
+
+    /// Reads and parses a scenario file.
+    pub fn from_file(path: &Path) -> Result<Self, SpecError> {
+        let text = std::fs::read_to_string(path).map_err(|e| SpecError {
+            file: path.display().to_string(),
+            key: String::new(),
+            line: None,
+            message: format!("cannot read the scenario file: {e}"),
+        })?;
+        let name = path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "scenario".into());
+        Self::parse(&name, Origin::File(path.to_path_buf()), &text)
+    }
+
+    /// Parses scenario text; `origin` resolves relative data paths and names the file in errors.
+    pub fn parse(name: &str, origin: Origin, text: &str) -> Result<Self, SpecError> {
+        let file = match &origin {
+            Origin::Catalog => format!("catalog:{name}"),
+            Origin::File(p) => p.display().to_string(),
+        };
+        let de = toml::Deserializer::parse(text).map_err(|e| SpecError {
+            file: file.clone(),
+            key: String::new(),
+            line: e.span().map(|s| line_of_offset(text, s.start)),
+            message: e.message().trim().to_string(),
+        })?;
+        let spec: ScenarioSpec = serde_path_to_error::deserialize(de).map_err(|e| {
+            let key = path_string(e.path());
+            let inner = e.into_inner();
+            let line = inner
+                .span()
+                .map(|s| line_of_offset(text, s.start))
+                .or_else(|| line_of_key(text, &key));
+            SpecError {
+                file: file.clone(),
+                key,
+                line,
+                message: inner.message().trim().to_string(),
+            }
+        })?;
+        let s = Self {
+            name: name.into(),
+            origin,
+            spec,
+            text: text.into(),
+            models: Vec::new(),
+        };
+        s.validate()?;
+        let models = (0..s.spec.rig.cameras.len())
+            .map(|i| s.camera_model(i))
+            .collect::<Result<_, _>>()?;
+        Ok(Self { models, ..s })
+    }
+
+    /// The renderer configuration of a rendered scenario (`None` for feature-level ones).
+    pub fn render_config(&self) -> Result<Option<RenderConfig>, SpecError> {
+        let cfg = self.render_settings()?;
+        Ok((self.spec.camera.mode == CameraMode::Rendered).then_some(cfg))
+    }
+
+    /// The scenario's rendering settings whatever its mode (`vio render` uses them for
+    /// feature-level scenarios too); validated, errors name the key.
+    pub fn render_settings(&self) -> Result<RenderConfig, SpecError> {
+        let c = &self.spec.camera;
+        let (r, p) = (&c.render, &c.photometric);
+        let d = RenderConfig::default();
+        let dp = d.photometric;
+        let cfg = RenderConfig {
+            backend: match r.backend {
+                Some(BackendSpec::Vulkan) => RenderBackend::Vulkan,
+                _ => RenderBackend::Gl,
+            },
+            adapter: r.adapter.clone(),
+            msaa: r.msaa.unwrap_or(d.msaa),
+            trilinear: r.trilinear.unwrap_or(d.trilinear),
+            anisotropy: r.anisotropy.unwrap_or(d.anisotropy),
+            pinhole_scale: r.pinhole_scale.unwrap_or(d.pinhole_scale),
+            texture_size: r.texture_size.unwrap_or(d.texture_size),
+            texel_m: r.texel_m.unwrap_or(d.texel_m),
+            max_half_angle_deg: r.max_half_angle_deg.unwrap_or(d.max_half_angle_deg),
+            max_pinhole_size: d.max_pinhole_size,
+            depth: r.depth.unwrap_or(d.depth),
+            motion_blur: r.motion_blur.map(|b| MotionBlur {
+                exposure_s: b.exposure_s,
+                samples: b.samples,
+            }),
+            photometric: Photometric {
+                gain: p.gain.unwrap_or(dp.gain),
+                gain_variation: p.gain_variation.unwrap_or(dp.gain_variation),
+                gain_period_s: p.gain_period_s.unwrap_or(dp.gain_period_s),
+                vignetting: p.vignetting.unwrap_or(dp.vignetting),
+                read_noise: p.read_noise.unwrap_or(dp.read_noise),
+                electrons_per_level: p.electrons_per_level.unwrap_or(dp.electrons_per_level),
+                gain_step: p.gain_step.map(|g| GainStep {
+                    at_s: g.at_s,
+                    factor: g.factor,
+                }),
+            },
+        };
+        cfg.validate().map_err(|e| {
+            let key = match &e {
+                RenderError::Field { field, .. } if field.starts_with("photometric.") => {
+                    format!("camera.{field}")
+                }
+                RenderError::Field { field, .. } => format!("camera.render.{field}"),
+                _ => "camera".into(),
+            };
+            self.error(&key, e.to_string())
+        })?;
+        Ok(cfg)
+    }
+
+    /// The image front end's configuration when the estimator should track the rendered images
+    /// (`mode = "rendered"` and `frontend = "klt"`); `None` otherwise.
+    pub fn tracker_config(&self, seed: u64) -> Result<Option<TrackerConfig>, SpecError> {
+        let c = &self.spec.camera;
+        let cfg = c
+            .tracker
+            .config(seed)
+            .map_err(|(field, why)| self.error(&format!("camera.tracker.{field}"), why))?;
+        Ok((c.mode == CameraMode::Rendered && c.frontend == FrontendSpec::Klt).then_some(cfg))
+    }
+
+    /// The name errors use for the file.
+    pub fn file_label(&self) -> String {
+        match &self.origin {
+            Origin::Catalog => format!("catalog:{}", self.name),
+            Origin::File(p) => p.display().to_string(),
+        }
+    }
+
+    /// An error at `key`, with the key's line.
+    pub fn error(&self, key: &str, message: impl Into<String>) -> SpecError {
+        SpecError {
+            file: self.file_label(),
+            key: key.into(),
+            line: line_of_key(&self.text, key),
+            message: message.into(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn default_text() -> &'static str {
+        catalog::get(catalog::DEFAULT).unwrap().text
+    }
+
+    #[test]
+    fn key_lines_are_found_down_to_array_elements() {
+        let text = default_text();
+        let line = |needle: &str| text.lines().position(|l| l.contains(needle)).unwrap() + 1;
+        assert_eq!(line_of_key(text, "world.seed"), Some(line("seed = 1")));
+        assert_eq!(
+            line_of_key(text, "rig.cameras[1].pixel_sigma_px"),
+            Some(
+                text.lines()
+                    .collect::<Vec<_>>()
+                    .iter()
+                    .rposition(|l| l.contains("pixel_sigma_px"))
+                    .unwrap()
+                    + 1
+            )
+        );
+        // A missing key gives the line of its deepest present parent.
+        assert_eq!(
+            line_of_key(text, "trajectory.nope.deeper"),
+            line_of_key(text, "trajectory")
+        );
+        assert_eq!(line_of_key(text, "nope"), None);
+    }
+
+    #[test]
+    fn bounds_check_both_sides_and_reject_missing_values() {
+        let b = Bound {
+            min: Some(1.0),
+            max: Some(2.0),
+        };
+        assert!(b.check(Some(1.5)));
+        assert!(!b.check(Some(0.5)) && !b.check(Some(2.5)));
+        assert!(!b.check(None) && !b.check(Some(f64::NAN)));
+    }
+
+    #[test]
+    fn other_camera_models_and_quaternion_extrinsics_map_onto_the_configs() {
+        let text = default_text()
+            .replacen(
+                "model = \"pinhole_radtan\"",
+                "model = \"double_sphere\"\nxi = -0.2\nalpha = 0.6",
+                1,
+            )
+            .replacen(
+                "distortion = [-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05]\n",
+                "",
+                1,
+            )
+            .replacen(
+                "rotation = [[0, 0, 1], [-1, 0, 0], [0, -1, 0]]",
+                "quaternion_xyzw = [0.5, -0.5, 0.5, -0.5]",
+                1,
+            );
+        let s = Scenario::parse("t", Origin::Catalog, &text).unwrap_or_else(|e| panic!("{e}"));
+        let w = s.world_config(Some(9), Some(1.0)).unwrap();
+        let e = s.estimator_config().unwrap();
+        let rig = w.rig.unwrap();
+        assert_eq!(w.seed, 9);
+        // The estimator gets the very models the simulator projects with.
+        for i in 0..2 {
+            assert!(Arc::ptr_eq(&rig.cameras[i].model, &e.cameras[i].model));
+        }
+        // Both quaternion and matrix extrinsics give the same forward-looking rotation.
+        let d = rig.cameras[0].t_b_c.q.angle_to(&rig.cameras[1].t_b_c.q);
+        assert!(d < 1e-9, "{d}");
+        assert_eq!(e.cameras[0].T_b_c, rig.cameras[0].t_b_c);
+        let p = nalgebra::Vector3::new(0.1, -0.2, 1.0);
+        assert_eq!(
+            e.cameras[0].model.project(&p),
+            rig.cameras[0].model.project(&p)
+        );
+    }
+
+    #[test]
+    fn replay_paths_resolve_relative_to_the_scenario_file() {
+        let dir = std::env::temp_dir().join(format!("vio-spec-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("data")).unwrap();
+        std::fs::write(
+            dir.join("data/traj.txt"),
+            catalog::data("data/euroc_V2_02_medium_20s.txt").unwrap(),
+        )
+        .unwrap();
+        let text = catalog::get("room_replay_v2_02_stereo_imu")
+            .unwrap()
+            .text
+            .replace("data/euroc_V2_02_medium_20s.txt", "data/traj.txt");
+        let file = dir.join("replay.toml");
+        std::fs::write(&file, text).unwrap();
+        let s = Scenario::load(file.to_str().unwrap()).unwrap();
+        assert_eq!(s.name, "replay");
+        assert!(s.world_config(None, None).is_ok());
+        let _ = std::fs::remove_dir_all(dir);
+    }
+}

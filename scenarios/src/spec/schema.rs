@@ -1,0 +1,685 @@
+//! The scenario file's serde types, as written (see the [`super`] module documentation).
+
+use serde::Deserialize;
+
+use super::{FrontendSpec, TrackerSpec};
+use estimator::estimator::Suite;
+
+/// A scenario file as written (see the module documentation).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScenarioSpec {
+    /// One line saying what the scenario exercises (shown by `vio list`).
+    pub description: String,
+    /// The sensors the estimator fuses.
+    pub suite: SuiteSpec,
+    /// Scene and seed.
+    #[serde(default)]
+    pub world: WorldSpec,
+    /// The body's motion.
+    pub trajectory: TrajectorySpec,
+    /// Cameras and IMU.
+    pub rig: RigSpec,
+    /// How cameras measure: feature-level (default) or rendered images, and the rendering
+    /// settings.
+    #[serde(default)]
+    pub camera: CameraModeSpec,
+    /// Estimator settings (every key optional; defaults from `EstimatorConfig::new`).
+    #[serde(default)]
+    pub estimator: EstimatorSpec,
+    /// Fault timeline.
+    #[serde(default)]
+    pub faults: Vec<FaultSpec>,
+    /// Bounds on the run's metrics that `vio run` checks.
+    #[serde(default)]
+    pub expectations: ExpectationsSpec,
+}
+
+/// The sensor suite.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum SuiteSpec {
+    /// Stereo camera and IMU.
+    StereoImu,
+    /// Stereo camera only.
+    Stereo,
+    /// The rig's first camera and the IMU (a second camera of the rig is simulated but not
+    /// used).
+    MonoImu,
+}
+
+impl SuiteSpec {
+    /// The estimator's suite.
+    pub fn suite(self) -> Suite {
+        match self {
+            SuiteSpec::StereoImu => Suite::StereoImu,
+            SuiteSpec::Stereo => Suite::Stereo,
+            SuiteSpec::MonoImu => Suite::MonoImu,
+        }
+    }
+
+    /// The name used in files and reports (`stereo_imu`, `stereo`, `mono_imu`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SuiteSpec::StereoImu => "stereo_imu",
+            SuiteSpec::Stereo => "stereo",
+            SuiteSpec::MonoImu => "mono_imu",
+        }
+    }
+}
+
+/// `[camera]`: the camera measurement mode and, for rendered images, the renderer.
+///
+/// ```toml
+/// [camera]
+/// mode = "rendered"            # or "features" (default)
+/// frontend = "klt"             # rendered: "klt" (default) or "truth" (ideal tracks)
+/// [camera.tracker]             # every key optional (see `TrackerSpec`)
+/// [camera.render]              # every key optional
+/// backend = "gl"               # "gl" (Mesa llvmpipe without a GPU) or "vulkan"
+/// msaa = false                 # 4× multisampling of geometric edges
+/// motion_blur = { exposure_s = 0.005, samples = 4 }
+/// [camera.photometric]         # every key optional
+/// vignetting = 0.2
+/// read_noise = 1.0
+/// ```
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraModeSpec {
+    /// `features` (projected landmarks with pixel noise) or `rendered` (images as well).
+    #[serde(default)]
+    pub mode: CameraMode,
+    /// Renderer settings (defaults: `sim::render::RenderConfig::default()`).
+    #[serde(default)]
+    pub render: RenderSpec,
+    /// Exposure, vignetting and noise (defaults: none).
+    #[serde(default)]
+    pub photometric: PhotometricSpec,
+    /// Rendered mode: `klt` (default: the image front end tracks the rendered images) or
+    /// `truth` (the simulator's ideal tracks of the same captures).
+    #[serde(default)]
+    pub frontend: FrontendSpec,
+    /// The image front end's settings.
+    #[serde(default)]
+    pub tracker: TrackerSpec,
+}
+
+/// Camera measurement mode.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum CameraMode {
+    /// Feature-level measurements only.
+    #[default]
+    Features,
+    /// Rendered images too; the estimator gets what the image front end tracks in them (or,
+    /// with `frontend = "truth"`, the ideal tracks of the same captures).
+    Rendered,
+}
+
+/// Renderer backend.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum BackendSpec {
+    /// OpenGL through EGL.
+    Gl,
+    /// Vulkan.
+    Vulkan,
+}
+
+/// `[camera.render]` (see `sim::render::RenderConfig` for each key's meaning).
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RenderSpec {
+    /// Backend (default `gl`).
+    pub backend: Option<BackendSpec>,
+    /// Adapter name substring.
+    pub adapter: Option<String>,
+    /// 4× MSAA.
+    pub msaa: Option<bool>,
+    /// Trilinear texture filtering.
+    pub trilinear: Option<bool>,
+    /// Anisotropic filtering clamp.
+    pub anisotropy: Option<u16>,
+    /// Virtual pinhole focal scale.
+    pub pinhole_scale: Option<f64>,
+    /// Texture tile size (texels).
+    pub texture_size: Option<u32>,
+    /// Texel size (m).
+    pub texel_m: Option<f64>,
+    /// Largest rendered off-axis angle (deg).
+    pub max_half_angle_deg: Option<f64>,
+    /// Render depth images too.
+    pub depth: Option<bool>,
+    /// Motion blur.
+    pub motion_blur: Option<MotionBlurSpec>,
+}
+
+/// `motion_blur = { exposure_s, samples }`.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotionBlurSpec {
+    /// Exposure (s).
+    pub exposure_s: f64,
+    /// Sub-frame renders (2..=32).
+    pub samples: u32,
+}
+
+/// `[camera.photometric]` (see `sim::render::Photometric`).
+#[derive(Clone, Copy, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PhotometricSpec {
+    /// Mean gain.
+    pub gain: Option<f64>,
+    /// Relative gain oscillation amplitude.
+    pub gain_variation: Option<f64>,
+    /// Gain oscillation period (s).
+    pub gain_period_s: Option<f64>,
+    /// Corner darkening (0..=1).
+    pub vignetting: Option<f64>,
+    /// Read noise σ (grey levels).
+    pub read_noise: Option<f64>,
+    /// Electrons per grey level (shot noise; 0 = none).
+    pub electrons_per_level: Option<f64>,
+    /// A gain step: `{ at_s, factor }`.
+    pub gain_step: Option<GainStepSpec>,
+}
+
+/// `gain_step = { at_s, factor }`.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GainStepSpec {
+    /// When (s).
+    pub at_s: f64,
+    /// Gain factor from then on.
+    pub factor: f64,
+}
+
+/// `[world]`: scene and seed.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WorldSpec {
+    /// Scene preset.
+    #[serde(default)]
+    pub scene: SceneSpec,
+    /// Scenario seed (all random streams derive from it); `vio run --seed` overrides it.
+    #[serde(default)]
+    pub seed: u64,
+    /// Landmarks per square metre of surface (default 8).
+    pub landmark_density: Option<f64>,
+}
+
+impl Default for WorldSpec {
+    fn default() -> Self {
+        Self {
+            scene: SceneSpec::Room,
+            seed: 0,
+            landmark_density: None,
+        }
+    }
+}
+
+/// Scene presets.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum SceneSpec {
+    /// An 8 × 8 × 4 m Vicon room like EuRoC's V1/V2.
+    #[default]
+    Room,
+    /// A machine hall like EuRoC's MH sequences.
+    MachineHall,
+    /// A ground plane with box buildings.
+    Outdoor,
+}
+
+/// `[trajectory]`: duration, optional static start, and exactly one motion table.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrajectorySpec {
+    /// Run length (s); a replayed file may end earlier.
+    pub duration_s: f64,
+    /// Rest before the motion starts.
+    pub static_start: Option<StaticStartSpec>,
+    /// Figure-eight generator.
+    pub figure_eight: Option<FigureEightSpec>,
+    /// Horizontal circle generator.
+    pub circle: Option<CircleSpec>,
+    /// General Lissajous generator.
+    pub lissajous: Option<LissajousSpec>,
+    /// Random smooth waypoints (drawn from the seed).
+    pub waypoints: Option<WaypointsSpec>,
+    /// Replay of a TUM or EuRoC ASL ground-truth file.
+    pub replay: Option<ReplaySpec>,
+}
+
+/// `trajectory.static_start`.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StaticStartSpec {
+    /// Rest duration (s).
+    pub hold_s: f64,
+    /// Smooth ramp into the motion (s).
+    pub ramp_s: f64,
+}
+
+/// `trajectory.figure_eight`.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FigureEightSpec {
+    /// Centre (m).
+    pub center: [f64; 3],
+    /// Half-width along x (m).
+    pub half_width_m: f64,
+    /// Half-height along y (m).
+    pub half_height_m: f64,
+    /// One loop (s).
+    pub period_s: f64,
+}
+
+/// `trajectory.circle`.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CircleSpec {
+    /// Centre (m).
+    pub center: [f64; 3],
+    /// Radius (m).
+    pub radius_m: f64,
+    /// One turn (s).
+    pub period_s: f64,
+}
+
+/// `trajectory.lissajous`: `p = center + amplitude ⊙ sin(2π·freq·t + phase)` with yaw, pitch and
+/// roll oscillations (see [`sim::motion::Lissajous`]).
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LissajousSpec {
+    /// Centre (m).
+    pub center: [f64; 3],
+    /// Per-axis amplitude (m).
+    pub amplitude_m: [f64; 3],
+    /// Per-axis frequency (Hz).
+    pub freq_hz: [f64; 3],
+    /// Per-axis phase (rad).
+    #[serde(default)]
+    pub phase_rad: [f64; 3],
+    /// Initial yaw (rad).
+    #[serde(default)]
+    pub yaw0_rad: f64,
+    /// Constant yaw rate (rad/s).
+    #[serde(default)]
+    pub yaw_rate_rad_s: f64,
+    /// Yaw oscillation amplitude (rad).
+    #[serde(default)]
+    pub yaw_amplitude_rad: f64,
+    /// Yaw oscillation frequency (Hz).
+    #[serde(default)]
+    pub yaw_freq_hz: f64,
+    /// Roll/pitch oscillation amplitude (rad).
+    #[serde(default)]
+    pub tilt_amplitude_rad: f64,
+    /// Roll/pitch oscillation frequency (Hz).
+    #[serde(default)]
+    pub tilt_freq_hz: f64,
+}
+
+/// `trajectory.waypoints`.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WaypointsSpec {
+    /// Lower corner of the box the waypoints are drawn in (m).
+    pub min: [f64; 3],
+    /// Upper corner (m).
+    pub max: [f64; 3],
+    /// Time between waypoints (s).
+    pub spacing_s: f64,
+    /// Largest yaw change between waypoints (rad).
+    pub max_yaw_step_rad: f64,
+    /// Largest roll/pitch (rad).
+    pub max_tilt_rad: f64,
+}
+
+/// `trajectory.replay`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReplaySpec {
+    /// TUM or EuRoC ASL ground-truth file, relative to the scenario file.
+    pub file: String,
+    /// Spline knot spacing (s); default 0.04.
+    pub knot_spacing_s: Option<f64>,
+}
+
+/// `[rig]`: synchronized cameras and the IMU.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RigSpec {
+    /// Frame rate (Hz).
+    pub rate_hz: f64,
+    /// Camera-IMU time offset (s): a frame taken at IMU time `t` is stamped `t − time_offset_s`.
+    #[serde(default)]
+    pub time_offset_s: f64,
+    /// Seed new landmarks on the scene's surfaces where a camera's view runs short of
+    /// `max_features` (default false).
+    #[serde(default)]
+    pub reseed: bool,
+    /// Feature ids of the feature-level cameras: `"realistic"` (default: a new id for every
+    /// track, as a tracker outputs; a re-acquired landmark is a new track; noisy pixels outside
+    /// the image are dropped) or `"landmark"` (the landmark's id, stable over time: ideal
+    /// re-association, and observations are kept whatever their noise).
+    #[serde(default)]
+    pub track_ids: TrackIdsSpec,
+    /// The cameras; index = `cam_id` (0 = left).
+    pub cameras: Vec<CameraSpec>,
+    /// The IMU.
+    pub imu: ImuSpec,
+}
+
+/// `rig.track_ids`: how the feature-level cameras assign feature ids.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum TrackIdsSpec {
+    /// A new id for every track (what a tracker outputs).
+    #[default]
+    Realistic,
+    /// The landmark id, stable over time (ideal association).
+    Landmark,
+}
+
+/// Camera projection models.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum ModelSpec {
+    /// Pinhole with radial-tangential distortion: `distortion = [k1, k2, p1, p2]`.
+    PinholeRadtan,
+    /// Kannala-Brandt equidistant fisheye: `distortion = [k1, k2, k3, k4]`.
+    KannalaBrandt,
+    /// Mei unified model: `xi` and `distortion = [k1, k2, p1, p2]`.
+    Mei,
+    /// Double sphere: `xi` and `alpha`, no distortion.
+    DoubleSphere,
+}
+
+/// One `[[rig.cameras]]` entry.
+#[allow(non_snake_case)]
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSpec {
+    /// Sensor name (selects its random streams); default `cam<index>`.
+    pub name: Option<String>,
+    /// Projection model.
+    pub model: ModelSpec,
+    /// `[width, height]` (px).
+    pub resolution: [u32; 2],
+    /// `[fx, fy, cx, cy]` (px).
+    pub intrinsics: [f64; 4],
+    /// Distortion coefficients (see [`ModelSpec`]).
+    #[serde(default)]
+    pub distortion: Vec<f64>,
+    /// Mei and double-sphere ξ.
+    pub xi: Option<f64>,
+    /// Double-sphere α.
+    pub alpha: Option<f64>,
+    /// Extrinsic camera-to-body transform.
+    pub T_b_c: ExtrinsicSpec,
+    /// Feature noise standard deviation (px).
+    pub pixel_sigma_px: f64,
+    /// Most features per frame (default 150).
+    pub max_features: Option<usize>,
+    /// Nearest visible depth (m, default 0.1).
+    pub min_depth_m: Option<f64>,
+    /// Farthest visible depth (m, default 40).
+    pub max_depth_m: Option<f64>,
+    /// Longest track (frames; the landmark then rests as many frames in this camera); default
+    /// unlimited, as the image front end's tracks (lost only when the feature is).
+    pub max_track_length: Option<u32>,
+}
+
+/// A rigid transform: translation plus exactly one of a rotation matrix (rows) or a Hamilton
+/// quaternion `[qx, qy, qz, qw]`.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExtrinsicSpec {
+    /// Translation (m).
+    pub translation_m: [f64; 3],
+    /// Rotation matrix, rows.
+    pub rotation: Option<[[f64; 3]; 3]>,
+    /// Rotation quaternion `[qx, qy, qz, qw]`.
+    pub quaternion_xyzw: Option<[f64; 4]>,
+}
+
+/// `[rig.imu]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImuSpec {
+    /// Sample rate (Hz).
+    pub rate_hz: f64,
+    /// Gyroscope white noise density (rad/s/√Hz).
+    pub gyroscope_noise_density: f64,
+    /// Accelerometer white noise density (m/s²/√Hz).
+    pub accelerometer_noise_density: f64,
+    /// Gyroscope bias random walk (rad/s²/√Hz).
+    pub gyroscope_random_walk: f64,
+    /// Accelerometer bias random walk (m/s³/√Hz).
+    pub accelerometer_random_walk: f64,
+    /// Simulate a noise-free IMU with constant biases (the estimator still uses the densities).
+    #[serde(default)]
+    pub noise_free: bool,
+    /// Gyroscope bias at `t = 0` (rad/s).
+    #[serde(default)]
+    pub initial_gyro_bias_rad_s: [f64; 3],
+    /// Accelerometer bias at `t = 0` (m/s²).
+    #[serde(default)]
+    pub initial_accel_bias_m_s2: [f64; 3],
+    /// Per-axis gyroscope range (rad/s); none: no saturation.
+    pub gyro_range_rad_s: Option<f64>,
+    /// Per-axis accelerometer range (m/s²); none: no saturation.
+    pub accel_range_m_s2: Option<f64>,
+}
+
+/// `[estimator]`: every key optional.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EstimatorSpec {
+    /// Keyframes in the window.
+    pub window_size: Option<usize>,
+    /// Solver iterations per frame.
+    pub solver_iterations: Option<usize>,
+    /// `levenberg_marquardt` or `dogleg`.
+    pub solver_method: Option<MethodSpec>,
+    /// The solve stops once an accepted step lowers the cost by less than this fraction.
+    pub solver_function_tolerance: Option<f64>,
+    /// Keyframe parallax threshold (px).
+    pub keyframe_parallax_px: Option<f64>,
+    /// Keyframe when fewer features are tracked.
+    pub keyframe_min_tracked: Option<usize>,
+    /// Huber threshold (σ units).
+    pub huber_sigma: Option<f64>,
+    /// Outlier track threshold (px).
+    pub outlier_reprojection_px: Option<f64>,
+    /// Frames collected before visual-inertial initialization.
+    pub init_frames: Option<usize>,
+    /// Pixel noise σ the estimator assumes (default: each camera's `pixel_sigma_px`, at
+    /// least 0.5).
+    pub pixel_sigma_px: Option<f64>,
+    /// Initial camera-IMU time offset (s).
+    pub td_s: Option<f64>,
+    /// Estimate the time offset online.
+    pub estimate_td: Option<bool>,
+    /// Estimate the camera extrinsics online.
+    pub estimate_extrinsics: Option<bool>,
+    /// Keep using the tracks of a marginalized keyframe (VINS-Fusion; counts their
+    /// observations twice) instead of ending them.
+    pub reuse_marginalized_tracks: Option<bool>,
+    /// Frames a track must span before it enters the optimization.
+    pub min_track_frames: Option<usize>,
+    /// Persistent world points kept through marginalization (0: none).
+    pub max_persistent_points: Option<usize>,
+    /// Evaluate every factor's Jacobians of states in the marginalization prior at the
+    /// prior's linearization point (first-estimate Jacobians).
+    pub first_estimate_jacobians: Option<bool>,
+    /// Also first-estimate Jacobians for the persistent world points.
+    pub first_estimate_points: Option<bool>,
+}
+
+/// Solver methods.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum MethodSpec {
+    /// Levenberg–Marquardt.
+    LevenbergMarquardt,
+    /// Powell's dogleg.
+    Dogleg,
+}
+
+/// Fault kinds.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum FaultKind {
+    /// No frames (or empty frames with `black_frames = true`) on `[start_s, end_s)`.
+    CameraBlackout,
+    /// Camera `cam_id` dies at `at_s`.
+    CameraDeath,
+    /// Frames dropped with `probability` on `[start_s, end_s)`.
+    FrameDrops,
+    /// No IMU samples on `[start_s, end_s)`.
+    ImuDropout,
+    /// IMU spikes (`probability`, `gyro_rad_s`, `accel_m_s2`) on `[start_s, end_s)`.
+    ImuSpikes,
+    /// IMU readings clamped to `gyro_range_rad_s`, `accel_range_m_s2` on `[start_s, end_s)`.
+    ImuSaturation,
+    /// Timestamp jitter (`imu_sigma_s`, `camera_sigma_s`) on `[start_s, end_s)`.
+    TimestampJitter,
+    /// Frames stamped `td_s` earlier from `at_s` on.
+    CameraTimeOffset,
+}
+
+/// One `[[faults]]` entry: a kind and the keys that kind takes.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FaultSpec {
+    /// What goes wrong.
+    pub kind: FaultKind,
+    /// Start (s).
+    pub start_s: Option<f64>,
+    /// End (s).
+    pub end_s: Option<f64>,
+    /// Instant (s) for permanent faults.
+    pub at_s: Option<f64>,
+    /// Camera index (`camera_death`).
+    pub cam_id: Option<usize>,
+    /// Emit empty frames instead of none (`camera_blackout`).
+    pub black_frames: Option<bool>,
+    /// Per-event probability (`frame_drops`, `imu_spikes`).
+    pub probability: Option<f64>,
+    /// Gyroscope spike size (rad/s).
+    pub gyro_rad_s: Option<f64>,
+    /// Accelerometer spike size (m/s²).
+    pub accel_m_s2: Option<f64>,
+    /// Gyroscope range (rad/s, `imu_saturation`).
+    pub gyro_range_rad_s: Option<f64>,
+    /// Accelerometer range (m/s², `imu_saturation`).
+    pub accel_range_m_s2: Option<f64>,
+    /// IMU stamp jitter σ (s).
+    pub imu_sigma_s: Option<f64>,
+    /// Camera stamp jitter σ (s).
+    pub camera_sigma_s: Option<f64>,
+    /// Time offset (s, `camera_time_offset`).
+    pub td_s: Option<f64>,
+}
+
+/// A bound on a metric: `min ≤ value ≤ max`, either side optional.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Bound {
+    /// Lower bound.
+    pub min: Option<f64>,
+    /// Upper bound.
+    pub max: Option<f64>,
+}
+
+impl Bound {
+    /// True if `value` satisfies the bound (a missing value never does).
+    pub fn check(&self, value: Option<f64>) -> bool {
+        match value {
+            Some(v) if v.is_finite() => {
+                self.min.is_none_or(|m| v >= m) && self.max.is_none_or(|m| v <= m)
+            }
+            _ => false,
+        }
+    }
+}
+
+/// `[expectations]`: bounds on the run's metrics.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExpectationsSpec {
+    /// Position ATE RMSE after alignment (m).
+    pub ate_rmse_m: Option<Bound>,
+    /// Rotation ATE RMSE after alignment (deg).
+    pub ate_rot_rmse_deg: Option<Bound>,
+    /// RPE translation RMSE over 1 m of ground-truth path (m; see [`crate::report`]).
+    pub rpe_trans_rmse_m: Option<Bound>,
+    /// Estimator resets.
+    pub resets: Option<Bound>,
+    /// Sensor-suite switches.
+    pub suite_switches: Option<Bound>,
+    /// IMU samples excluded as spikes.
+    pub imu_samples_excluded: Option<Bound>,
+    /// IMU samples on the sensor's range.
+    pub imu_samples_saturated: Option<Bound>,
+    /// The slowest return (s) of the full sensor suite after a fault's end.
+    pub recovery_s: Option<Bound>,
+    /// Fraction of processed frames in tracking state.
+    pub tracking_fraction: Option<Bound>,
+    /// Final gyroscope bias error (rad/s).
+    pub gyro_bias_error_rad_s: Option<Bound>,
+    /// Final accelerometer bias error (m/s²).
+    pub accel_bias_error_m_s2: Option<Bound>,
+    /// Fewest features the image front end tracked in a frame.
+    pub frontend_features_min: Option<Bound>,
+    /// Median track error of the image front end (px).
+    pub frontend_track_error_median_px: Option<Bound>,
+    /// 95th-percentile track error of the image front end (px).
+    pub frontend_track_error_p95_px: Option<Bound>,
+    /// Fraction of wrong tracks (> 2 px) the estimator gets.
+    pub frontend_wrong_after_ransac: Option<Bound>,
+    /// Median stereo match error (px).
+    pub frontend_stereo_error_median_px: Option<Bound>,
+}
+
+impl ExpectationsSpec {
+    /// `(metric name, bound)` for every bound that is set, in a fixed order.
+    pub fn bounds(&self) -> Vec<(&'static str, Bound)> {
+        [
+            ("ate_rmse_m", self.ate_rmse_m),
+            ("ate_rot_rmse_deg", self.ate_rot_rmse_deg),
+            ("rpe_trans_rmse_m", self.rpe_trans_rmse_m),
+            ("resets", self.resets),
+            ("suite_switches", self.suite_switches),
+            ("imu_samples_excluded", self.imu_samples_excluded),
+            ("imu_samples_saturated", self.imu_samples_saturated),
+            ("recovery_s", self.recovery_s),
+            ("tracking_fraction", self.tracking_fraction),
+            ("gyro_bias_error_rad_s", self.gyro_bias_error_rad_s),
+            ("accel_bias_error_m_s2", self.accel_bias_error_m_s2),
+            ("frontend_features_min", self.frontend_features_min),
+            (
+                "frontend_track_error_median_px",
+                self.frontend_track_error_median_px,
+            ),
+            (
+                "frontend_track_error_p95_px",
+                self.frontend_track_error_p95_px,
+            ),
+            (
+                "frontend_wrong_after_ransac",
+                self.frontend_wrong_after_ransac,
+            ),
+            (
+                "frontend_stereo_error_median_px",
+                self.frontend_stereo_error_median_px,
+            ),
+        ]
+        .into_iter()
+        .filter_map(|(n, b)| b.map(|b| (n, b)))
+        .collect()
+    }
+}
