@@ -28,6 +28,7 @@ mod render_worker;
 pub mod rng;
 pub mod scene;
 pub mod stream;
+pub mod validate;
 
 use crate::camera::{RigConfig, RigSim};
 use crate::faults::{Fault, FaultTimeline};
@@ -151,6 +152,7 @@ pub struct World {
 impl World {
     /// Builds the world (reads and fits a replayed trajectory, places landmarks).
     pub fn new(config: WorldConfig) -> Result<Self, SimError> {
+        config.validate()?;
         let bad = |m: &str| Err(SimError::Config(m.to_string()));
         let imu_period = config.imu.period_ns();
         if !positive(config.imu.rate_hz)
@@ -194,6 +196,12 @@ impl World {
             duration = duration.min(d);
         }
         let scene = Arc::new(Scene::build(&config.scene, config.seed));
+        validate::check_free_space(
+            reference.as_ref(),
+            &config.scene.preset.free_space(),
+            &scene.boxes,
+            duration,
+        )?;
         Ok(Self {
             end_ns: (duration * 1e9).round() as i64,
             config,
@@ -249,14 +257,23 @@ impl World {
             .as_ref()
             .map(|r| RigSim::new(r.clone(), self.scene.clone(), c.seed));
         let faults = FaultTimeline::new(c.faults.clone(), c.seed);
-        Stream::new(
-            truth,
-            imu,
-            rig,
-            faults,
-            self.end_ns,
-            (c.truth_retention_s * 1e9) as i64,
-        )
+        // Ground truth must outlive the longest stretch a consumer may lag behind the stream:
+        // a sensor outage delays the frames that wait for it.
+        let longest_outage_ns = c
+            .faults
+            .iter()
+            .map(|f| match *f {
+                Fault::ImuDropout { start_ns, end_ns }
+                | Fault::CameraBlackout {
+                    start_ns, end_ns, ..
+                } => end_ns - start_ns,
+                _ => 0,
+            })
+            .max()
+            .unwrap_or(0);
+        let retention_ns =
+            ((c.truth_retention_s * 1e9) as i64).max(longest_outage_ns + 1_000_000_000);
+        Stream::new(truth, imu, rig, faults, self.end_ns, retention_ns)
     }
 }
 

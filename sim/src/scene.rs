@@ -23,6 +23,19 @@ pub enum ScenePreset {
     Outdoor,
 }
 
+impl ScenePreset {
+    /// The space a body may move in: the room's or hall's interior; outdoors the ground plane's
+    /// extent, up to 1 km. Solid boxes inside it are excluded separately ([`Scene::boxes`]).
+    pub fn free_space(self) -> Aabb {
+        let v = Vector3::new;
+        match self {
+            ScenePreset::Room => Aabb::new(v(-4.5, -3.5, 0.0), v(3.5, 4.5, 4.0)),
+            ScenePreset::MachineHall => Aabb::new(v(-12.0, -9.0, -2.0), v(18.0, 17.0, 10.0)),
+            ScenePreset::Outdoor => Aabb::new(v(-100.0, -100.0, 0.0), v(100.0, 100.0, 1000.0)),
+        }
+    }
+}
+
 /// Scene configuration.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneConfig {
@@ -276,10 +289,20 @@ fn inner_faces(b: &Aabb) -> Vec<Surface> {
 impl Scene {
     /// Builds the preset with landmarks from the `scene` stream of `seed`.
     pub fn build(cfg: &SceneConfig, seed: u64) -> Self {
+        let (surfaces, boxes) = Self::preset_geometry(cfg.preset);
+        let mut scene = Self::with_landmarks(surfaces, boxes, cfg.landmark_density, seed);
+        if cfg.preset == ScenePreset::Outdoor {
+            scene.background = 0.85; // an overcast sky
+        }
+        scene
+    }
+
+    /// The preset's textured surfaces and solid boxes (no landmarks yet).
+    pub fn preset_geometry(preset: ScenePreset) -> (Vec<Surface>, Vec<Aabb>) {
         let v = Vector3::new;
-        let (surfaces, boxes) = match cfg.preset {
+        match preset {
             ScenePreset::Room => {
-                let room = Aabb::new(v(-4.5, -3.5, 0.0), v(3.5, 4.5, 4.0));
+                let room = ScenePreset::Room.free_space();
                 let boxes = vec![
                     Aabb::new(v(2.7, -3.5, 0.0), v(3.5, -2.7, 0.8)),
                     Aabb::new(v(-4.5, 3.7, 0.0), v(-3.5, 4.5, 1.0)),
@@ -295,7 +318,7 @@ impl Scene {
                 (s, boxes)
             }
             ScenePreset::MachineHall => {
-                let hall = Aabb::new(v(-12.0, -9.0, -2.0), v(18.0, 17.0, 10.0));
+                let hall = ScenePreset::MachineHall.free_space();
                 let boxes = vec![
                     Aabb::new(v(-11.0, -8.0, -2.0), v(-7.0, -4.0, 3.0)),
                     Aabb::new(v(12.0, -8.0, -2.0), v(17.0, -3.0, 4.0)),
@@ -341,12 +364,7 @@ impl Scene {
                 }
                 (s, boxes)
             }
-        };
-        let mut scene = Self::with_landmarks(surfaces, boxes, cfg.landmark_density, seed);
-        if cfg.preset == ScenePreset::Outdoor {
-            scene.background = 0.85; // an overcast sky
         }
-        scene
     }
 
     /// Scatters landmarks on `surfaces` (density per m², stream `scene` of `seed`), tiled in

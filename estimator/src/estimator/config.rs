@@ -235,3 +235,134 @@ impl EstimatorConfig {
         }
     }
 }
+
+impl EstimatorConfig {
+    /// Checks every setting for finiteness and its range; the error names the field. The
+    /// estimator refuses a configuration that fails (no setting may panic later).
+    pub fn validate(&self) -> Result<(), String> {
+        if self.cameras.is_empty() || self.cameras.len() > 2 {
+            return Err(format!("cameras: need 1 or 2, got {}", self.cameras.len()));
+        }
+        if self.cameras.len() != self.suite.cameras() {
+            return Err(format!(
+                "the {:?} suite needs exactly {} camera(s), got {}",
+                self.suite,
+                self.suite.cameras(),
+                self.cameras.len()
+            ));
+        }
+        for (i, c) in self.cameras.iter().enumerate() {
+            if !(c.pixel_sigma.is_finite() && c.pixel_sigma > 0.0) {
+                return Err(format!(
+                    "cameras[{i}].pixel_sigma must be finite and > 0, got {}",
+                    c.pixel_sigma
+                ));
+            }
+            let t = &c.T_b_c;
+            if !(t.p.iter().all(|v| v.is_finite()) && t.q.coords.iter().all(|v| v.is_finite())) {
+                return Err(format!("cameras[{i}].T_b_c must be finite"));
+            }
+        }
+        let n = &self.imu_noise;
+        positive(
+            "imu_noise.gyroscope_noise_density",
+            n.gyroscope_noise_density,
+        )?;
+        positive(
+            "imu_noise.accelerometer_noise_density",
+            n.accelerometer_noise_density,
+        )?;
+        positive("imu_noise.gyroscope_random_walk", n.gyroscope_random_walk)?;
+        positive(
+            "imu_noise.accelerometer_random_walk",
+            n.accelerometer_random_walk,
+        )?;
+        if self.window_size < 3 {
+            return Err(format!("window_size must be ≥ 3, got {}", self.window_size));
+        }
+        if self.suite.uses_imu() && self.init_frames < 4 {
+            return Err(format!("init_frames must be ≥ 4, got {}", self.init_frames));
+        }
+        if self.solver.max_iterations < 1 {
+            return Err("solver.max_iterations must be ≥ 1".into());
+        }
+        non_negative("solver.function_tolerance", self.solver.function_tolerance)?;
+        non_negative("solver.gradient_tolerance", self.solver.gradient_tolerance)?;
+        non_negative(
+            "solver.parameter_tolerance",
+            self.solver.parameter_tolerance,
+        )?;
+        positive(
+            "solver.initial_trust_radius",
+            self.solver.initial_trust_radius,
+        )?;
+        non_negative("solver.min_diagonal", self.solver.min_diagonal)?;
+        positive("keyframe_parallax_px", self.keyframe_parallax_px)?;
+        positive("huber_sigma", self.huber_sigma)?;
+        positive("outlier_reprojection_px", self.outlier_reprojection_px)?;
+        positive("min_depth_m", self.min_depth_m)?;
+        positive("max_depth_m", self.max_depth_m)?;
+        if self.min_depth_m >= self.max_depth_m {
+            return Err(format!(
+                "min_depth_m ({}) must be below max_depth_m ({})",
+                self.min_depth_m, self.max_depth_m
+            ));
+        }
+        // A time offset is a small clock difference: a second is already far past any rig.
+        if !(self.td_s.is_finite() && self.td_s.abs() <= 1.0) {
+            return Err(format!(
+                "td_s must be finite and within ±1 s, got {}",
+                self.td_s
+            ));
+        }
+        positive("mono_init_parallax_px", self.mono_init_parallax_px)?;
+        positive("mono_init_window_s", self.mono_init_window_s)?;
+        positive("mono_init_max_scale_sigma", self.mono_init_max_scale_sigma)?;
+        non_negative("repropagate_ba", self.repropagate_ba)?;
+        non_negative("repropagate_bg", self.repropagate_bg)?;
+        positive("initial_ba_sigma", self.initial_ba_sigma)?;
+        positive("initial_bg_sigma", self.initial_bg_sigma)?;
+        positive("gauge_sigma", self.gauge_sigma)?;
+        if self.min_track_frames < 1 {
+            return Err("min_track_frames must be ≥ 1".into());
+        }
+        if let Some((g, a)) = self.imu_spike_threshold {
+            positive("imu_spike_threshold (gyroscope)", g)?;
+            positive("imu_spike_threshold (accelerometer)", a)?;
+        }
+        positive("sensor_timeout_s", self.sensor_timeout_s)?;
+        positive("imu_max_gap_s", self.imu_max_gap_s)?;
+        if let Some((g, a)) = self.imu_range {
+            // Infinite: that axis does not saturate.
+            if !(g > 0.0 && a > 0.0) {
+                return Err(format!(
+                    "imu_range must be > 0 on both sensors, got ({g}, {a})"
+                ));
+            }
+        }
+        let h = &self.health;
+        positive("health.max_accel_bias_m_s2", h.max_accel_bias_m_s2)?;
+        positive("health.max_gyro_bias_rad_s", h.max_gyro_bias_rad_s)?;
+        positive("health.max_jump_m", h.max_jump_m)?;
+        positive("health.max_rotation_jump_deg", h.max_rotation_jump_deg)?;
+        Ok(())
+    }
+}
+
+/// `Ok` if `v` is finite and > 0; else an error naming `field`.
+fn positive(field: &str, v: f64) -> Result<(), String> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(format!("{field} must be finite and > 0, got {v}"))
+    }
+}
+
+/// `Ok` if `v` is finite and ≥ 0; else an error naming `field`.
+fn non_negative(field: &str, v: f64) -> Result<(), String> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(())
+    } else {
+        Err(format!("{field} must be finite and ≥ 0, got {v}"))
+    }
+}

@@ -166,60 +166,9 @@ struct KnownStart {
 impl Estimator {
     /// Creates an estimator; fails on an unusable configuration.
     pub fn new(config: EstimatorConfig) -> Result<Self, EstimatorError> {
-        if config.cameras.is_empty() || config.cameras.len() > 2 {
-            return Err(EstimatorError::Config(format!(
-                "cameras: need 1 or 2, got {}",
-                config.cameras.len()
-            )));
-        }
-        if config.cameras.len() != config.suite.cameras() {
-            return Err(EstimatorError::Config(format!(
-                "the {:?} suite needs exactly {} camera(s), got {}",
-                config.suite,
-                config.suite.cameras(),
-                config.cameras.len()
-            )));
-        }
-        if !(config.mono_init_parallax_px.is_finite() && config.mono_init_parallax_px > 0.0) {
-            return Err(EstimatorError::Config(
-                "mono_init_parallax_px must be finite and > 0".into(),
-            ));
-        }
-        if config.window_size < 3 {
-            return Err(EstimatorError::Config("window_size must be ≥ 3".into()));
-        }
-        if !(config.initial_ba_sigma > 0.0 && config.initial_bg_sigma > 0.0) {
-            return Err(EstimatorError::Config(
-                "initial bias sigmas must be > 0".into(),
-            ));
-        }
-        if let Some((g, a)) = config.imu_spike_threshold
-            && !(g.is_finite() && g > 0.0 && a.is_finite() && a > 0.0)
-        {
-            return Err(EstimatorError::Config(
-                "imu_spike_threshold: both thresholds must be finite and > 0".into(),
-            ));
-        }
-        if !(config.imu_max_gap_s.is_finite() && config.imu_max_gap_s > 0.0) {
-            return Err(EstimatorError::Config(
-                "imu_max_gap_s must be finite and > 0".into(),
-            ));
-        }
-        if !(config.sensor_timeout_s.is_finite() && config.sensor_timeout_s > 0.0) {
-            return Err(EstimatorError::Config(
-                "sensor_timeout_s must be finite and > 0".into(),
-            ));
-        }
-        if config.suite.uses_imu() && config.init_frames < 4 {
-            return Err(EstimatorError::Config("init_frames must be ≥ 4".into()));
-        }
+        config.validate().map_err(EstimatorError::Config)?;
         let mut focal = Vec::new();
         for (i, c) in config.cameras.iter().enumerate() {
-            if !(c.pixel_sigma.is_finite() && c.pixel_sigma > 0.0) {
-                return Err(EstimatorError::Config(format!(
-                    "cameras[{i}].pixel_sigma must be > 0"
-                )));
-            }
             // Effective focal length: the projection's derivative on the optical axis.
             let (_, j) = c
                 .model

@@ -212,10 +212,49 @@ impl Scenario {
         if f.start_s.is_some() && !(start.is_finite() && end.is_finite() && end > start) {
             return Err(self.error(&key("end_s"), "expected finite start_s < end_s"));
         }
+        let limit = sim::validate::limits::MAX_DURATION_S;
+        for (name, v) in [("start_s", f.start_s), ("end_s", f.end_s), ("at_s", f.at_s)] {
+            if let Some(v) = v
+                && !(v.is_finite() && (0.0..=limit).contains(&v))
+            {
+                return Err(self.error(
+                    &key(name),
+                    format!("expected a time in [0, {limit}] s, got {v}"),
+                ));
+            }
+        }
         if let Some(p) = f.probability
             && !(0.0..=1.0).contains(&p)
         {
             return Err(self.error(&key("probability"), "expected a probability in [0, 1]"));
+        }
+        for (name, v, lo, hi) in [
+            ("gyro_rad_s", f.gyro_rad_s, 0.0, 1e3),
+            ("accel_m_s2", f.accel_m_s2, 0.0, 1e4),
+            ("imu_sigma_s", f.imu_sigma_s, 0.0, 0.1),
+            ("camera_sigma_s", f.camera_sigma_s, 0.0, 0.1),
+            ("td_s", f.td_s, -1.0, 1.0),
+        ] {
+            if let Some(v) = v
+                && !(v.is_finite() && v >= lo && v <= hi)
+            {
+                return Err(self.error(
+                    &key(name),
+                    format!("expected a finite number in [{lo}, {hi}], got {v}"),
+                ));
+            }
+        }
+        for name in ["gyro_range_rad_s", "accel_range_m_s2"] {
+            let v = if name.starts_with("gyro") {
+                f.gyro_range_rad_s
+            } else {
+                f.accel_range_m_s2
+            };
+            if let Some(v) = v
+                && !(v.is_finite() && v > 0.0)
+            {
+                return Err(self.error(&key(name), format!("expected a finite range > 0, got {v}")));
+            }
         }
         if let Some(c) = f.cam_id
             && c >= self.spec.rig.cameras.len()
@@ -226,7 +265,7 @@ impl Scenario {
             ));
         }
         let (start_ns, end_ns) = (ns(start), ns(end));
-        Ok(match f.kind {
+        let fault = match f.kind {
             FaultKind::CameraBlackout => Fault::CameraBlackout {
                 start_ns,
                 end_ns,
@@ -265,7 +304,11 @@ impl Scenario {
                 start_ns: ns(f.at_s.unwrap_or(0.0)),
                 td_ns: ns(f.td_s.unwrap_or(0.0)),
             },
-        })
+        };
+        fault
+            .validate()
+            .map_err(|e| self.error(&format!("faults[{i}]"), e.to_string()))?;
+        Ok(fault)
     }
 
     /// Fault intervals `(kind, start s, end s)` for reports and plots (permanent faults end at
@@ -377,17 +420,7 @@ impl Scenario {
     ) -> Result<WorldConfig, SpecError> {
         let s = &self.spec;
         let imu = &s.rig.imu;
-        let scene = SceneConfig {
-            preset: match s.world.scene {
-                SceneSpec::Room => ScenePreset::Room,
-                SceneSpec::MachineHall => ScenePreset::MachineHall,
-                SceneSpec::Outdoor => ScenePreset::Outdoor,
-            },
-            landmark_density: s
-                .world
-                .landmark_density
-                .unwrap_or(SceneConfig::default().landmark_density),
-        };
+        let scene = self.scene_config();
         let mut cameras = Vec::new();
         for (i, c) in s.rig.cameras.iter().enumerate() {
             let mut sc = SimCamera::new(
@@ -454,6 +487,21 @@ impl Scenario {
             faults,
             ..WorldConfig::default()
         })
+    }
+
+    /// The scene preset and landmark density.
+    pub fn scene_config(&self) -> SceneConfig {
+        let w = &self.spec.world;
+        SceneConfig {
+            preset: match w.scene {
+                SceneSpec::Room => ScenePreset::Room,
+                SceneSpec::MachineHall => ScenePreset::MachineHall,
+                SceneSpec::Outdoor => ScenePreset::Outdoor,
+            },
+            landmark_density: w
+                .landmark_density
+                .unwrap_or(SceneConfig::default().landmark_density),
+        }
     }
 
     /// The IMU noise densities of the file.

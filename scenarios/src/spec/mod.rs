@@ -174,7 +174,9 @@ impl Scenario {
         let models = (0..s.spec.rig.cameras.len())
             .map(|i| s.camera_model(i))
             .collect::<Result<_, _>>()?;
-        Ok(Self { models, ..s })
+        let s = Self { models, ..s };
+        s.validate_estimator_config()?;
+        Ok(s)
     }
 
     /// The renderer configuration of a rendered scenario (`None` for feature-level ones).

@@ -1,6 +1,6 @@
 //! The scenario file's serde types, as written (see the [`super`] module documentation).
 
-use serde::Deserialize;
+use serde::{Deserialize, Deserializer};
 
 use super::{FrontendSpec, TrackerSpec};
 use estimator::estimator::Suite;
@@ -266,6 +266,7 @@ pub struct StaticStartSpec {
 #[serde(deny_unknown_fields)]
 pub struct FigureEightSpec {
     /// Centre (m).
+    #[serde(deserialize_with = "exact::array")]
     pub center: [f64; 3],
     /// Half-width along x (m).
     pub half_width_m: f64,
@@ -280,6 +281,7 @@ pub struct FigureEightSpec {
 #[serde(deny_unknown_fields)]
 pub struct CircleSpec {
     /// Centre (m).
+    #[serde(deserialize_with = "exact::array")]
     pub center: [f64; 3],
     /// Radius (m).
     pub radius_m: f64,
@@ -293,13 +295,17 @@ pub struct CircleSpec {
 #[serde(deny_unknown_fields)]
 pub struct LissajousSpec {
     /// Centre (m).
+    #[serde(deserialize_with = "exact::array")]
     pub center: [f64; 3],
     /// Per-axis amplitude (m).
+    #[serde(deserialize_with = "exact::array")]
     pub amplitude_m: [f64; 3],
     /// Per-axis frequency (Hz).
+    #[serde(deserialize_with = "exact::array")]
     pub freq_hz: [f64; 3],
     /// Per-axis phase (rad).
     #[serde(default)]
+    #[serde(deserialize_with = "exact::array")]
     pub phase_rad: [f64; 3],
     /// Initial yaw (rad).
     #[serde(default)]
@@ -326,8 +332,10 @@ pub struct LissajousSpec {
 #[serde(deny_unknown_fields)]
 pub struct WaypointsSpec {
     /// Lower corner of the box the waypoints are drawn in (m).
+    #[serde(deserialize_with = "exact::array")]
     pub min: [f64; 3],
     /// Upper corner (m).
+    #[serde(deserialize_with = "exact::array")]
     pub max: [f64; 3],
     /// Time between waypoints (s).
     pub spacing_s: f64,
@@ -407,8 +415,10 @@ pub struct CameraSpec {
     /// Projection model.
     pub model: ModelSpec,
     /// `[width, height]` (px).
+    #[serde(deserialize_with = "exact::array")]
     pub resolution: [u32; 2],
     /// `[fx, fy, cx, cy]` (px).
+    #[serde(deserialize_with = "exact::array")]
     pub intrinsics: [f64; 4],
     /// Distortion coefficients (see [`ModelSpec`]).
     #[serde(default)]
@@ -438,10 +448,13 @@ pub struct CameraSpec {
 #[serde(deny_unknown_fields)]
 pub struct ExtrinsicSpec {
     /// Translation (m).
+    #[serde(deserialize_with = "exact::array")]
     pub translation_m: [f64; 3],
     /// Rotation matrix, rows.
+    #[serde(default, deserialize_with = "exact::matrix")]
     pub rotation: Option<[[f64; 3]; 3]>,
     /// Rotation quaternion `[qx, qy, qz, qw]`.
+    #[serde(default, deserialize_with = "exact::option")]
     pub quaternion_xyzw: Option<[f64; 4]>,
 }
 
@@ -464,9 +477,11 @@ pub struct ImuSpec {
     pub noise_free: bool,
     /// Gyroscope bias at `t = 0` (rad/s).
     #[serde(default)]
+    #[serde(deserialize_with = "exact::array")]
     pub initial_gyro_bias_rad_s: [f64; 3],
     /// Accelerometer bias at `t = 0` (m/s²).
     #[serde(default)]
+    #[serde(deserialize_with = "exact::array")]
     pub initial_accel_bias_m_s2: [f64; 3],
     /// Per-axis gyroscope range (rad/s); none: no saturation.
     pub gyro_range_rad_s: Option<f64>,
@@ -681,5 +696,52 @@ impl ExpectationsSpec {
         .into_iter()
         .filter_map(|(n, b)| b.map(|b| (n, b)))
         .collect()
+    }
+}
+
+/// Fixed-length arrays that reject a wrong number of elements: serde's own array impls leave
+/// extra elements unread, and TOML then accepts `resolution = [752, 480, 3]` silently.
+pub(crate) mod exact {
+    use serde::de::Error;
+
+    use super::{Deserialize, Deserializer};
+
+    fn to_array<T, const N: usize, E: Error>(v: Vec<T>) -> Result<[T; N], E> {
+        let n = v.len();
+        v.try_into()
+            .map_err(|_| E::invalid_length(n, &format!("an array of {N} elements").as_str()))
+    }
+
+    /// `[T; N]`.
+    pub fn array<'de, D, T, const N: usize>(d: D) -> Result<[T; N], D::Error>
+    where
+        D: Deserializer<'de>,
+        T: Deserialize<'de>,
+    {
+        to_array(Vec::<T>::deserialize(d)?)
+    }
+
+    /// `Option<[T; N]>` (use with `#[serde(default)]`).
+    pub fn option<'de, D, T, const N: usize>(d: D) -> Result<Option<[T; N]>, D::Error>
+    where
+        D: Deserializer<'de>,
+        T: Deserialize<'de>,
+    {
+        Option::<Vec<T>>::deserialize(d)?.map(to_array).transpose()
+    }
+
+    /// `Option<[[f64; 3]; 3]>` (a rotation matrix by rows; use with `#[serde(default)]`).
+    pub fn matrix<'de, D>(d: D) -> Result<Option<[[f64; 3]; 3]>, D::Error>
+    where
+        D: Deserializer<'de>,
+    {
+        let Some(rows) = Option::<Vec<Vec<f64>>>::deserialize(d)? else {
+            return Ok(None);
+        };
+        let rows = rows
+            .into_iter()
+            .map(to_array::<f64, 3, D::Error>)
+            .collect::<Result<Vec<_>, _>>()?;
+        to_array(rows).map(Some)
     }
 }

@@ -1,7 +1,100 @@
-//! The checks every scenario passes before anything runs: after them, building the world and
-//! estimator configurations fails only on data files.
+//! The checks every scenario passes before anything runs: every number finite and in its
+//! physical range, cross-field checks (depth range order, distinct camera names, a stereo
+//! baseline), and resource bounds computed before anything is allocated (samples, frames,
+//! landmarks, knots). After them, building the world and estimator configurations fails only on
+//! data files; each error names the key and its line.
+
+use sim::validate::limits;
 
 use super::{Scenario, SpecError, SuiteSpec};
+
+/// Smallest image side (px) a feature camera can work with.
+const MIN_IMAGE_SIDE_PX: u32 = 16;
+/// Largest image side (px).
+const MAX_IMAGE_SIDE_PX: u32 = 16_384;
+/// Smallest stereo baseline (m) a stereo suite accepts.
+const MIN_BASELINE_M: f64 = 1e-3;
+/// Largest estimator window (keyframes): the dense window solve grows with its cube.
+const MAX_WINDOW_SIZE: usize = 100;
+
+/// Number checks that name the key.
+struct Check<'a> {
+    scenario: &'a Scenario,
+}
+
+impl Check<'_> {
+    fn finite(&self, key: &str, v: f64) -> Result<(), SpecError> {
+        if v.is_finite() {
+            Ok(())
+        } else {
+            Err(self
+                .scenario
+                .error(key, format!("expected a finite number, got {v}")))
+        }
+    }
+
+    fn finite_all(&self, key: &str, v: &[f64]) -> Result<(), SpecError> {
+        match v.iter().find(|x| !x.is_finite()) {
+            None => Ok(()),
+            Some(x) => Err(self
+                .scenario
+                .error(key, format!("expected finite numbers, got {x}"))),
+        }
+    }
+
+    fn positive(&self, key: &str, v: f64) -> Result<(), SpecError> {
+        if v.is_finite() && v > 0.0 {
+            Ok(())
+        } else {
+            Err(self
+                .scenario
+                .error(key, format!("expected a finite number > 0, got {v}")))
+        }
+    }
+
+    fn non_negative(&self, key: &str, v: f64) -> Result<(), SpecError> {
+        if v.is_finite() && v >= 0.0 {
+            Ok(())
+        } else {
+            Err(self
+                .scenario
+                .error(key, format!("expected a finite number ≥ 0, got {v}")))
+        }
+    }
+
+    /// `lo ≤ v ≤ hi`; `why` says where the range comes from.
+    fn within(&self, key: &str, v: f64, lo: f64, hi: f64, why: &str) -> Result<(), SpecError> {
+        if v.is_finite() && v >= lo && v <= hi {
+            Ok(())
+        } else {
+            Err(self.scenario.error(
+                key,
+                format!("expected a number in [{lo}, {hi}] ({why}), got {v}"),
+            ))
+        }
+    }
+
+    fn at_most(&self, key: &str, v: usize, hi: usize, why: &str) -> Result<(), SpecError> {
+        if v <= hi {
+            Ok(())
+        } else {
+            Err(self
+                .scenario
+                .error(key, format!("expected at most {hi} ({why}), got {v}")))
+        }
+    }
+
+    /// A rate whose period is a whole number of nanoseconds.
+    fn whole_ns_period(&self, key: &str, rate_hz: f64) -> Result<(), SpecError> {
+        if (1e9 / rate_hz - (1e9 / rate_hz).round()).abs() > 1e-6 {
+            return Err(self.scenario.error(
+                key,
+                "expected a rate whose period is a whole number of nanoseconds",
+            ));
+        }
+        Ok(())
+    }
+}
 
 impl Scenario {
     /// Checks everything the world and estimator configurations need, so that
@@ -10,32 +103,32 @@ impl Scenario {
         self.render_config()?;
         self.tracker_config(0)?;
         let s = &self.spec;
-        let pos = |key: &str, v: f64| -> Result<(), SpecError> {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(self.error(key, format!("expected a finite number > 0, got {v}")))
-            }
-        };
-        let nonneg = |key: &str, v: f64| -> Result<(), SpecError> {
-            if v.is_finite() && v >= 0.0 {
-                Ok(())
-            } else {
-                Err(self.error(key, format!("expected a finite number ≥ 0, got {v}")))
-            }
-        };
         if s.description.trim().is_empty() || s.description.contains('\n') {
             return Err(self.error("description", "expected one non-empty line"));
         }
-        if let Some(d) = s.world.landmark_density {
-            pos("world.landmark_density", d)?;
+        self.validate_trajectory()?;
+        self.validate_rig()?;
+        self.validate_estimator()?;
+        for i in 0..s.faults.len() {
+            self.fault(i)?;
         }
-        // Trajectory.
-        let t = &s.trajectory;
-        pos("trajectory.duration_s", t.duration_s)?;
+        self.validate_expectations()?;
+        self.validate_resources()
+    }
+
+    fn validate_trajectory(&self) -> Result<(), SpecError> {
+        let c = Check { scenario: self };
+        let t = &self.spec.trajectory;
+        c.within(
+            "trajectory.duration_s",
+            t.duration_s,
+            1e-3,
+            limits::MAX_DURATION_S,
+            "one day at most",
+        )?;
         if let Some(ss) = t.static_start {
-            nonneg("trajectory.static_start.hold_s", ss.hold_s)?;
-            nonneg("trajectory.static_start.ramp_s", ss.ramp_s)?;
+            c.non_negative("trajectory.static_start.hold_s", ss.hold_s)?;
+            c.non_negative("trajectory.static_start.ramp_s", ss.ramp_s)?;
         }
         let given: Vec<&str> = [
             ("figure_eight", t.figure_eight.is_some()),
@@ -61,37 +154,87 @@ impl Scenario {
             ));
         }
         if let Some(f) = t.figure_eight {
-            pos("trajectory.figure_eight.period_s", f.period_s)?;
-            nonneg("trajectory.figure_eight.half_width_m", f.half_width_m)?;
-            nonneg("trajectory.figure_eight.half_height_m", f.half_height_m)?;
+            c.finite_all("trajectory.figure_eight.center", &f.center)?;
+            c.positive("trajectory.figure_eight.period_s", f.period_s)?;
+            c.non_negative("trajectory.figure_eight.half_width_m", f.half_width_m)?;
+            c.non_negative("trajectory.figure_eight.half_height_m", f.half_height_m)?;
         }
-        if let Some(c) = t.circle {
-            pos("trajectory.circle.period_s", c.period_s)?;
-            nonneg("trajectory.circle.radius_m", c.radius_m)?;
+        if let Some(o) = t.circle {
+            c.finite_all("trajectory.circle.center", &o.center)?;
+            c.positive("trajectory.circle.period_s", o.period_s)?;
+            c.non_negative("trajectory.circle.radius_m", o.radius_m)?;
+        }
+        if let Some(l) = t.lissajous {
+            let k = |n: &str| format!("trajectory.lissajous.{n}");
+            c.finite_all(&k("center"), &l.center)?;
+            c.finite_all(&k("amplitude_m"), &l.amplitude_m)?;
+            c.finite_all(&k("freq_hz"), &l.freq_hz)?;
+            c.finite_all(&k("phase_rad"), &l.phase_rad)?;
+            for (n, v) in [
+                ("yaw0_rad", l.yaw0_rad),
+                ("yaw_rate_rad_s", l.yaw_rate_rad_s),
+                ("yaw_amplitude_rad", l.yaw_amplitude_rad),
+                ("yaw_freq_hz", l.yaw_freq_hz),
+                ("tilt_amplitude_rad", l.tilt_amplitude_rad),
+                ("tilt_freq_hz", l.tilt_freq_hz),
+            ] {
+                c.finite(&k(n), v)?;
+            }
         }
         if let Some(w) = t.waypoints {
-            pos("trajectory.waypoints.spacing_s", w.spacing_s)?;
+            c.finite_all("trajectory.waypoints.min", &w.min)?;
+            c.finite_all("trajectory.waypoints.max", &w.max)?;
+            c.positive("trajectory.waypoints.spacing_s", w.spacing_s)?;
+            c.non_negative("trajectory.waypoints.max_yaw_step_rad", w.max_yaw_step_rad)?;
+            c.non_negative("trajectory.waypoints.max_tilt_rad", w.max_tilt_rad)?;
             if (0..3).any(|i| w.max[i] <= w.min[i]) {
                 return Err(self.error("trajectory.waypoints.max", "expected max > min per axis"));
             }
+            let knots = t.duration_s / w.spacing_s;
+            if knots > limits::MAX_SPLINE_KNOTS {
+                return Err(self.error(
+                    "trajectory.waypoints.spacing_s",
+                    format!(
+                        "{knots:.3e} waypoints (duration / spacing) exceed the limit of {:.0e}",
+                        limits::MAX_SPLINE_KNOTS
+                    ),
+                ));
+            }
         }
-        if let Some(r) = &t.replay
-            && let Some(k) = r.knot_spacing_s
-        {
-            pos("trajectory.replay.knot_spacing_s", k)?;
+        if let Some(r) = &t.replay {
+            self.validate_replay_keys(r)?;
         }
-        // Rig.
+        Ok(())
+    }
+
+    fn validate_rig(&self) -> Result<(), SpecError> {
+        let c = Check { scenario: self };
+        let s = &self.spec;
         let rig = &s.rig;
-        pos("rig.rate_hz", rig.rate_hz)?;
-        if (1e9 / rig.rate_hz - (1e9 / rig.rate_hz).round()).abs() > 1e-6 {
-            return Err(self.error(
-                "rig.rate_hz",
-                "expected a rate whose period is a whole number of nanoseconds",
-            ));
-        }
-        if !rig.time_offset_s.is_finite() {
-            return Err(self.error("rig.time_offset_s", "expected a finite number"));
-        }
+        let imu = &rig.imu;
+        c.within(
+            "rig.imu.rate_hz",
+            imu.rate_hz,
+            limits::MIN_IMU_RATE_HZ,
+            limits::MAX_IMU_RATE_HZ,
+            "a physical IMU",
+        )?;
+        c.whole_ns_period("rig.imu.rate_hz", imu.rate_hz)?;
+        c.within(
+            "rig.rate_hz",
+            rig.rate_hz,
+            1e-3,
+            limits::MAX_CAMERA_RATE_HZ.min(imu.rate_hz),
+            "a camera no faster than 1 kHz nor than the IMU",
+        )?;
+        c.whole_ns_period("rig.rate_hz", rig.rate_hz)?;
+        c.within(
+            "rig.time_offset_s",
+            rig.time_offset_s,
+            -limits::MAX_TIME_OFFSET_S,
+            limits::MAX_TIME_OFFSET_S,
+            "a clock offset",
+        )?;
         let allowed = match s.suite {
             SuiteSpec::MonoImu => 1..=2,
             SuiteSpec::StereoImu | SuiteSpec::Stereo => 2..=2,
@@ -111,54 +254,134 @@ impl Scenario {
                 ),
             ));
         }
+        let names: Vec<String> = (0..rig.cameras.len())
+            .map(|i| rig.cameras[i].name.clone().unwrap_or(format!("cam{i}")))
+            .collect();
         for i in 0..rig.cameras.len() {
+            let k = |n: &str| format!("rig.cameras[{i}].{n}");
+            let cam = &rig.cameras[i];
+            if names[..i].contains(&names[i]) {
+                return Err(self.error(
+                    &k("name"),
+                    format!(
+                        "two cameras are named `{}`: names select the noise streams and must differ",
+                        names[i]
+                    ),
+                ));
+            }
+            let [w, h] = cam.resolution;
+            if !(MIN_IMAGE_SIDE_PX..=MAX_IMAGE_SIDE_PX).contains(&w.min(h))
+                || w.max(h) > MAX_IMAGE_SIDE_PX
+            {
+                return Err(self.error(
+                    &k("resolution"),
+                    format!(
+                        "expected both sides in [{MIN_IMAGE_SIDE_PX}, {MAX_IMAGE_SIDE_PX}] px, got [{w}, {h}]"
+                    ),
+                ));
+            }
+            c.finite_all(&k("intrinsics"), &cam.intrinsics)?;
+            let [fx, fy, _, _] = cam.intrinsics;
+            // A focal length under a pixel puts the whole hemisphere into one pixel.
+            if fx.min(fy) < 1.0 {
+                return Err(self.error(
+                    &k("intrinsics"),
+                    format!("expected focal lengths fx, fy ≥ 1 px, got {fx}, {fy}"),
+                ));
+            }
+            c.finite_all(&k("distortion"), &cam.distortion)?;
             self.camera_model(i)?;
             self.extrinsic(i)?;
-            let c = &rig.cameras[i];
-            nonneg(
-                &format!("rig.cameras[{i}].pixel_sigma_px"),
-                c.pixel_sigma_px,
+            // Noise beyond a tenth of the image makes every feature a random pixel.
+            let side = f64::from(w.min(h));
+            c.within(
+                &k("pixel_sigma_px"),
+                cam.pixel_sigma_px,
+                0.0,
+                0.1 * side,
+                "at most a tenth of the smaller image side",
             )?;
-            if let Some(d) = c.min_depth_m {
-                pos(&format!("rig.cameras[{i}].min_depth_m"), d)?;
+            if let Some(d) = cam.min_depth_m {
+                c.positive(&k("min_depth_m"), d)?;
             }
-            if let Some(d) = c.max_depth_m {
-                pos(&format!("rig.cameras[{i}].max_depth_m"), d)?;
+            if let Some(d) = cam.max_depth_m {
+                c.positive(&k("max_depth_m"), d)?;
+            }
+            let (lo, hi) = (
+                cam.min_depth_m.unwrap_or(0.1),
+                cam.max_depth_m.unwrap_or(40.0),
+            );
+            if lo >= hi {
+                return Err(self.error(
+                    &k("max_depth_m"),
+                    format!("expected min_depth_m < max_depth_m, got {lo} m and {hi} m"),
+                ));
+            }
+            if let Some(n) = cam.max_features {
+                c.at_most(
+                    &k("max_features"),
+                    n,
+                    limits::MAX_FEATURES_PER_FRAME,
+                    "features per frame",
+                )?;
             }
         }
-        let imu = &rig.imu;
-        pos("rig.imu.rate_hz", imu.rate_hz)?;
-        if (1e9 / imu.rate_hz - (1e9 / imu.rate_hz).round()).abs() > 1e-6 {
-            return Err(self.error(
-                "rig.imu.rate_hz",
-                "expected a rate whose period is a whole number of nanoseconds",
-            ));
+        if matches!(s.suite, SuiteSpec::StereoImu | SuiteSpec::Stereo) {
+            let baseline = (self.extrinsic(0)?.p - self.extrinsic(1)?.p).norm();
+            if baseline < MIN_BASELINE_M {
+                return Err(self.error(
+                    "rig.cameras[1].T_b_c.translation_m",
+                    format!(
+                        "the {} suite needs a stereo baseline ≥ {MIN_BASELINE_M} m, got {baseline} m (both cameras at the same place)",
+                        s.suite.as_str()
+                    ),
+                ));
+            }
         }
-        pos(
-            "rig.imu.gyroscope_noise_density",
-            imu.gyroscope_noise_density,
+        for (key, v) in [
+            (
+                "rig.imu.gyroscope_noise_density",
+                imu.gyroscope_noise_density,
+            ),
+            (
+                "rig.imu.accelerometer_noise_density",
+                imu.accelerometer_noise_density,
+            ),
+            ("rig.imu.gyroscope_random_walk", imu.gyroscope_random_walk),
+            (
+                "rig.imu.accelerometer_random_walk",
+                imu.accelerometer_random_walk,
+            ),
+        ] {
+            c.positive(key, v)?;
+        }
+        c.finite_all(
+            "rig.imu.initial_gyro_bias_rad_s",
+            &imu.initial_gyro_bias_rad_s,
         )?;
-        pos(
-            "rig.imu.accelerometer_noise_density",
-            imu.accelerometer_noise_density,
-        )?;
-        pos("rig.imu.gyroscope_random_walk", imu.gyroscope_random_walk)?;
-        pos(
-            "rig.imu.accelerometer_random_walk",
-            imu.accelerometer_random_walk,
+        c.finite_all(
+            "rig.imu.initial_accel_bias_m_s2",
+            &imu.initial_accel_bias_m_s2,
         )?;
         if let Some(r) = imu.gyro_range_rad_s {
-            pos("rig.imu.gyro_range_rad_s", r)?;
+            c.positive("rig.imu.gyro_range_rad_s", r)?;
         }
         if let Some(r) = imu.accel_range_m_s2 {
-            pos("rig.imu.accel_range_m_s2", r)?;
+            c.positive("rig.imu.accel_range_m_s2", r)?;
         }
-        // Estimator.
-        let e = &s.estimator;
+        Ok(())
+    }
+
+    fn validate_estimator(&self) -> Result<(), SpecError> {
+        let c = Check { scenario: self };
+        let e = &self.spec.estimator;
         if let Some(w) = e.window_size
-            && w < 3
+            && !(3..=MAX_WINDOW_SIZE).contains(&w)
         {
-            return Err(self.error("estimator.window_size", "expected ≥ 3"));
+            return Err(self.error(
+                "estimator.window_size",
+                format!("expected 3 to {MAX_WINDOW_SIZE} keyframes, got {w}"),
+            ));
         }
         if let Some(n) = e.init_frames
             && n < 4
@@ -166,12 +389,43 @@ impl Scenario {
             return Err(self.error("estimator.init_frames", "expected ≥ 4"));
         }
         if let Some(n) = e.solver_iterations
+            && !(1..=1000).contains(&n)
+        {
+            return Err(self.error("estimator.solver_iterations", "expected 1 to 1000"));
+        }
+        if let Some(n) = e.min_track_frames
             && n < 1
         {
-            return Err(self.error("estimator.solver_iterations", "expected ≥ 1"));
+            return Err(self.error("estimator.min_track_frames", "expected ≥ 1"));
+        }
+        if let Some(n) = e.max_persistent_points {
+            c.at_most(
+                "estimator.max_persistent_points",
+                n,
+                1000,
+                "points in the dense window system",
+            )?;
         }
         if let Some(p) = e.pixel_sigma_px {
-            pos("estimator.pixel_sigma_px", p)?;
+            c.positive("estimator.pixel_sigma_px", p)?;
+        }
+        if let Some(v) = e.solver_function_tolerance {
+            c.within(
+                "estimator.solver_function_tolerance",
+                v,
+                0.0,
+                1.0,
+                "a relative cost decrease",
+            )?;
+        }
+        if let Some(v) = e.td_s {
+            c.within(
+                "estimator.td_s",
+                v,
+                -limits::MAX_TIME_OFFSET_S,
+                limits::MAX_TIME_OFFSET_S,
+                "a clock offset",
+            )?;
         }
         for (key, v) in [
             ("estimator.keyframe_parallax_px", e.keyframe_parallax_px),
@@ -182,21 +436,95 @@ impl Scenario {
             ),
         ] {
             if let Some(v) = v {
-                pos(key, v)?;
+                c.positive(key, v)?;
             }
         }
-        // Faults.
-        for i in 0..s.faults.len() {
-            self.fault(i)?;
-        }
-        // Expectations.
-        for (name, b) in s.expectations.bounds() {
+        Ok(())
+    }
+
+    /// The estimator's own checks as a backstop (after the camera models are built): whatever
+    /// it refuses is refused here, with its field named.
+    pub(super) fn validate_estimator_config(&self) -> Result<(), SpecError> {
+        let cfg = self.estimator_config()?;
+        cfg.validate()
+            .map_err(|m| self.error("estimator", format!("unusable estimator settings: {m}")))
+    }
+
+    fn validate_expectations(&self) -> Result<(), SpecError> {
+        let c = Check { scenario: self };
+        for (name, b) in self.spec.expectations.bounds() {
+            let key = format!("expectations.{name}");
             if b.min.is_none() && b.max.is_none() {
-                return Err(self.error(
-                    &format!("expectations.{name}"),
-                    "expected `min` and/or `max`",
-                ));
+                return Err(self.error(&key, "expected `min` and/or `max`"));
             }
+            if let Some(v) = b.min {
+                c.finite(&format!("{key}.min"), v)?;
+            }
+            if let Some(v) = b.max {
+                c.finite(&format!("{key}.max"), v)?;
+            }
+            if let (Some(lo), Some(hi)) = (b.min, b.max)
+                && lo > hi
+            {
+                return Err(self.error(&key, format!("expected min ≤ max, got {lo} > {hi}")));
+            }
+        }
+        Ok(())
+    }
+
+    /// Samples, frames and landmarks the run will produce, bounded before anything is
+    /// allocated (the duration may still be shortened by `--duration`).
+    fn validate_resources(&self) -> Result<(), SpecError> {
+        let s = &self.spec;
+        let d = s.trajectory.duration_s;
+        let samples = d * s.rig.imu.rate_hz;
+        if samples > limits::MAX_IMU_SAMPLES {
+            return Err(self.error(
+                "rig.imu.rate_hz",
+                format!(
+                    "{samples:.3e} IMU samples (duration × rate) exceed the limit of {:.0e}: shorten the run or lower the rate",
+                    limits::MAX_IMU_SAMPLES
+                ),
+            ));
+        }
+        let frames = d * s.rig.rate_hz * s.rig.cameras.len() as f64;
+        if frames > limits::MAX_CAMERA_FRAMES {
+            return Err(self.error(
+                "rig.rate_hz",
+                format!(
+                    "{frames:.3e} camera frames (duration × rate × cameras) exceed the limit of {:.0e}",
+                    limits::MAX_CAMERA_FRAMES
+                ),
+            ));
+        }
+        if let Some(v) = s.world.landmark_density {
+            Check { scenario: self }.non_negative("world.landmark_density", v)?;
+        }
+        let scene = self.scene_config();
+        let landmarks = scene.expected_landmarks();
+        if landmarks > limits::MAX_LANDMARKS {
+            return Err(self.error(
+                "world.landmark_density",
+                format!(
+                    "the {:?} scene would hold {landmarks:.3e} landmarks (density × surface area), more than the limit of {:.0e}",
+                    scene.preset,
+                    limits::MAX_LANDMARKS
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The replay keys that can be checked without reading the file.
+    fn validate_replay_keys(&self, r: &super::ReplaySpec) -> Result<(), SpecError> {
+        if let Some(k) = r.knot_spacing_s {
+            Check { scenario: self }.within(
+                "trajectory.replay.knot_spacing_s",
+                k,
+                1e-3,
+                1.0,
+                "knots resolve the motion, they do not replace it",
+            )?;
         }
         Ok(())
     }

@@ -216,9 +216,27 @@ impl PoseSpline {
     /// Least-squares fit to pose samples with knots every `dt` seconds; time is shifted so the
     /// first sample is at `t = 0`. Quaternion signs are made continuous before fitting.
     pub fn fit(samples: &[PoseSample], dt: f64) -> Result<Self, TrajectoryError> {
+        if samples.len() < 4 {
+            return Err(TrajectoryError::Unusable(format!(
+                "{} samples, need at least 4",
+                samples.len()
+            )));
+        }
         let t_first = samples[0].t;
         let span = samples[samples.len() - 1].t - t_first;
-        let n = (span / dt).ceil() as usize + 3;
+        if !(dt.is_finite() && dt > 0.0 && span.is_finite() && span > 0.0) {
+            return Err(TrajectoryError::Unusable(format!(
+                "knot spacing {dt} s over a span of {span} s: both must be finite and > 0"
+            )));
+        }
+        let knots = span / dt;
+        if knots > crate::validate::limits::MAX_SPLINE_KNOTS {
+            return Err(TrajectoryError::Unusable(format!(
+                "{knots:.3e} spline knots (span {span:.6e} s / knot spacing {dt} s) exceed the limit of {:.0e}: are the timestamps in seconds?",
+                crate::validate::limits::MAX_SPLINE_KNOTS
+            )));
+        }
+        let n = knots.ceil() as usize + 3;
         let mut a = Banded::<3>::new(n);
         let mut rhs = vec![[0.0; DIM]; n];
         let mut prev = Vector4::new(1.0, 0.0, 0.0, 0.0);
