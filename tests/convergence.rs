@@ -98,7 +98,7 @@ fn biases_converge_to_the_simulated_biases() {
         .frames
         .iter()
         .rev()
-        .find(|f| f.estimate.status == estimator::estimator::Status::Tracking)
+        .find(|f| f.estimate.status.initialized())
         .expect("tracking frames");
     let bg_err = (last.estimate.bg - last.truth.gyro_bias).norm();
     let ba_err = (last.estimate.ba - last.truth.accel_bias).norm();

@@ -61,7 +61,7 @@ fn run(world: &mut World, suite: Suite, seconds: f64, record: bool) -> (Estimato
 fn ate(estimates: &[Estimate]) -> f64 {
     let tracked: Vec<&Estimate> = estimates
         .iter()
-        .filter(|e| e.status == Status::Tracking)
+        .filter(|e| e.status.initialized())
         .collect();
     let est: Vec<Vector3<f64>> = tracked.iter().map(|e| e.T_w_b.p).collect();
     let gt: Vec<Vector3<f64>> = tracked.iter().map(|e| Analytic::pose(e.t_ns).p).collect();
@@ -79,10 +79,7 @@ fn ate(estimates: &[Estimate]) -> f64 {
 fn stereo_imu_converges_and_estimates_biases() {
     let mut world = World::new(1, 3000, 1.0);
     let (_, estimates) = run(&mut world, Suite::StereoImu, 20.0, false);
-    let tracking = estimates
-        .iter()
-        .filter(|e| e.status == Status::Tracking)
-        .count();
+    let tracking = estimates.iter().filter(|e| e.status.initialized()).count();
     assert!(tracking > 350, "only {tracking} tracking frames");
     let ate = ate(&estimates);
     let last = estimates.last().unwrap();
@@ -91,7 +88,7 @@ fn stereo_imu_converges_and_estimates_biases() {
     let median = |f: &dyn Fn(&Estimate) -> f64| {
         let mut v: Vec<f64> = estimates
             .iter()
-            .filter(|e| e.status == Status::Tracking)
+            .filter(|e| e.status.initialized())
             .map(f)
             .collect();
         v.sort_by(f64::total_cmp);
@@ -247,7 +244,7 @@ fn covariance_of_the_newest_state_is_positive_definite_and_consistent_for_the_bi
             a.T_w_b, b.T_w_b,
             "computing covariances changed an estimate"
         );
-        if a.status != Status::Tracking || a.t_ns < 2_000_000_000 {
+        if !a.status.initialized() || a.t_ns < 2_000_000_000 {
             continue;
         }
         let cov = a.covariance.as_ref().expect("covariance requested");

@@ -48,7 +48,7 @@ pub fn batch_report(run: &RunOutput, alignment: Alignment) -> Option<BatchReport
     let causal: BTreeMap<i64, (Pose, Pose)> = run
         .frames
         .iter()
-        .filter(|f| f.estimate.status == estimator::estimator::Status::Tracking)
+        .filter(|f| f.estimate.status.initialized())
         .map(|f| (f.estimate.t_ns, (f.estimate.T_w_b, f.truth.pose)))
         .collect();
     let window: BTreeMap<i64, Pose> = reference.finalized.iter().copied().collect();

@@ -8,6 +8,7 @@
 //! - [`run`] — simulated stream → estimator, collecting estimates, ground truth, timings, events;
 //! - [`report`] — evaluation, `report.json`, TUM files, the human summary;
 //! - [`plot`] — `trajectory.png`;
+//! - [`replay_report`] — what the checks of a replayed recording found and did;
 //! - [`export`] — a scenario's measurements as an EuRoC ASL folder and `features.csv`;
 //! - [`images`], [`tracks_image`] — `vio render`: images, depth, and the front end's tracks;
 //! - [`selfcheck`] — a quick end-to-end check of the estimator's mathematics.
@@ -22,6 +23,7 @@ pub mod metrics;
 pub mod nees;
 pub mod plot;
 pub mod recovery;
+pub mod replay_report;
 pub mod report;
 pub mod run;
 pub mod selfcheck;

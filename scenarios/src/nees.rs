@@ -18,7 +18,6 @@ use std::collections::BTreeMap;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use estimator::estimator::Status;
 use estimator::geometry::{skew, so3_log};
 use nalgebra::{DMatrix, Matrix3, SMatrix, Vector3};
 use serde::Serialize;
@@ -150,7 +149,7 @@ fn run_nees_series(out: &RunOutput) -> Vec<(i64, FrameNees)> {
     let frames: Vec<_> = out
         .frames
         .iter()
-        .filter(|f| f.estimate.status == Status::Tracking)
+        .filter(|f| f.estimate.status.initialized())
         .collect();
     let gt: Vec<_> = frames.iter().map(|f| f.truth.pose).collect();
     let est: Vec<_> = frames.iter().map(|f| f.estimate.T_w_b).collect();

@@ -1,8 +1,9 @@
 //! Reports: evaluation of a run against ground truth, `report.json`, the TUM files, the
 //! trajectory plot and the human summary `vio run` prints.
 //!
-//! Evaluation uses the estimates in tracking state only (during initialization the estimate is
-//! not yet in a gravity-aligned world frame), each paired with the ground truth at its own time,
+//! Evaluation uses every estimate after initialization, tracking or degraded (during
+//! initialization the estimate is not yet in a gravity-aligned world frame; a degraded frame,
+//! carried by the IMU without visual constraints, is part of the run's error), each paired with the ground truth at its own time,
 //! and [`crate::metrics`] (evo's definitions):
 //! - Alignment: stereo+IMU estimates are aligned to ground truth by position + yaw
 //!   ([`Alignment::PosYaw`], the 4 unobservable degrees of freedom); vision-only estimates by a
@@ -27,7 +28,7 @@
 //! to round-off: the TUM files hold the exact `f64` values.
 //!
 //! Files written to the output folder:
-//! - `estimate.tum`: the tracking-state estimates `T_w_b`, unaligned, in the estimator's world;
+//! - `estimate.tum`: the estimates after initialization `T_w_b`, unaligned, in the estimator's world;
 //! - `groundtruth.tum`: ground truth at every processed frame's time (a superset of the estimate
 //!   stamps, so `evo_ape tum groundtruth.tum estimate.tum` associates exactly);
 //! - `report.json`: the fields below ([`Report`]);
@@ -37,6 +38,8 @@
 //! Both TUM files are written by [`crate::dataset::write_tum`].
 
 use std::fmt::Write as _;
+
+use crate::replay_report::ReplayReport;
 use std::path::Path;
 
 use estimator::estimator::Status;
@@ -76,15 +79,20 @@ impl Evaluation {
 pub struct Evaluation {
     /// [`Alignment::PosYaw`] (stereo+IMU) or [`Alignment::Se3`] (stereo-only).
     pub alignment: Alignment,
-    /// Indices (into `RunOutput::frames`) of the evaluated frames (tracking state).
+    /// Indices (into `RunOutput::frames`) of the evaluated frames (after initialization).
     pub evaluated: Vec<usize>,
     /// ATE over the evaluated frames, with the alignment's transform and per-frame errors (in
     /// `evaluated` order); why not, when it cannot be computed.
     pub ate: Result<AteResult, MetricsError>,
     /// RPE over [`RPE_DELTA_M`] of ground-truth path; why not, when no pair qualifies.
     pub rpe: Result<RpeResult, MetricsError>,
-    /// Fraction of processed frames in tracking state.
+    /// Frames in tracking state.
+    pub tracking_frames: usize,
+    /// Fraction of processed frames in tracking state (visual constraints on the newest
+    /// frame; [`Status::Tracking`]).
     pub tracking_fraction: f64,
+    /// Frames initialized but without enough visual constraints ([`Status::Degraded`]).
+    pub degraded_frames: usize,
     /// Final gyroscope bias error (rad/s), with an IMU.
     pub gyro_bias_error_rad_s: Option<f64>,
     /// Final accelerometer bias error (m/s²), with an IMU.
@@ -127,9 +135,14 @@ pub fn evaluate(run: &RunOutput, suite: SuiteSpec) -> Evaluation {
         .frames
         .iter()
         .enumerate()
-        .filter(|(_, f)| f.estimate.status == Status::Tracking)
+        .filter(|(_, f)| f.estimate.status.initialized())
         .map(|(i, _)| i)
         .collect();
+    let tracking_frames = run
+        .frames
+        .iter()
+        .filter(|f| f.estimate.status == Status::Tracking)
+        .count();
     let est: Vec<Pose> = evaluated
         .iter()
         .map(|&i| run.frames[i].estimate.T_w_b)
@@ -154,7 +167,13 @@ pub fn evaluate(run: &RunOutput, suite: SuiteSpec) -> Evaluation {
     };
     Evaluation {
         alignment,
-        tracking_fraction: evaluated.len() as f64 / run.frames.len().max(1) as f64,
+        tracking_frames,
+        tracking_fraction: tracking_frames as f64 / run.frames.len().max(1) as f64,
+        degraded_frames: run
+            .frames
+            .iter()
+            .filter(|f| f.estimate.status == Status::Degraded)
+            .count(),
         evaluated,
         ate,
         rpe,
@@ -263,8 +282,12 @@ pub struct Report {
     pub seed: u64,
     /// Processed frames (estimates).
     pub frames: usize,
-    /// Frames in tracking state (evaluated).
+    /// Frames in tracking state: initialized, with at least
+    /// `EstimatorConfig::min_tracking_observations` landmark observations in the newest frame.
     pub tracking_frames: usize,
+    /// Frames initialized but degraded: too few visual constraints (IMU propagation, a dead
+    /// camera, no features); evaluated with the tracking frames.
+    pub degraded_frames: usize,
     /// `tracking_frames / frames`.
     pub tracking_fraction: f64,
     /// Simulated duration (s).
@@ -308,6 +331,8 @@ pub struct Report {
     /// The window against the full batch over its keyframes (`vio run --batch-reference`;
     /// `null` otherwise).
     pub batch_reference: Option<BatchReport>,
+    /// What the checks of a replayed recording found and did (`null` for generated motions).
+    pub replay: Option<ReplayReport>,
     /// Checked expectations.
     pub expectations: Vec<ExpectationResult>,
     /// True when every expectation holds.
@@ -418,7 +443,8 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
         suite: spec.suite.as_str(),
         seed: run.seed,
         frames: frames.len(),
-        tracking_frames: eval.evaluated.len(),
+        tracking_frames: eval.tracking_frames,
+        degraded_frames: eval.degraded_frames,
         tracking_fraction: eval.tracking_fraction,
         duration_s: run.duration_s,
         alignment: eval.alignment_name(),
@@ -443,6 +469,7 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
         events,
         faults,
         batch_reference: batch::batch_report(run, eval.alignment),
+        replay: scenario.recording_report().map(ReplayReport::from),
         expectations: Vec::new(),
         passed: true,
         vio_version: env!("CARGO_PKG_VERSION"),
@@ -492,10 +519,11 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
     );
     let _ = writeln!(
         s,
-        "frames        {} processed, {} tracking ({:.1} %), {:.1} s simulated",
+        "frames        {} processed, {} tracking ({:.1} %), {} degraded, {:.1} s simulated",
         r.frames,
         r.tracking_frames,
         100.0 * r.tracking_fraction,
+        r.degraded_frames,
         r.duration_s
     );
     let _ = writeln!(
@@ -518,6 +546,26 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
             "final biases  gyro error {}, accel error {}",
             opt(r.gyro_bias_error_rad_s, 5, " rad/s"),
             opt(r.accel_bias_error_m_s2, 4, " m/s²")
+        );
+    }
+    if let Some(p) = &r.replay {
+        let _ = writeln!(
+            s,
+            "replay        {} samples, stamps in {}{}; {} glitches dropped (largest {:.3} m / {:.1}°), {} gaps bridged (longest {:.2} s); spline within {:.4} m / {:.3}° of the file",
+            p.samples,
+            p.time_unit,
+            if p.time_unit_detected {
+                " (detected)"
+            } else {
+                ""
+            },
+            p.glitches_dropped,
+            p.largest_glitch_m,
+            p.largest_glitch_deg,
+            p.gaps_bridged,
+            p.longest_gap_s,
+            p.fit_max_m,
+            p.fit_max_deg
         );
     }
     let t = &r.timing_ms;
@@ -694,6 +742,19 @@ pub fn write_outputs(
         .map(|f| StampedPose::new(f.estimate.t_ns, f.truth.pose))
         .collect();
     dataset::write_tum(dir.join("estimate.tum"), &est).map_err(|e| e.to_string())?;
+    // A replay without a static start runs on the recording's clock shifted to start at 0:
+    // the same estimates on the source's clock, so `vio eval --gt SOURCE.tum` associates.
+    if let Some(t0) = scenario.recording_start_s()
+        && scenario.spec.trajectory.static_start.is_none()
+    {
+        let shift_ns = (t0 * 1e9).round() as i64;
+        let source: Vec<StampedPose> = est
+            .iter()
+            .map(|s| StampedPose::new(s.t_ns + shift_ns, s.pose))
+            .collect();
+        dataset::write_tum(dir.join("estimate_source_time.tum"), &source)
+            .map_err(|e| e.to_string())?;
+    }
     dataset::write_tum(dir.join("groundtruth.tum"), &gt).map_err(|e| e.to_string())?;
     let write = |name: &str, text: &str| {
         let p = dir.join(name);

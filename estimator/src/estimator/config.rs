@@ -180,6 +180,11 @@ pub struct EstimatorConfig {
     pub imu_range: Option<(f64, f64)>,
     /// Failure detection: the limits of a plausible solved state; past one the window is reset.
     pub health: HealthLimits,
+    /// Fewest landmark observations in the newest frame's solve for the estimate to count as
+    /// tracking ([`super::Status::Tracking`]); below it the frame is reported
+    /// [`super::Status::Degraded`]. Ten: well above the three points a pose needs, so a
+    /// frame that sees only a handful of features is not called tracked.
+    pub min_tracking_observations: usize,
 }
 
 impl EstimatorConfig {
@@ -232,6 +237,7 @@ impl EstimatorConfig {
             imu_max_gap_s: 0.05,
             imu_range: None,
             health: HealthLimits::default(),
+            min_tracking_observations: 10,
         }
     }
 }

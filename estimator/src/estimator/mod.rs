@@ -45,13 +45,26 @@ use crate::geometry::Pose;
 use crate::imu::{ImuError, ImuSample};
 use crate::problem::{HuberLoss, LossFunction, SolverSummary, solve};
 
-/// Where the estimator is in its life cycle.
+/// Where the estimator is in its life cycle, and what carries the newest estimate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Status {
     /// Collecting frames for initialization (the estimate is visual-only or a prediction).
     Initializing,
-    /// Full sliding-window estimation.
+    /// Full sliding-window estimation with visual constraints on the newest frame (at least
+    /// `EstimatorConfig::min_tracking_observations` landmark observations in its solve).
     Tracking,
+    /// Initialized, but the newest frame has too few landmark observations in the solve (no
+    /// features, a dead camera, nothing triangulated): its state is carried by the IMU and the
+    /// window's older frames, not by what it sees.
+    Degraded,
+}
+
+impl Status {
+    /// Past initialization (tracking or degraded): the estimate is in the estimator's world
+    /// frame and is evaluated against ground truth.
+    pub fn initialized(self) -> bool {
+        !matches!(self, Status::Initializing)
+    }
 }
 
 /// The state estimate for one processed frame.
@@ -78,6 +91,8 @@ pub struct Estimate {
     pub keyframe: bool,
     /// Landmarks used in the solve.
     pub landmarks: usize,
+    /// Observations of those landmarks in the newest frame (what vision contributes to it).
+    pub newest_observations: usize,
     /// Solver statistics, when a solve ran.
     pub solver: Option<SolverSummary>,
     /// Back-end wall time for this frame (measured for reports only), seconds.
@@ -149,6 +164,7 @@ pub struct Estimator {
 /// What one window solve produced, for the frame's [`Estimate`].
 struct Solved {
     landmarks: usize,
+    newest_observations: usize,
     summary: SolverSummary,
     marginalization_s: f64,
     covariance: Option<DMatrix<f64>>,
@@ -431,8 +447,7 @@ impl Estimator {
 
         // 3. Keyframe decision about the second-newest frame.
         let n = self.window.frames.len();
-        let mono_waiting =
-            self.config.suite == Suite::MonoImu && self.status == Status::Initializing;
+        let mono_waiting = self.mono_init_camera().is_some();
         let keyframe = if mono_waiting && n >= 3 {
             // A monocular window waiting for initialization spreads its keyframes evenly over
             // `mono_init_window_s`: the alignment needs the acceleration to change within the
@@ -466,7 +481,8 @@ impl Estimator {
             self.pending_bias_prior = false;
             self.window.prior = init::initial_prior(&self.window.frames[0], &self.config);
         }
-        let mono = self.config.suite == Suite::MonoImu;
+        let mono_cam = self.mono_init_camera();
+        let mono = mono_cam.is_some();
         // The prediction is comparable with the solution only if the world did not change
         // (initialization rotates and, for mono, rescales it).
         let was_tracking = self.status == Status::Tracking;
@@ -479,8 +495,8 @@ impl Estimator {
             && self.window.frames.len() >= self.config.init_frames
             && (keyframe || !mono)
         {
-            let initialized = if mono {
-                init::initialize_mono_inertial(&mut self.window, &self.config, &self.focal, 0)
+            let initialized = if let Some(cam) = mono_cam {
+                init::initialize_mono_inertial(&mut self.window, &self.config, &self.focal, cam)
                     .is_ok()
             } else {
                 init::initialize_stereo_inertial(&mut self.window, &self.config)
@@ -537,6 +553,7 @@ impl Estimator {
             None
         };
         let landmarks = built.landmarks.len() + built.points.len();
+        let newest_observations = self.window.newest_observations(&built);
         // The newest frame's state and (not yet merged) IMU interval, as solved.
         let newest = self.window.frames.back().expect("just pushed").clone();
         let window_full = self.window.frames.len() > self.config.window_size;
@@ -587,11 +604,26 @@ impl Estimator {
         }
         let solved = Solved {
             landmarks,
+            newest_observations,
             summary,
             marginalization_s,
             covariance,
         };
         self.estimate(&newest, keyframe, start, Some(solved))
+    }
+
+    /// The camera a monocular initialization uses: the mono+IMU suite's camera, or the one
+    /// camera still delivering when a stereo+IMU suite lost the other before it initialized
+    /// (stereo initialization needs both). `None` once initialized.
+    fn mono_init_camera(&self) -> Option<usize> {
+        if self.status != Status::Initializing {
+            return None;
+        }
+        match (self.config.suite, self.live_suite()) {
+            (Suite::MonoImu, _) => Some(0),
+            (Suite::StereoImu, LiveSuite::MonoImu { cam }) => Some(cam),
+            _ => None,
+        }
     }
 
     /// The estimate of the newest frame after `process` (`solved`: what the window solve and
@@ -603,6 +635,7 @@ impl Estimator {
         start: Instant,
         solved: Option<Solved>,
     ) -> Estimate {
+        let newest_observations = solved.as_ref().map_or(0, |s| s.newest_observations);
         Estimate {
             t_ns: newest.t_ns,
             T_w_b: newest.pose,
@@ -610,10 +643,16 @@ impl Estimator {
             ba: newest.ba,
             bg: newest.bg,
             td_s: self.window.td,
-            status: self.status,
+            status: match self.status {
+                Status::Tracking if newest_observations < self.config.min_tracking_observations => {
+                    Status::Degraded
+                }
+                s => s,
+            },
             live: self.live_suite(),
             keyframe,
             landmarks: solved.as_ref().map_or(0, |s| s.landmarks),
+            newest_observations,
             solver: solved.as_ref().map(|s| s.summary),
             backend_s: start.elapsed().as_secs_f64(),
             solve_s: solved

@@ -67,6 +67,23 @@ pub(super) struct Built {
     pub prior: Option<ResidualId>,
 }
 
+impl Window {
+    /// Observations of the solved landmarks and points in the newest frame.
+    pub fn newest_observations(&self, built: &Built) -> usize {
+        let Some(seq) = self.frames.back().map(|f| f.seq) else {
+            return 0;
+        };
+        let tracks = built
+            .landmarks
+            .iter()
+            .filter_map(|(id, _)| self.features.tracks.get(id))
+            .filter(|t| t.obs.last().is_some_and(|o| o.seq == seq))
+            .count();
+        let points = built.point_obs.iter().filter(|(_, _, s)| *s == seq).count();
+        tracks + points
+    }
+}
+
 impl Built {
     /// The problem block of a window state, if it is in the problem.
     pub fn block(&self, r: BlockRef) -> Option<BlockId> {

@@ -14,6 +14,7 @@ use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 use sim::camera::{CameraConfig as SimCamera, RigConfig, TrackIds};
 use sim::faults::Fault;
 use sim::imu::{ImuConfig, ImuWindow};
+use sim::motion::recording::{RecordingOptions, RecordingReport, TimeUnit, load_recording};
 use sim::motion::{Lissajous, RandomWaypoints, Replay};
 use sim::scene::{SceneConfig, ScenePreset};
 use sim::{StaticStartConfig, TrajectoryConfig, WorldConfig};
@@ -372,20 +373,45 @@ impl Scenario {
                 duration_s: t.duration_s,
             }));
         }
-        let r = t
-            .replay
+        let r = self
+            .recording
             .as_ref()
             .ok_or_else(|| self.error("trajectory", "no motion given"))?;
+        Ok(TrajectoryConfig::Reference(Arc::new(r.0.clone())))
+    }
+
+    /// Reads, checks and fits a replayed recording (`trajectory.replay`); `None` for generated
+    /// motions.
+    pub(super) fn load_recording(&self) -> Result<Option<(Replay, RecordingReport)>, SpecError> {
+        let Some(r) = &self.spec.trajectory.replay else {
+            return Ok(None);
+        };
         let key = "trajectory.replay.file";
         let text = self.data_file(key, &r.file)?;
-        let samples = sim::motion::spline::parse_trajectory(&text)
-            .map_err(|e| self.error(key, format!("in {}: {e}", r.file)))?;
-        let replay = Replay::from_samples(
-            samples,
-            r.knot_spacing_s.unwrap_or(Replay::DEFAULT_KNOT_SPACING_S),
-        )
-        .map_err(|e| self.error(key, format!("in {}: {e}", r.file)))?;
-        Ok(TrajectoryConfig::Reference(Arc::new(replay)))
+        let d = RecordingOptions::default();
+        let options = RecordingOptions {
+            time_unit: r.time_unit.map(|u| match u {
+                TimeUnitSpec::Seconds => TimeUnit::Seconds,
+                TimeUnitSpec::Milliseconds => TimeUnit::Milliseconds,
+                TimeUnitSpec::Microseconds => TimeUnit::Microseconds,
+                TimeUnitSpec::Nanoseconds => TimeUnit::Nanoseconds,
+            }),
+            repair: r.repair,
+            knot_spacing_s: r.knot_spacing_s.unwrap_or(d.knot_spacing_s),
+            fit_tolerance_m: r.fit_tolerance_m.unwrap_or(d.fit_tolerance_m),
+            fit_tolerance_rad: r
+                .fit_tolerance_deg
+                .map_or(d.fit_tolerance_rad, f64::to_radians),
+            placement: r.placement.map(|p| {
+                (
+                    UnitQuaternion::from_axis_angle(&Vector3::z_axis(), p.yaw_deg.to_radians()),
+                    Vector3::from(p.translation_m),
+                )
+            }),
+        };
+        load_recording(&text, &options)
+            .map(Some)
+            .map_err(|e| self.error(key, format!("in {}: {e}", r.file)))
     }
 
     /// Reads a data file named in the scenario: relative to the scenario file, or embedded for
@@ -398,15 +424,19 @@ impl Scenario {
             Origin::File(p) => {
                 let base = p.parent().unwrap_or(Path::new("."));
                 let path = base.join(rel);
-                std::fs::read_to_string(&path).map_err(|e| {
-                    self.error(
-                        key,
-                        format!(
-                            "cannot read {} (relative to the scenario file): {e}",
-                            path.display()
-                        ),
-                    )
-                })
+                // Bytes that are not UTF-8 (a Latin-1 comment) are replaced, not refused: the
+                // data files' numbers are ASCII.
+                std::fs::read(&path)
+                    .map(|b| String::from_utf8_lossy(&b).into_owned())
+                    .map_err(|e| {
+                        self.error(
+                            key,
+                            format!(
+                                "cannot read {} (relative to the scenario file): {e}",
+                                path.display()
+                            ),
+                        )
+                    })
             }
         }
     }

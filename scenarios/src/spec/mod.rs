@@ -63,6 +63,8 @@ use std::sync::Arc;
 
 use estimator::camera::CameraModel;
 use estimator::frontend::TrackerConfig;
+use sim::motion::Replay;
+use sim::motion::recording::RecordingReport;
 use sim::render::{GainStep, MotionBlur, Photometric, RenderBackend, RenderConfig, RenderError};
 
 use crate::catalog;
@@ -99,6 +101,8 @@ pub struct Scenario {
     text: String,
     /// The camera models, built once: the simulator and the estimator share these.
     models: Vec<Arc<dyn CameraModel>>,
+    /// A replayed recording, read, checked and fitted once (`trajectory.replay`).
+    recording: Option<Arc<(Replay, RecordingReport)>>,
 }
 
 impl Scenario {
@@ -169,6 +173,7 @@ impl Scenario {
             spec,
             text: text.into(),
             models: Vec::new(),
+            recording: None,
         };
         s.validate()?;
         let models = (0..s.spec.rig.cameras.len())
@@ -176,7 +181,8 @@ impl Scenario {
             .collect::<Result<_, _>>()?;
         let s = Self { models, ..s };
         s.validate_estimator_config()?;
-        Ok(s)
+        let recording = s.load_recording()?.map(Arc::new);
+        Ok(Self { recording, ..s })
     }
 
     /// The renderer configuration of a rendered scenario (`None` for feature-level ones).
@@ -246,6 +252,17 @@ impl Scenario {
             .config(seed)
             .map_err(|(field, why)| self.error(&format!("camera.tracker.{field}"), why))?;
         Ok((c.mode == CameraMode::Rendered && c.frontend == FrontendSpec::Klt).then_some(cfg))
+    }
+
+    /// What the checks of a replayed recording found and did (`None` for generated motions).
+    pub fn recording_report(&self) -> Option<&RecordingReport> {
+        self.recording.as_ref().map(|r| &r.1)
+    }
+
+    /// File time (s) of a replayed recording's first sample: simulation time 0 (`None` for
+    /// generated motions).
+    pub fn recording_start_s(&self) -> Option<f64> {
+        self.recording.as_ref().map(|r| r.0.t_file0)
     }
 
     /// The name errors use for the file.

@@ -353,6 +353,49 @@ pub struct ReplaySpec {
     pub file: String,
     /// Spline knot spacing (s); default 0.04.
     pub knot_spacing_s: Option<f64>,
+    /// Unit of the file's stamps: `"s"`, `"ms"`, `"us"` or `"ns"`; default: the format's (TUM
+    /// seconds, ASL nanoseconds) when the stamp spacing fits it, else detected.
+    pub time_unit: Option<TimeUnitSpec>,
+    /// Drop glitch samples and bridge gaps (up to 2 s) instead of refusing the file; the
+    /// summary and `report.json` say what was done.
+    #[serde(default)]
+    pub repair: bool,
+    /// Largest departure of the fitted spline from a recorded sample (m); default 0.01.
+    pub fit_tolerance_m: Option<f64>,
+    /// Largest attitude departure of the fitted spline from a recorded sample (deg); default 1.
+    pub fit_tolerance_deg: Option<f64>,
+    /// Places the recording in the scene: rotation about the world z axis (deg), then
+    /// translation (m), applied to every sample.
+    pub placement: Option<PlacementSpec>,
+}
+
+/// `trajectory.replay.placement`: where a recording sits in the scene.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlacementSpec {
+    /// Translation (m) added after the rotation.
+    #[serde(default, deserialize_with = "exact::array")]
+    pub translation_m: [f64; 3],
+    /// Rotation about the world z axis (deg).
+    #[serde(default)]
+    pub yaw_deg: f64,
+}
+
+/// `trajectory.replay.time_unit`.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+pub enum TimeUnitSpec {
+    /// Seconds.
+    #[serde(rename = "s")]
+    Seconds,
+    /// Milliseconds.
+    #[serde(rename = "ms")]
+    Milliseconds,
+    /// Microseconds.
+    #[serde(rename = "us")]
+    Microseconds,
+    /// Nanoseconds.
+    #[serde(rename = "ns")]
+    Nanoseconds,
 }
 
 /// `[rig]`: synchronized cameras and the IMU.

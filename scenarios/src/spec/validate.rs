@@ -526,6 +526,26 @@ impl Scenario {
                 "knots resolve the motion, they do not replace it",
             )?;
         }
+        let c = Check { scenario: self };
+        if let Some(v) = r.fit_tolerance_m {
+            c.within("trajectory.replay.fit_tolerance_m", v, 1e-6, 1.0, "metres")?;
+        }
+        if let Some(v) = r.fit_tolerance_deg {
+            c.within(
+                "trajectory.replay.fit_tolerance_deg",
+                v,
+                1e-4,
+                45.0,
+                "degrees",
+            )?;
+        }
+        if let Some(p) = r.placement {
+            c.finite_all(
+                "trajectory.replay.placement.translation_m",
+                &p.translation_m,
+            )?;
+            c.finite("trajectory.replay.placement.yaw_deg", p.yaw_deg)?;
+        }
         Ok(())
     }
 }

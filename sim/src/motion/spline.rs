@@ -87,11 +87,26 @@ pub struct PoseSample {
     pub q: UnitQuaternion<f64>,
 }
 
-/// Parses a TUM trajectory (`t tx ty tz qx qy qz qw`, seconds, `#` comments, spaces) or an
-/// EuRoC ASL ground-truth csv (`t_ns, px, py, pz, qw, qx, qy, qz, …`, comma separated, header
-/// starting with `#`). The format is recognized per line by the presence of commas.
-pub fn parse_trajectory(text: &str) -> Result<Vec<PoseSample>, TrajectoryError> {
+/// A recording as written: samples with their stamps in the file's own unit, and the line each
+/// came from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Recording {
+    /// Samples; `t` in file units (TUM: as written; ASL: nanoseconds).
+    pub samples: Vec<PoseSample>,
+    /// 1-based line of each sample.
+    pub lines: Vec<usize>,
+    /// Whether the file is EuRoC ASL csv (stamps in nanoseconds by the format).
+    pub asl: bool,
+}
+
+/// Parses a TUM trajectory (`t tx ty tz qx qy qz qw`, `#` comments, spaces) or an EuRoC ASL
+/// ground-truth csv (`t_ns, px, py, pz, qw, qx, qy, qz, …`, comma separated, header starting
+/// with `#`), keeping the stamps in the file's unit. The format is recognized per line by the
+/// presence of commas. Quaternions must be unit to 1 %.
+pub fn parse_recording(text: &str) -> Result<Recording, TrajectoryError> {
     let mut out = Vec::new();
+    let mut lines = Vec::new();
+    let mut asl_any = false;
     for (i, line) in text.lines().enumerate() {
         let line = line.trim();
         if line.is_empty() || line.starts_with('#') {
@@ -99,6 +114,7 @@ pub fn parse_trajectory(text: &str) -> Result<Vec<PoseSample>, TrajectoryError> 
         }
         let perr = |msg: String| TrajectoryError::Parse { line: i + 1, msg };
         let asl = line.contains(',');
+        asl_any |= asl;
         let fields: Vec<&str> = if asl {
             line.split(',').map(str::trim).collect()
         } else {
@@ -116,19 +132,23 @@ pub fn parse_trajectory(text: &str) -> Result<Vec<PoseSample>, TrajectoryError> 
         if v.iter().any(|x| !x.is_finite()) {
             return Err(perr("non-finite value".into()));
         }
-        let (t, q) = if asl {
-            (v[0] * 1e-9, Quaternion::new(v[4], v[5], v[6], v[7]))
+        let q = if asl {
+            Quaternion::new(v[4], v[5], v[6], v[7])
         } else {
-            (v[0], Quaternion::new(v[7], v[4], v[5], v[6]))
+            Quaternion::new(v[7], v[4], v[5], v[6])
         };
-        if q.norm() < 0.5 {
-            return Err(perr("quaternion far from unit".into()));
+        if (q.norm() - 1.0).abs() > 0.01 {
+            return Err(perr(format!(
+                "quaternion norm {:.4}: expected a unit quaternion (to 1 %)",
+                q.norm()
+            )));
         }
         out.push(PoseSample {
-            t,
+            t: v[0],
             p: Vector3::new(v[1], v[2], v[3]),
             q: UnitQuaternion::new_normalize(q),
         });
+        lines.push(i + 1);
     }
     if out.len() < 4 {
         return Err(TrajectoryError::Unusable(format!(
@@ -136,10 +156,31 @@ pub fn parse_trajectory(text: &str) -> Result<Vec<PoseSample>, TrajectoryError> 
             out.len()
         )));
     }
-    if out.windows(2).any(|w| w[1].t <= w[0].t) {
-        return Err(TrajectoryError::Unusable(
-            "timestamps must increase strictly".into(),
-        ));
+    Ok(Recording {
+        samples: out,
+        lines,
+        asl: asl_any,
+    })
+}
+
+/// Parses a TUM (seconds) or EuRoC ASL (nanoseconds) trajectory into samples in seconds (see
+/// [`parse_recording`]); stamps must increase strictly.
+pub fn parse_trajectory(text: &str) -> Result<Vec<PoseSample>, TrajectoryError> {
+    let rec = parse_recording(text)?;
+    let scale = if rec.asl { 1e-9 } else { 1.0 };
+    let out: Vec<PoseSample> = rec
+        .samples
+        .into_iter()
+        .map(|s| PoseSample {
+            t: s.t * scale,
+            ..s
+        })
+        .collect();
+    if let Some(i) = out.windows(2).position(|w| w[1].t <= w[0].t) {
+        return Err(TrajectoryError::Parse {
+            line: rec.lines[i + 1],
+            msg: "timestamps must increase strictly".into(),
+        });
     }
     Ok(out)
 }
@@ -399,13 +440,25 @@ impl Replay {
         })
     }
 
-    /// Reads a TUM or EuRoC ASL file (see [`parse_trajectory`]) and fits it.
+    /// Reads a TUM or EuRoC ASL file and fits it, with the checks of
+    /// [`super::recording::load_recording`] (no repair). Bytes that are not UTF-8 (a Latin-1
+    /// comment) are replaced, not refused: only the numbers matter.
     pub fn from_file(path: &Path, knot_spacing_s: f64) -> Result<Self, TrajectoryError> {
-        let text = std::fs::read_to_string(path).map_err(|e| TrajectoryError::Io {
+        let bytes = std::fs::read(path).map_err(|e| TrajectoryError::Io {
             path: path.display().to_string(),
             source: e,
         })?;
-        Self::from_samples(parse_trajectory(&text)?, knot_spacing_s)
+        let options = super::recording::RecordingOptions {
+            knot_spacing_s,
+            ..Default::default()
+        };
+        super::recording::load_recording(&String::from_utf8_lossy(&bytes), &options)
+            .map(|(replay, _)| replay)
+    }
+
+    /// The spline's state at a time of the file's clock (s).
+    pub fn spline_state_at_file_time(&self, t_file: f64) -> RefState {
+        self.spline.state(t_file - self.t_file0)
     }
 
     /// Largest position (m) and attitude (rad) difference between the spline and the recorded

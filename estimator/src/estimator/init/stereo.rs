@@ -20,6 +20,27 @@ pub(in crate::estimator) fn initialize_stereo_inertial(
     window: &mut Window,
     config: &EstimatorConfig,
 ) -> bool {
+    // The window's poses must be stereo vision's, not predictions: every frame needs as many
+    // landmarks seen by both cameras as a tracked frame needs observations.
+    let stereo_seen = |seq: u64| {
+        window
+            .features
+            .tracks
+            .values()
+            .filter(|t| {
+                t.obs
+                    .iter()
+                    .any(|o| o.seq == seq && o.meas.iter().all(Option::is_some))
+            })
+            .count()
+    };
+    if window
+        .frames
+        .iter()
+        .any(|f| stereo_seen(f.seq) < config.min_tracking_observations)
+    {
+        return false;
+    }
     let poses: Vec<Pose> = window.frames.iter().map(|f| f.pose).collect();
     let Some(intervals) = window_intervals(window) else {
         return false;

@@ -1,0 +1,71 @@
+//! Helpers shared by the `vio` CLI tests: run the binary, scratch folders, short scenario
+//! texts, and the bad-input assertion (exit 2, file and key named, nothing written).
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// Runs the `vio` binary with `args`.
+pub fn vio(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_vio"))
+        .args(args)
+        .output()
+        .expect("run vio")
+}
+
+/// A fresh scratch folder for one test.
+pub fn scratch(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("vio-cli-{}-{tag}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// The default catalog scenario's text, shortened to `duration_s`, with one loose expectation
+/// (`ate_rmse_m ≤ 0.15`).
+pub fn default_text(duration_s: f64) -> String {
+    let text = scenarios::catalog::get(scenarios::catalog::DEFAULT)
+        .unwrap()
+        .text;
+    assert!(text.contains("duration_s = 60.0"));
+    let head = &text[..text.find("[expectations]").unwrap()];
+    head.replace("duration_s = 60.0", &format!("duration_s = {duration_s:?}"))
+        + "[expectations]\nate_rmse_m = { max = 0.15 }\n"
+}
+
+pub fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// Runs `vio run` on `text`; asserts exit code 2 and that stderr names `key` and `line`.
+pub fn assert_bad(tag: &str, text: &str, key: &str, expect: &[&str]) -> String {
+    let dir = scratch(tag);
+    let p = write(&dir, "bad.toml", text);
+    let out = vio(&[
+        "run",
+        p.to_str().unwrap(),
+        "--out",
+        dir.join("out").to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(2), "{tag}: stderr: {stderr}");
+    assert!(
+        stderr.contains("bad.toml"),
+        "{tag}: file not named: {stderr}"
+    );
+    assert!(
+        stderr.contains(key),
+        "{tag}: key `{key}` not named: {stderr}"
+    );
+    for e in expect {
+        assert!(stderr.contains(e), "{tag}: `{e}` missing: {stderr}");
+    }
+    assert!(
+        !dir.join("out").exists(),
+        "{tag}: wrote output on bad input"
+    );
+    let _ = std::fs::remove_dir_all(dir);
+    stderr
+}
