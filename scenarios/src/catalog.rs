@@ -27,6 +27,7 @@ const ENTRIES: &[Entry] = &[
     entry!("room_figure8_stereo"),
     entry!("room_circle_stereo_imu"),
     entry!("room_replay_v2_02_stereo_imu"),
+    entry!("room_replay_v2_02_glitchy_stereo_imu"),
     entry!("room_figure8_mono_imu"),
     entry!("room_replay_v2_02_mono_imu"),
     entry!("room_figure8_blackout_stereo_imu"),
@@ -48,11 +49,18 @@ const ENTRIES: &[Entry] = &[
     entry!("room_replay_v2_02_rendered"),
 ];
 
-/// Data files the catalog scenarios reference, by their path relative to `catalog/`.
-const DATA: &[(&str, &str)] = &[(
-    "data/euroc_V2_02_medium_20s.txt",
-    include_str!("../catalog/data/euroc_V2_02_medium_20s.txt"),
-)];
+/// Data files the catalog scenarios reference, by their path relative to `catalog/` (bytes: a
+/// recording may carry a comment that is not UTF-8).
+const DATA: &[(&str, &[u8])] = &[
+    (
+        "data/euroc_V2_02_medium_20s.txt",
+        include_bytes!("../catalog/data/euroc_V2_02_medium_20s.txt"),
+    ),
+    (
+        "data/euroc_V2_02_medium_20s_glitchy.txt",
+        include_bytes!("../catalog/data/euroc_V2_02_medium_20s_glitchy.txt"),
+    ),
+];
 
 /// Every built-in scenario, the default first.
 pub fn entries() -> &'static [Entry] {
@@ -69,10 +77,13 @@ pub fn names() -> Vec<&'static str> {
     ENTRIES.iter().map(|e| e.name).collect()
 }
 
-/// An embedded data file by its path relative to `catalog/`.
-pub fn data(path: &str) -> Option<&'static str> {
+/// An embedded data file by its path relative to `catalog/`, as text (bytes that are not
+/// UTF-8 replaced).
+pub fn data(path: &str) -> Option<String> {
     let path = path.strip_prefix("./").unwrap_or(path);
-    DATA.iter().find(|(p, _)| *p == path).map(|(_, t)| *t)
+    DATA.iter()
+        .find(|(p, _)| *p == path)
+        .map(|(_, t)| String::from_utf8_lossy(t).into_owned())
 }
 
 #[cfg(test)]

@@ -13,7 +13,7 @@ fn fixture() -> PathBuf {
 fn tracking(path: &Path) -> (f64, f64, f64, usize) {
     let replay = Replay::from_file(path, Replay::DEFAULT_KNOT_SPACING_S).unwrap();
     let world = World::new(WorldConfig {
-        duration_s: 1e9,
+        duration_s: 1000.0,
         trajectory: TrajectoryConfig::Replay {
             path: path.to_path_buf(),
             knot_spacing_s: Replay::DEFAULT_KNOT_SPACING_S,

@@ -419,7 +419,6 @@ impl Scenario {
     pub(super) fn data_file(&self, key: &str, rel: &str) -> Result<String, SpecError> {
         match &self.origin {
             Origin::Catalog => catalog::data(rel)
-                .map(str::to_string)
                 .ok_or_else(|| self.error(key, format!("no embedded catalog data file `{rel}`"))),
             Origin::File(p) => {
                 let base = p.parent().unwrap_or(Path::new("."));

@@ -16,8 +16,8 @@
 //!   sample.
 //!
 //! Without `repair` a glitch or a gap is an error naming the line; with it, glitches are dropped
-//! and gaps up to [`MAX_BRIDGE_S`] are bridged by samples on a cubic Hermite curve (positions,
-//! with the velocities on both sides) and a slerp (attitude). Either way [`RecordingReport`] says
+//! and gaps up to [`MAX_BRIDGE_S`] are bridged by samples on cubic Hermite curves through both
+//! ends with the rates measured on each side (position; attitude in the tangent space). Either way [`RecordingReport`] says
 //! what was found and done.
 
 use nalgebra::{UnitQuaternion, Vector3};
@@ -333,17 +333,78 @@ fn find_glitches(s: &[PoseSample], accel: (f64, f64)) -> Vec<(usize, f64, f64)> 
     found
 }
 
-/// Samples bridging `a` → `b` (exclusive) every `step` seconds: cubic Hermite positions with
-/// the end velocities `va`, `vb`, slerped attitudes.
-fn bridge(
-    a: &PoseSample,
-    b: &PoseSample,
-    va: Vector3<f64>,
-    vb: Vector3<f64>,
-    step: f64,
-) -> Vec<PoseSample> {
-    let len = b.t - a.t;
+/// One end of a gap: the sample and its velocity and body angular velocity, from the samples
+/// within `h` on its outer side.
+struct GapEnd {
+    sample: PoseSample,
+    v: Vector3<f64>,
+    omega_b: Vector3<f64>,
+}
+
+impl GapEnd {
+    /// The end at sample `i`, with rates from the samples within `h` on side `dir` (−1 before,
+    /// +1 after): the derivative at `i` of the parabola through `i`, the sample about `h/2`
+    /// away and the one about `h` away (a one-sided difference would lag by `h/2`).
+    fn new(s: &[PoseSample], i: usize, h: f64, dir: i64) -> Self {
+        let find = |reach: f64| {
+            let mut j = i as i64;
+            loop {
+                let next = j + dir;
+                if next < 0 || next >= s.len() as i64 || (s[next as usize].t - s[i].t).abs() > reach
+                {
+                    break;
+                }
+                j = next;
+            }
+            j as usize
+        };
+        let (j, k) = (find(0.5 * h), find(h));
+        let zero = Self {
+            sample: s[i],
+            v: Vector3::zeros(),
+            omega_b: Vector3::zeros(),
+        };
+        if j == i || k == j {
+            return zero;
+        }
+        let (t0, t1, t2) = (s[i].t, s[j].t, s[k].t);
+        // Lagrange weights of the derivative at t0 of the parabola through t0, t1, t2.
+        let w0 = (2.0 * t0 - t1 - t2) / ((t0 - t1) * (t0 - t2));
+        let w1 = (t0 - t2) / ((t1 - t0) * (t1 - t2));
+        let w2 = (t0 - t1) / ((t2 - t0) * (t2 - t1));
+        let v = s[i].p * w0 + s[j].p * w1 + s[k].p * w2;
+        // Attitude in the tangent space at the end: r(t0) = 0.
+        let r = |m: usize| (s[i].q.inverse() * s[m].q).scaled_axis();
+        let omega_b = r(j) * w1 + r(k) * w2;
+        Self {
+            sample: s[i],
+            v,
+            omega_b,
+        }
+    }
+}
+
+/// The inverse right Jacobian of SO(3) at `phi`: maps a body angular velocity to the rate of
+/// `phi` in `q = q_0 · exp(phi)`.
+fn right_jacobian_inverse(phi: &Vector3<f64>) -> nalgebra::Matrix3<f64> {
+    let theta = phi.norm();
+    let k = phi.cross_matrix();
+    if theta < 1e-6 {
+        return nalgebra::Matrix3::identity() + k * 0.5;
+    }
+    let c = 1.0 / (theta * theta) - (1.0 + theta.cos()) / (2.0 * theta * theta.sin());
+    nalgebra::Matrix3::identity() + k * 0.5 + k * k * c
+}
+
+/// Samples bridging the gap `a` → `b` (exclusive) every `step` seconds: cubic Hermite curves
+/// through both ends with their rates, for the position and for the attitude in the tangent
+/// space at `a` (`q = q_a · exp(r(x))`, `r(0) = 0`, `r(1) = log(q_a⁻¹ q_b)`, end slopes the
+/// body angular velocities).
+fn bridge(a: &GapEnd, b: &GapEnd, step: f64) -> Vec<PoseSample> {
+    let (sa, sb) = (&a.sample, &b.sample);
+    let len = sb.t - sa.t;
     let n = (len / step).floor() as usize;
+    let r1 = (sa.q.inverse() * sb.q).scaled_axis();
     (1..n)
         .map(|k| {
             let x = k as f64 / n as f64;
@@ -352,32 +413,15 @@ fn bridge(
             let h10 = x3 - 2.0 * x2 + x;
             let h01 = -2.0 * x3 + 3.0 * x2;
             let h11 = x3 - x2;
+            let slope_b = right_jacobian_inverse(&r1) * b.omega_b;
+            let r = a.omega_b * (h10 * len) + r1 * h01 + slope_b * (h11 * len);
             PoseSample {
-                t: a.t + x * len,
-                p: a.p * h00 + va * (h10 * len) + b.p * h01 + vb * (h11 * len),
-                q: a.q.slerp(&b.q, x),
+                t: sa.t + x * len,
+                p: sa.p * h00 + a.v * (h10 * len) + sb.p * h01 + b.v * (h11 * len),
+                q: sa.q * UnitQuaternion::from_scaled_axis(r),
             }
         })
         .collect()
-}
-
-/// Velocity at sample `i` from the samples within `h` on one side (`dir` = −1 before, +1 after).
-fn side_velocity(s: &[PoseSample], i: usize, h: f64, dir: i64) -> Vector3<f64> {
-    let mut j = i as i64;
-    loop {
-        let next = j + dir;
-        if next < 0 || next >= s.len() as i64 || (s[next as usize].t - s[i].t).abs() > h {
-            break;
-        }
-        j = next;
-    }
-    let j = j as usize;
-    let dt = s[i].t - s[j].t;
-    if dt.abs() < 1e-12 {
-        Vector3::zeros()
-    } else {
-        (s[i].p - s[j].p) / dt
-    }
 }
 
 /// Reads, checks, repairs (when asked), places and fits a recorded trajectory.
@@ -498,13 +542,9 @@ pub fn load_recording(
     for i in 0..kept_samples.len() {
         filled.push(kept_samples[i]);
         if i + 1 < kept_samples.len() && kept_samples[i + 1].t - kept_samples[i].t > gap_s {
-            let va = side_velocity(&kept_samples, i, h, -1);
-            let vb = side_velocity(&kept_samples, i + 1, h, 1);
             let b = bridge(
-                &kept_samples[i],
-                &kept_samples[i + 1],
-                va,
-                vb,
+                &GapEnd::new(&kept_samples, i, h, -1),
+                &GapEnd::new(&kept_samples, i + 1, h, 1),
                 median_spacing_s,
             );
             bridged_samples += b.len();
