@@ -333,6 +333,9 @@ pub struct Report {
     pub batch_reference: Option<BatchReport>,
     /// What the checks of a replayed recording found and did (`null` for generated motions).
     pub replay: Option<ReplayReport>,
+    /// Simulated time (s) at which the run was interrupted (Ctrl-C); `null` when complete. An
+    /// interrupted run does not pass.
+    pub interrupted_at_s: Option<f64>,
     /// Checked expectations.
     pub expectations: Vec<ExpectationResult>,
     /// True when every expectation holds.
@@ -470,6 +473,7 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
         faults,
         batch_reference: batch::batch_report(run, eval.alignment),
         replay: scenario.recording_report().map(ReplayReport::from),
+        interrupted_at_s: run.interrupted_at_s,
         expectations: Vec::new(),
         passed: true,
         vio_version: env!("CARGO_PKG_VERSION"),
@@ -497,7 +501,8 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
             }
         })
         .collect();
-    report.passed = report.expectations.iter().all(|e| e.passed);
+    report.passed =
+        report.expectations.iter().all(|e| e.passed) && report.interrupted_at_s.is_none();
     report
 }
 
@@ -657,10 +662,10 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
     let _ = write!(
         s,
         "result        {}",
-        if r.passed {
-            "PASS"
-        } else {
-            "FAIL (an expectation is not met)"
+        match (r.passed, r.interrupted_at_s) {
+            (true, _) => "PASS".to_string(),
+            (false, Some(t)) => format!("FAIL (interrupted at t = {t:.2} s: partial run)"),
+            (false, None) => "FAIL (an expectation is not met)".to_string(),
         }
     );
     if let Some(d) = out_dir {

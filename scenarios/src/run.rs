@@ -4,6 +4,7 @@
 //! Determinism: everything but the timing fields is a function of the scenario and the seed; the
 //! wall clock is read only to fill [`FrameTiming`].
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use estimator::estimator::{Estimate, Estimator, EventKind as EstimatorEventKind, Status};
@@ -138,6 +139,9 @@ pub struct RunOutput {
     pub frontend: Option<FrontendStats>,
     /// The batch reference, when asked for.
     pub batch_reference: Option<BatchReference>,
+    /// Simulated time (s) at which the run was stopped early ([`run_interruptible`]); `None`
+    /// when it ran to the end.
+    pub interrupted_at_s: Option<f64>,
 }
 
 /// Errors that stop a run.
@@ -220,6 +224,18 @@ pub fn run(
     options: &RunOptions,
     progress: &mut dyn FnMut(f64),
 ) -> Result<RunOutput, RunError> {
+    run_interruptible(scenario, options, progress, &AtomicBool::new(false))
+}
+
+/// [`run`], stopping early once `stop` is set (Ctrl-C): the simulation ends there, the
+/// estimator processes what it holds, and the output covers the run so far
+/// ([`RunOutput::interrupted_at_s`]).
+pub fn run_interruptible(
+    scenario: &Scenario,
+    options: &RunOptions,
+    progress: &mut dyn FnMut(f64),
+    stop: &AtomicBool,
+) -> Result<RunOutput, RunError> {
     let world_cfg = scenario.world_config(options.seed, options.duration_s)?;
     let mut est_cfg = scenario.estimator_config()?;
     est_cfg.record_history |= options.batch_reference;
@@ -253,14 +269,22 @@ pub fn run(
         renderer,
         frontend: None,
         batch_reference: None,
+        interrupted_at_s: None,
     };
     let mut render_s = 0.0;
     let mut status = estimator.status();
     let mut last_progress = -1.0;
     let mut finished = false;
+    let mut now_ns: i64 = 0;
     while !finished {
-        let m = stream.next();
+        let m = if stop.load(Ordering::Relaxed) {
+            out.interrupted_at_s.get_or_insert(now_ns as f64 * 1e-9);
+            None
+        } else {
+            stream.next()
+        };
         let t_ns = m.as_ref().map_or(end_ns, |m| m.t_ns());
+        now_ns = now_ns.max(t_ns.min(end_ns));
         let (result, frontend_s, call_start) = match m {
             None => {
                 // End of the data: the estimator judges its last IMU samples and processes
@@ -375,7 +399,10 @@ pub fn run(
         }
     }
     out.frontend = frontend.map(|f| f.stats());
-    stream_result(scenario, &stream)?;
+    match out.interrupted_at_s {
+        Some(t) => out.duration_s = t,
+        None => stream_result(scenario, &stream)?,
+    }
     if options.batch_reference {
         out.batch_reference = Some(batch_reference(&mut estimator));
     }

@@ -10,7 +10,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use scenarios::dataset::read_tum;
 use scenarios::metrics::{Alignment, EvalOptions, PairsFrom, RpeDelta, RpeOptions, evaluate};
-use scenarios::run::{RunOptions, run};
+use scenarios::run::RunOptions;
 use scenarios::spec::Scenario;
 use scenarios::{catalog, report};
 
@@ -298,6 +298,9 @@ fn main() -> ExitCode {
                 Ok(s) => s,
                 Err(code) => return code,
             };
+            if let Err(code) = check_duration(duration) {
+                return code;
+            }
             let options = RunOptions {
                 seed,
                 duration_s: duration,
@@ -387,9 +390,12 @@ fn nees_command(
         Ok(s) => s,
         Err(code) => return code,
     };
-    if seeds == 0 || duration.is_some_and(|d| !(d.is_finite() && d > 0.0)) {
-        eprintln!("error: --seeds must be >= 1 and --duration a finite number of seconds > 0");
+    if seeds == 0 {
+        eprintln!("error: --seeds must be >= 1");
         return ExitCode::from(BAD_INPUT);
+    }
+    if let Err(code) = check_duration(duration) {
+        return code;
     }
     let options = scenarios::nees::NeesOptions {
         seeds: (1..=seeds).collect(),
@@ -523,18 +529,54 @@ fn tracks_command(
     ExitCode::SUCCESS
 }
 
+/// `--duration`: finite, > 0 and within the simulator's one-day bound.
+fn check_duration(duration: Option<f64>) -> Result<(), ExitCode> {
+    let max = sim::validate::limits::MAX_DURATION_S;
+    match duration {
+        Some(d) if !(d.is_finite() && d > 0.0 && d <= max) => {
+            eprintln!("error: --duration must be a number of seconds in (0, {max}], got {d}");
+            Err(ExitCode::from(BAD_INPUT))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// Creates `--out` and checks that a file can be written there, before any work is done.
+fn check_out_dir(dir: &std::path::Path) -> Result<(), ExitCode> {
+    let probe = dir.join(".vio-write-check");
+    let result = std::fs::create_dir_all(dir)
+        .and_then(|()| std::fs::write(&probe, b""))
+        .and_then(|()| std::fs::remove_file(&probe));
+    result.map_err(|e| {
+        eprintln!("error: --out {}: cannot write there: {e}", dir.display());
+        ExitCode::from(BAD_INPUT)
+    })
+}
+
+/// Set by Ctrl-C: the run stops and writes what it has; a second Ctrl-C exits at once.
+static INTERRUPTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
 fn run_command(scenario: Option<String>, out: Option<PathBuf>, options: RunOptions) -> ExitCode {
     let scenario = match load_scenario(scenario.as_deref()) {
         Ok(s) => s,
         Err(code) => return code,
     };
-    if let Some(d) = options.duration_s
-        && !(d.is_finite() && d > 0.0)
-    {
-        eprintln!("error: --duration must be a finite number of seconds > 0");
-        return ExitCode::from(BAD_INPUT);
+    if let Err(code) = check_duration(options.duration_s) {
+        return code;
     }
     let out_dir = out.unwrap_or_else(|| PathBuf::from("vio-out").join(&scenario.name));
+    if let Err(code) = check_out_dir(&out_dir) {
+        return code;
+    }
+    let _ = ctrlc::set_handler(|| {
+        use std::sync::atomic::Ordering;
+        if INTERRUPTED.swap(true, Ordering::Relaxed) {
+            std::process::exit(130);
+        }
+        eprintln!(
+            "\ninterrupted: stopping the simulation and writing what the run has (Ctrl-C again to quit now)"
+        );
+    });
     let bar = ProgressBar::with_draw_target(
         Some(1000),
         if std::io::stderr().is_terminal() {
@@ -549,9 +591,28 @@ fn run_command(scenario: Option<String>, out: Option<PathBuf>, options: RunOptio
             .progress_chars("=> "),
     );
     bar.set_prefix(scenario.name.clone());
-    let result = run(&scenario, &options, &mut |f| {
-        bar.set_position((f * 1000.0).round() as u64)
-    });
+    // Without a terminal, a line every 10 % of simulated time once the run takes a while.
+    let terminal = std::io::stderr().is_terminal();
+    let started = std::time::Instant::now();
+    let mut reported = 0u64;
+    let result = scenarios::run::run_interruptible(
+        &scenario,
+        &options,
+        &mut |f| {
+            bar.set_position((f * 1000.0).round() as u64);
+            let decile = (f * 10.0).floor() as u64;
+            if !terminal && decile > reported && started.elapsed().as_secs_f64() > 2.0 {
+                reported = decile;
+                eprintln!(
+                    "{}: {}0 % of simulated time after {:.0} s",
+                    scenario.name,
+                    decile,
+                    started.elapsed().as_secs_f64()
+                );
+            }
+        },
+        &INTERRUPTED,
+    );
     bar.finish_and_clear();
     let output = match result {
         Ok(o) => o,
@@ -567,7 +628,9 @@ fn run_command(scenario: Option<String>, out: Option<PathBuf>, options: RunOptio
         return ExitCode::from(BAD_INPUT);
     }
     say(&report::summary(&rep, Some(&out_dir)));
-    if rep.passed {
+    if rep.interrupted_at_s.is_some() {
+        ExitCode::from(130)
+    } else if rep.passed {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(1)
