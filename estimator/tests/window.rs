@@ -5,7 +5,7 @@ mod common;
 
 use common::Analytic;
 use common::world::{FRAME_NS, IMU_NS, World, align_position_yaw};
-use estimator::estimator::{Estimate, Estimator, Status, Suite};
+use estimator::estimator::{Estimate, Estimator, Suite};
 use nalgebra::Vector3;
 
 /// Runs `seconds` of the world through the estimator; returns every estimate.
