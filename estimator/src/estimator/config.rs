@@ -328,7 +328,13 @@ impl EstimatorConfig {
         non_negative("repropagate_bg", self.repropagate_bg)?;
         positive("initial_ba_sigma", self.initial_ba_sigma)?;
         positive("initial_bg_sigma", self.initial_bg_sigma)?;
-        positive("gauge_sigma", self.gauge_sigma)?;
+        // Infinite: no gauge prior (the gauge tests study the free window).
+        if !(self.gauge_sigma > 0.0) {
+            return Err(format!(
+                "gauge_sigma must be > 0 (infinite: no gauge prior), got {}",
+                self.gauge_sigma
+            ));
+        }
         if self.min_track_frames < 1 {
             return Err("min_track_frames must be ≥ 1".into());
         }

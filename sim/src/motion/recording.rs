@@ -13,7 +13,9 @@
 //! - **Gaps**: a spacing over ten median spacings and over two knot spacings leaves spline knots
 //!   without data, and the fit rings through them.
 //! - **Fit**: the fitted spline must stay within a tolerance (default 1 cm / 1°) of every kept
-//!   sample.
+//!   sample, and must not ring: its acceleration and angular acceleration stay within three
+//!   times the recording's largest (plus 2 m/s², 10 rad/s²), or the simulated IMU would
+//!   measure the fit instead of the motion.
 //!
 //! Without `repair` a glitch or a gap is an error naming the line; with it, glitches are dropped
 //! and gaps up to [`MAX_BRIDGE_S`] are bridged by samples on cubic Hermite curves through both
@@ -21,6 +23,8 @@
 //! what was found and done.
 
 use nalgebra::{UnitQuaternion, Vector3};
+
+use super::reference::Reference;
 
 use super::spline::{PoseSample, Replay, TrajectoryError, parse_recording};
 
@@ -225,10 +229,10 @@ fn detect_unit(raw: f64, default: TimeUnit) -> Result<(TimeUnit, bool), Trajecto
     }
 }
 
-/// The recording's 99th-percentile linear (m/s²) and angular (rad/s²) accelerations, from
-/// differences over `h` seconds on each side (coarse enough that the recorder's noise does not
-/// dominate).
-fn motion_accelerations(s: &[PoseSample], h: f64) -> (f64, f64) {
+/// The recording's linear (m/s²) and angular (rad/s²) accelerations at the given percentile
+/// (1: the largest), from differences over `h` seconds on each side (coarse enough that the
+/// recorder's noise does not dominate).
+fn motion_accelerations(s: &[PoseSample], h: f64, p: f64) -> (f64, f64) {
     let t: Vec<f64> = s.iter().map(|x| x.t).collect();
     let (mut lin, mut ang) = (Vec::new(), Vec::new());
     for i in 0..s.len() {
@@ -252,7 +256,7 @@ fn motion_accelerations(s: &[PoseSample], h: f64) -> (f64, f64) {
         let w2 = (s[i].q.inverse() * s[k].q).scaled_axis() / d2;
         ang.push((w2 - w1).norm() / (0.5 * (d1 + d2)));
     }
-    (percentile(lin, 0.99), percentile(ang, 0.99))
+    (percentile(lin, p), percentile(ang, p))
 }
 
 /// Departure `(m, rad)` of sample `c` from the line through `a` and `b` (interpolated or
@@ -424,6 +428,28 @@ fn bridge(a: &GapEnd, b: &GapEnd, step: f64) -> Vec<PoseSample> {
         .collect()
 }
 
+/// Refuses a fitted spline that accelerates far beyond anything the recording does (three
+/// times its largest acceleration plus 2 m/s², or angular acceleration plus 10 rad/s²): the
+/// simulated IMU would measure the fit's ringing, not the motion. Sampled every 5 ms.
+fn check_ringing(replay: &Replay, accel_max: f64, alpha_max: f64) -> Result<(), TrajectoryError> {
+    let (lim_a, lim_alpha) = (3.0 * accel_max + 2.0, 3.0 * alpha_max + 10.0);
+    let end = replay.spline.end_time();
+    let n = (end / 0.005).ceil() as usize;
+    for k in 0..=n {
+        let t = (k as f64 * 0.005).min(end);
+        let st = replay.spline.state(t);
+        let (a, alpha) = (st.a.norm(), st.alpha_w.norm());
+        if a > lim_a || alpha > lim_alpha {
+            return Err(unusable(format!(
+                "the fitted spline rings at t = {:.3} s (file time {:.6} s): {a:.1} m/s² and {alpha:.1} rad/s², where the recording never exceeds {accel_max:.1} m/s² and {alpha_max:.1} rad/s²; the simulated IMU would measure the fit, not the motion (irregular stamps? try a larger knot spacing or repair)",
+                t,
+                t + replay.t_file0
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Reads, checks, repairs (when asked), places and fits a recorded trajectory.
 pub fn load_recording(
     text: &str,
@@ -470,7 +496,7 @@ pub fn load_recording(
     }
     // Glitches.
     let h = (5.0 * median_spacing_s).max(0.05);
-    let accel = motion_accelerations(&samples, h);
+    let accel = motion_accelerations(&samples, h, 0.99);
     let found = find_glitches(&samples, accel);
     let mut glitches: Vec<Glitch> = found
         .iter()
@@ -557,7 +583,9 @@ pub fn load_recording(
             s.q = r * s.q;
         }
     }
+    let (accel_max, alpha_max) = motion_accelerations(&filled, h, 1.0);
     let replay = Replay::from_samples(filled, options.knot_spacing_s)?;
+    check_ringing(&replay, accel_max, alpha_max)?;
     // Fit check against the kept (recorded) samples.
     let (mut fit_m, mut fit_rad, mut worst) = (0.0f64, 0.0f64, (0.0f64, 0usize));
     for (line, s) in &kept {
@@ -596,4 +624,42 @@ pub fn load_recording(
         fit_max_deg: fit_rad.to_degrees(),
     };
     Ok((replay, report))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A stationary recording with one sample 30° off after a 0.25 s gap, fitted without the
+    /// glitch and gap checks: the spline rings, and the check says so.
+    #[test]
+    fn a_ringing_fit_is_refused() {
+        let mut samples = Vec::new();
+        let mut t = 0.0;
+        for k in 0..400 {
+            let q = if k == 200 {
+                UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 30f64.to_radians())
+            } else {
+                UnitQuaternion::identity()
+            };
+            samples.push(PoseSample {
+                t,
+                p: Vector3::new(0.0, 0.0, 1.0),
+                q,
+            });
+            t += if k == 199 { 0.25 } else { 0.005 };
+        }
+        let clean: Vec<PoseSample> = samples
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| *k != 200)
+            .map(|(_, s)| *s)
+            .collect();
+        let (a, alpha) = motion_accelerations(&clean, 0.05, 1.0);
+        let replay = Replay::from_samples(samples, 0.04).unwrap();
+        let err = check_ringing(&replay, a, alpha).unwrap_err().to_string();
+        assert!(err.contains("rings"), "{err}");
+        let fine = Replay::from_samples(clean, 0.04).unwrap();
+        assert!(check_ringing(&fine, a, alpha).is_ok());
+    }
 }
