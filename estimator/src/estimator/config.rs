@@ -329,7 +329,7 @@ impl EstimatorConfig {
         positive("initial_ba_sigma", self.initial_ba_sigma)?;
         positive("initial_bg_sigma", self.initial_bg_sigma)?;
         // Infinite: no gauge prior (the gauge tests study the free window).
-        if !(self.gauge_sigma > 0.0) {
+        if self.gauge_sigma.is_nan() || self.gauge_sigma <= 0.0 {
             return Err(format!(
                 "gauge_sigma must be > 0 (infinite: no gauge prior), got {}",
                 self.gauge_sigma
