@@ -201,6 +201,10 @@ fn a_trajectory_outside_the_scene_or_through_a_box_is_refused() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(err.contains("leaves the scene at t = 0.00 s"), "{err}");
+    assert!(
+        !dir.join("o").exists(),
+        "an empty --out folder was left behind"
+    );
     // Around the inside of the pillar in the room's corner (−4.5..−4.1, −3.5..−3.1).
     let through = t.replace(
         "figure_eight = { center = [-0.5, 0.5, 1.5], half_width_m = 2.0, half_height_m = 1.0, period_s = 20.0 }",

@@ -565,9 +565,16 @@ fn run_command(scenario: Option<String>, out: Option<PathBuf>, options: RunOptio
         return code;
     }
     let out_dir = out.unwrap_or_else(|| PathBuf::from("vio-out").join(&scenario.name));
+    let created = !out_dir.exists();
     if let Err(code) = check_out_dir(&out_dir) {
         return code;
     }
+    // A run that fails on its input leaves no empty folder it made behind.
+    let cleanup = || {
+        if created {
+            let _ = std::fs::remove_dir(&out_dir);
+        }
+    };
     let _ = ctrlc::set_handler(|| {
         use std::sync::atomic::Ordering;
         if INTERRUPTED.swap(true, Ordering::Relaxed) {
@@ -618,6 +625,7 @@ fn run_command(scenario: Option<String>, out: Option<PathBuf>, options: RunOptio
         Ok(o) => o,
         Err(e) => {
             eprintln!("error: {e}");
+            cleanup();
             return ExitCode::from(BAD_INPUT);
         }
     };
