@@ -190,37 +190,23 @@ fn non_finite_numbers_are_refused_where_they_are_written() {
 fn a_trajectory_outside_the_scene_or_through_a_box_is_refused() {
     let t = default_text(2.0);
     let outside = t.replace("center = [-0.5, 0.5, 1.5]", "center = [50.0, 0.5, 1.5]");
-    let dir = scratch("outside");
-    let p = write(&dir, "bad.toml", &outside);
-    let out = vio(&[
-        "run",
-        p.to_str().unwrap(),
-        "--out",
-        dir.join("o").to_str().unwrap(),
-    ]);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{err}");
-    assert!(err.contains("leaves the scene at t = 0.00 s"), "{err}");
-    assert!(
-        !dir.join("o").exists(),
-        "an empty --out folder was left behind"
+    assert_bad(
+        "outside",
+        &outside,
+        "trajectory.figure_eight",
+        &["leaves the scene at t = 0.00 s"],
     );
     // Around the inside of the pillar in the room's corner (−4.5..−4.1, −3.5..−3.1).
     let through = t.replace(
         "figure_eight = { center = [-0.5, 0.5, 1.5], half_width_m = 2.0, half_height_m = 1.0, period_s = 20.0 }",
         "circle = { center = [-4.3, -3.3, 1.5], radius_m = 0.1, period_s = 20.0 }",
     );
-    let p = write(&dir, "box.toml", &through);
-    let out = vio(&[
-        "run",
-        p.to_str().unwrap(),
-        "--out",
-        dir.join("o").to_str().unwrap(),
-    ]);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{err}");
-    assert!(err.contains("passes through a solid box"), "{err}");
-    let _ = std::fs::remove_dir_all(dir);
+    assert_bad(
+        "box",
+        &through,
+        "trajectory.circle",
+        &["passes through a solid box"],
+    );
 }
 
 #[test]

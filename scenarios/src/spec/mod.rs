@@ -182,7 +182,9 @@ impl Scenario {
         let s = Self { models, ..s };
         s.validate_estimator_config()?;
         let recording = s.load_recording()?.map(Arc::new);
-        Ok(Self { recording, ..s })
+        let s = Self { recording, ..s };
+        s.validate_free_space()?;
+        Ok(s)
     }
 
     /// The renderer configuration of a rendered scenario (`None` for feature-level ones).

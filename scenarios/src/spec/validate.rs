@@ -515,6 +515,42 @@ impl Scenario {
         Ok(())
     }
 
+    /// The motion stays in the scene's free space (inside the room or hall, outside its solid
+    /// boxes) for the whole run; the error names the motion's key. Waypoints are drawn with the
+    /// file's seed here (the simulator checks again with the seed a run uses).
+    pub(super) fn validate_free_space(&self) -> Result<(), SpecError> {
+        let t = &self.spec.trajectory;
+        let key = [
+            ("trajectory.figure_eight", t.figure_eight.is_some()),
+            ("trajectory.circle", t.circle.is_some()),
+            ("trajectory.lissajous", t.lissajous.is_some()),
+            ("trajectory.waypoints", t.waypoints.is_some()),
+            ("trajectory.replay", t.replay.is_some()),
+        ]
+        .into_iter()
+        .find_map(|(k, given)| given.then_some(k))
+        .unwrap_or("trajectory");
+        let reference: std::sync::Arc<dyn sim::motion::Reference> = match self.trajectory()? {
+            sim::TrajectoryConfig::Lissajous(l) => std::sync::Arc::new(l),
+            sim::TrajectoryConfig::Waypoints(w) => {
+                std::sync::Arc::new(w.build(self.spec.world.seed))
+            }
+            sim::TrajectoryConfig::Reference(r) => r,
+            sim::TrajectoryConfig::Replay { .. } => return Ok(()),
+        };
+        let preset = self.scene_config().preset;
+        let (_, boxes) = sim::scene::Scene::preset_geometry(preset);
+        let duration = reference
+            .duration()
+            .map_or(t.duration_s, |d| d.min(t.duration_s));
+        sim::validate::check_free_space(reference.as_ref(), &preset.free_space(), &boxes, duration)
+            .map_err(|e| {
+                let why = e.to_string();
+                let why = why.strip_prefix("invalid configuration: ").unwrap_or(&why);
+                self.error(key, why.to_string())
+            })
+    }
+
     /// The replay keys that can be checked without reading the file.
     fn validate_replay_keys(&self, r: &super::ReplaySpec) -> Result<(), SpecError> {
         if let Some(k) = r.knot_spacing_s {
