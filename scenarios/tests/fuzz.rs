@@ -6,7 +6,8 @@
 //! samples, frames, landmarks and knots before anything is allocated.
 //!
 //! The default suite runs 48 cases (seeded); `cargo test --release -p scenarios --test fuzz --
-//! --ignored` runs 2,000.
+//! --ignored` runs 2,000 (measured: 211 ran, 1,789 refused by the checks, none by the simulator,
+//! no panic, 15 s, 25 MB peak resident memory).
 
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
