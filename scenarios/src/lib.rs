@@ -11,6 +11,7 @@
 //! - [`replay_report`] — what the checks of a replayed recording found and did;
 //! - [`export`] — a scenario's measurements as an EuRoC ASL folder and `features.csv`;
 //! - [`images`], [`tracks_image`] — `vio render`: images, depth, and the front end's tracks;
+//! - [`regress`] — `vio regress`: a regression catalog against a stored baseline, JUnit XML;
 //! - [`selfcheck`] — a quick end-to-end check of the estimator's mathematics.
 
 pub mod batch;
@@ -23,6 +24,7 @@ pub mod metrics;
 pub mod nees;
 pub mod plot;
 pub mod recovery;
+pub mod regress;
 pub mod replay_report;
 pub mod report;
 pub mod run;

@@ -104,6 +104,24 @@ enum Command {
         #[arg(long)]
         tracks: bool,
     },
+    /// Run a regression catalog (every `*.toml` of a folder, seeds from the files) and compare
+    /// each accuracy metric with a stored baseline under per-metric tolerances: a table, JUnit
+    /// XML with `--junit`, exit 1 when a metric regressed (the table and the XML name it).
+    Regress {
+        /// Folder of scenario files.
+        #[arg(long, default_value = "scenarios/regress")]
+        catalog: PathBuf,
+        /// Baseline file [default: CATALOG/baseline.json].
+        #[arg(long)]
+        baseline: Option<PathBuf>,
+        /// Write JUnit XML here (one testcase per scenario × metric).
+        #[arg(long)]
+        junit: Option<PathBuf>,
+        /// Write the baseline from this run instead of comparing (keeps tolerances already in
+        /// the file).
+        #[arg(long)]
+        update_baseline: bool,
+    },
     /// Preintegrate a synthetic IMU interval and check every factor's Jacobians.
     Selfcheck,
     /// Compare an estimated trajectory with ground truth (TUM files): ATE and RPE with evo's
@@ -355,6 +373,12 @@ fn main() -> ExitCode {
             }
             ExitCode::SUCCESS
         }
+        Command::Regress {
+            catalog,
+            baseline,
+            junit,
+            update_baseline,
+        } => regress_command(&catalog, baseline, junit, update_baseline),
         Command::Selfcheck => {
             let result = scenarios::selfcheck::run();
             say(&result.report);
@@ -374,6 +398,70 @@ fn main() -> ExitCode {
                 ExitCode::from(2)
             }
         },
+    }
+}
+
+fn regress_command(
+    catalog: &std::path::Path,
+    baseline: Option<PathBuf>,
+    junit: Option<PathBuf>,
+    update: bool,
+) -> ExitCode {
+    use scenarios::regress;
+    let bad = |e: String| {
+        eprintln!("vio regress: error: {e}");
+        ExitCode::from(BAD_INPUT)
+    };
+    let baseline_path = baseline.unwrap_or_else(|| catalog.join("baseline.json"));
+    let files = match regress::catalog_files(catalog) {
+        Ok(f) => f,
+        Err(e) => return bad(e),
+    };
+    let old = match regress::read_baseline(&baseline_path) {
+        Ok(b) => b,
+        Err(e) => return bad(e),
+    };
+    if old.is_none() && !update {
+        return bad(format!(
+            "no baseline at {} (write one with --update-baseline)",
+            baseline_path.display()
+        ));
+    }
+    let reports = match regress::run_catalog(&files, &mut |name| eprintln!("running {name}")) {
+        Ok(r) => r,
+        Err(e) => return bad(e),
+    };
+    if update {
+        let b = regress::updated_baseline(&reports, &old.unwrap_or_default());
+        let text = serde_json::to_string_pretty(&b).expect("plain data") + "\n";
+        if let Err(e) = std::fs::write(&baseline_path, text) {
+            return bad(format!("--baseline {}: {e}", baseline_path.display()));
+        }
+        say(&format!(
+            "baseline of {} scenarios written to {}\n",
+            reports.len(),
+            baseline_path.display()
+        ));
+        return ExitCode::SUCCESS;
+    }
+    let old = old.unwrap_or_default();
+    let checks: Vec<_> = reports
+        .iter()
+        .flat_map(|(name, r)| regress::compare(name, r, &old))
+        .collect();
+    say(&regress::table(&checks));
+    if let Some(path) = junit
+        && let Err(e) = std::fs::write(&path, regress::junit(&checks))
+    {
+        return bad(format!("--junit {}: {e}", path.display()));
+    }
+    if checks.iter().any(|c| c.failed()) {
+        for c in checks.iter().filter(|c| c.failed()) {
+            eprintln!("regression: {}", c.describe());
+        }
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
     }
 }
 

@@ -1,0 +1,79 @@
+//! `vio regress`: a baseline written from a run passes against the same run (the metrics are
+//! deterministic), a deliberately degraded setting fails naming the metric in the table, on
+//! stderr and in the JUnit XML, and a missing baseline is bad input.
+
+mod common;
+
+use common::{default_text, scratch, vio, write};
+
+#[test]
+fn a_degraded_setting_fails_naming_the_metric() {
+    let dir = scratch("regress");
+    let catalog = dir.join("catalog");
+    std::fs::create_dir_all(&catalog).unwrap();
+    let text = default_text(6.0);
+    write(&catalog, "short.toml", &text);
+    let cat = catalog.to_str().unwrap();
+    let junit = dir.join("junit.xml");
+
+    // No baseline yet: exit 2 saying how to make one.
+    let out = vio(&["regress", "--catalog", cat]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--update-baseline"));
+
+    let out = vio(&["regress", "--catalog", cat, "--update-baseline"]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(catalog.join("baseline.json").exists());
+
+    let out = vio(&[
+        "regress",
+        "--catalog",
+        cat,
+        "--junit",
+        junit.to_str().unwrap(),
+    ]);
+    let table = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert_eq!(out.status.code(), Some(0), "{table}");
+    assert!(table.contains("7 checks, 0 regressed"), "{table}");
+    let xml = std::fs::read_to_string(&junit).unwrap();
+    assert!(xml.contains("tests=\"7\" failures=\"0\""), "{xml}");
+
+    // A window of three keyframes cannot hold the initialization: nothing tracks.
+    write(
+        &catalog,
+        "short.toml",
+        &(text + "\n[estimator]\nwindow_size = 3\n"),
+    );
+    let out = vio(&[
+        "regress",
+        "--catalog",
+        cat,
+        "--junit",
+        junit.to_str().unwrap(),
+    ]);
+    let table = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(1), "{table}");
+    let row = table
+        .lines()
+        .find(|l| l.contains("tracking_fraction"))
+        .unwrap();
+    assert!(row.contains("REGRESSED"), "{table}");
+    assert!(
+        stderr.contains("short tracking_fraction: value 0.000000"),
+        "{stderr}"
+    );
+    let xml = std::fs::read_to_string(&junit).unwrap();
+    assert!(
+        xml.contains("<testcase classname=\"short\" name=\"tracking_fraction\">\n      <failure message=\"short tracking_fraction: value 0.000000, baseline"),
+        "{xml}"
+    );
+    // The ATE that can no longer be computed is a failure too.
+    assert!(xml.contains("ate_rmse_m: value n/a"), "{xml}");
+    let _ = std::fs::remove_dir_all(dir);
+}
