@@ -12,6 +12,7 @@
 //! - [`export`] — a scenario's measurements as an EuRoC ASL folder and `features.csv`;
 //! - [`images`], [`tracks_image`] — `vio render`: images, depth, and the front end's tracks;
 //! - [`regress`] — `vio regress`: a regression catalog against a stored baseline, JUnit XML;
+//! - [`sweep`] — `vio sweep` / `sweep-merge`: a scenario over a parameter grid × seeds, sharded;
 //! - [`selfcheck`] — a quick end-to-end check of the estimator's mathematics.
 
 pub mod batch;
@@ -30,5 +31,6 @@ pub mod report;
 pub mod run;
 pub mod selfcheck;
 pub mod spec;
+pub mod sweep;
 pub mod tracker_spec;
 pub mod tracks_image;

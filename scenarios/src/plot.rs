@@ -41,7 +41,7 @@ pub struct PlotData {
     pub alignment: &'static str,
 }
 
-fn register() -> Result<(), String> {
+pub(crate) fn register() -> Result<(), String> {
     static ONCE: Once = Once::new();
     let mut result = Ok(());
     ONCE.call_once(|| {
@@ -63,11 +63,11 @@ pub fn trajectory_png(data: &PlotData) -> Result<Vec<u8>, String> {
     render_png(SIZE, |buf| draw(data, buf))
 }
 
-type DrawResult = Result<(), Box<dyn std::error::Error>>;
+pub(crate) type DrawResult = Result<(), Box<dyn std::error::Error>>;
 
 /// Draws into a white-initialized RGB buffer of `(w, h)` with the embedded font registered and
 /// encodes it as PNG.
-fn render_png(
+pub(crate) fn render_png(
     (w, h): (u32, u32),
     draw: impl FnOnce(&mut [u8]) -> DrawResult,
 ) -> Result<Vec<u8>, String> {

@@ -122,6 +122,33 @@ enum Command {
         #[arg(long)]
         update_baseline: bool,
     },
+    /// Run a sweep (a base scenario over a grid of parameter values × seeds; see
+    /// `scenarios/sweeps/`): `OUT/results.csv`, `OUT/sweep.json` and, without `--shard`, a plot
+    /// per metric and axis. `--shard i/n` (0 ≤ i < n) runs every n-th run from the i-th, for one
+    /// machine of many; `vio sweep-merge` joins the shards.
+    Sweep {
+        /// The sweep file.
+        file: PathBuf,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// Run only this slice of the runs: `i/n`.
+        #[arg(long)]
+        shard: Option<String>,
+        /// Worker threads [default: the machine's cores]; the result does not depend on it.
+        #[arg(long)]
+        jobs: Option<usize>,
+    },
+    /// Join sweep shard folders into `--out` (exactly what one process would have written) and
+    /// draw the plots.
+    SweepMerge {
+        /// The shards' output folders.
+        #[arg(required = true)]
+        dirs: Vec<PathBuf>,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Preintegrate a synthetic IMU interval and check every factor's Jacobians.
     Selfcheck,
     /// Compare an estimated trajectory with ground truth (TUM files): ATE and RPE with evo's
@@ -379,6 +406,29 @@ fn main() -> ExitCode {
             junit,
             update_baseline,
         } => regress_command(&catalog, baseline, junit, update_baseline),
+        Command::Sweep {
+            file,
+            out,
+            shard,
+            jobs,
+        } => sweep_command(&file, &out, shard.as_deref(), jobs),
+        Command::SweepMerge { dirs, out } => match scenarios::sweep::merge::merge(&dirs, &out) {
+            Ok(files) => {
+                say(&format!(
+                    "merged {} shards into {}\n",
+                    dirs.len(),
+                    out.display()
+                ));
+                for f in files {
+                    say(&format!("  {}\n", f.display()));
+                }
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("vio sweep-merge: error: {e}");
+                ExitCode::from(BAD_INPUT)
+            }
+        },
         Command::Selfcheck => {
             let result = scenarios::selfcheck::run();
             say(&result.report);
@@ -399,6 +449,60 @@ fn main() -> ExitCode {
             }
         },
     }
+}
+
+fn sweep_command(
+    file: &std::path::Path,
+    out: &std::path::Path,
+    shard: Option<&str>,
+    jobs: Option<usize>,
+) -> ExitCode {
+    use scenarios::sweep::{Sweep, run::Shard};
+    let bad = |e: String| {
+        eprintln!("vio sweep: error: {e}");
+        ExitCode::from(BAD_INPUT)
+    };
+    let sweep = match Sweep::load(file) {
+        Ok(s) => s,
+        Err(e) => return bad(e.to_string()),
+    };
+    let shard_spec = match shard.map(Shard::parse).transpose() {
+        Ok(s) => s,
+        Err(e) => return bad(e),
+    };
+    if let Err(code) = check_out_dir(out) {
+        return code;
+    }
+    let jobs = jobs.unwrap_or_else(|| {
+        std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+    });
+    let started = std::time::Instant::now();
+    let rows = match sweep.run(shard_spec.unwrap_or(Shard::ALL), jobs, &|done, total| {
+        eprint!("\r{done}/{total} runs");
+    }) {
+        Ok(r) => r,
+        Err(e) => return bad(e),
+    };
+    eprintln!();
+    let json = serde_json::to_string_pretty(&sweep.json()).expect("plain data") + "\n";
+    for (name, text) in [("results.csv", sweep.csv(&rows)), ("sweep.json", json)] {
+        if let Err(e) = std::fs::write(out.join(name), text) {
+            return bad(format!("--out {}: {e}", out.display()));
+        }
+    }
+    if shard_spec.is_none()
+        && let Err(e) = scenarios::sweep::merge::merge(&[out.to_path_buf()], out)
+    {
+        return bad(e);
+    }
+    say(&format!(
+        "{} runs of {} in {:.1} s on {jobs} threads → {}\n",
+        rows.len(),
+        sweep.spec.description,
+        started.elapsed().as_secs_f64(),
+        out.display()
+    ));
+    ExitCode::SUCCESS
 }
 
 fn regress_command(

@@ -1,0 +1,372 @@
+//! `vio sweep`: one base scenario run over a grid of parameter values and seeds, to see what a
+//! sensor-suite choice buys before buying it.
+//!
+//! A sweep file (TOML) names the base scenario, the axes and the seeds:
+//!
+//! ```toml
+//! description = "ATE against the stereo baseline"
+//! scenario = "room_figure8_stereo_imu"   # catalog name, or a path relative to this file
+//! duration_s = 20.0                       # optional: overrides the scenario's
+//! seeds = [1, 2, 3]
+//! metrics = ["ate_rmse_m", "ate_rot_rmse_deg"]   # optional (default: ATE, rotation, RPE, tracking)
+//!
+//! [[axes]]
+//! name = "baseline_m"
+//! # every key is set at each point; a number value is multiplied by each key's scale
+//! keys = ["rig.cameras[0].T_b_c.translation_m[1]", "rig.cameras[1].T_b_c.translation_m[1]"]
+//! scale = [0.5, -0.5]
+//! values = [0.02, 0.05, 0.11, 0.2]
+//! ```
+//!
+//! A value may also be an array with one entry per key (`values = [[1.6e-4, 2e-3], …]`), then
+//! `x` gives each point's position on the plot's axis and `labels` its tick names. Points are the
+//! Cartesian product of the axes (the last axis varies fastest); runs are points × seeds, in
+//! that order. `--shard i/n` (0 ≤ i < n) runs the runs whose index is `i` modulo `n`; `vio sweep-merge`
+//! joins shards into what one process would have written, byte for byte.
+
+pub mod merge;
+pub mod run;
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+use crate::spec::{Origin, Scenario, SpecError};
+
+/// The default metrics of a sweep.
+pub const DEFAULT_METRICS: &[&str] = &[
+    "ate_rmse_m",
+    "ate_rot_rmse_deg",
+    "rpe_trans_rmse_m",
+    "tracking_fraction",
+];
+
+/// A sweep file as written.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SweepSpec {
+    /// One line saying what the sweep asks.
+    pub description: String,
+    /// Base scenario: a catalog name or a path relative to the sweep file.
+    pub scenario: String,
+    /// Simulated duration (s) instead of the scenario's.
+    pub duration_s: Option<f64>,
+    /// Seeds run at every point.
+    pub seeds: Vec<u64>,
+    /// Metrics written to `results.csv` and plotted (names as in `[expectations]`).
+    pub metrics: Option<Vec<String>>,
+    /// The parameter axes.
+    pub axes: Vec<AxisSpec>,
+}
+
+/// One `[[axes]]` entry.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct AxisSpec {
+    /// Column name in `results.csv` and the plots' axis label.
+    pub name: String,
+    /// Dotted scenario keys set together (`rig.cameras[0].pixel_sigma_px`).
+    pub keys: Vec<String>,
+    /// Per-key factor applied to a number value (default 1).
+    pub scale: Option<Vec<f64>>,
+    /// The values: numbers (times each key's scale), or arrays with one entry per key.
+    pub values: Vec<toml::Value>,
+    /// Position of each value on the plot's axis (default: the number value, else its index).
+    pub x: Option<Vec<f64>>,
+    /// Tick names of the values (default: the values).
+    pub labels: Option<Vec<String>>,
+}
+
+/// A validated sweep: its base scenario text and origin, the axes, seeds and metrics.
+#[derive(Clone, Debug)]
+pub struct Sweep {
+    /// The file as written.
+    pub spec: SweepSpec,
+    /// The sweep file (for errors).
+    pub file: String,
+    /// Name of the base scenario.
+    pub scenario_name: String,
+    /// Base scenario text.
+    pub base_text: String,
+    /// Where the base scenario came from (data files resolve against it).
+    pub base_origin: Origin,
+    /// Metrics written and plotted.
+    pub metrics: Vec<String>,
+}
+
+/// One point of the grid: the value index on each axis.
+pub type Point = Vec<usize>;
+
+impl Sweep {
+    /// Reads and validates a sweep file; errors name the file, line and key.
+    pub fn load(path: &Path) -> Result<Self, SpecError> {
+        let file = path.display().to_string();
+        let err = |key: &str, line: Option<usize>, m: String| SpecError {
+            file: file.clone(),
+            key: key.into(),
+            line,
+            message: m,
+        };
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| err("", None, format!("cannot read the sweep file: {e}")))?;
+        let de = toml::Deserializer::parse(&text).map_err(|e| {
+            err(
+                "",
+                e.span()
+                    .map(|s| crate::spec::error::line_of_offset(&text, s.start)),
+                e.message().trim().into(),
+            )
+        })?;
+        let spec: SweepSpec = serde_path_to_error::deserialize(de).map_err(|e| {
+            let key = crate::spec::error::path_string(e.path());
+            let inner = e.into_inner();
+            let line = inner
+                .span()
+                .map(|s| crate::spec::error::line_of_offset(&text, s.start))
+                .or_else(|| crate::spec::error::line_of_key(&text, &key));
+            err(&key, line, inner.message().trim().into())
+        })?;
+        let at = |key: &str, m: String| err(key, crate::spec::error::line_of_key(&text, key), m);
+        // The base scenario: a catalog name, else a path relative to the sweep file.
+        let (scenario_name, base_text, base_origin) = match crate::catalog::get(&spec.scenario) {
+            Some(e) => (e.name.to_string(), e.text.to_string(), Origin::Catalog),
+            None => {
+                let p: PathBuf = path.parent().unwrap_or(Path::new(".")).join(&spec.scenario);
+                let t = std::fs::read_to_string(&p).map_err(|e| {
+                    at(
+                        "scenario",
+                        format!("no catalog scenario of that name, and {}: {e}", p.display()),
+                    )
+                })?;
+                let name = p
+                    .file_stem()
+                    .map_or("scenario".into(), |s| s.to_string_lossy().into_owned());
+                (name, t, Origin::File(p))
+            }
+        };
+        if spec.seeds.is_empty() {
+            return Err(at("seeds", "expected at least one seed".into()));
+        }
+        if let Some(d) = spec.duration_s
+            && !(d.is_finite() && d > 0.0 && d <= sim::validate::limits::MAX_DURATION_S)
+        {
+            return Err(at(
+                "duration_s",
+                format!("expected seconds in (0, 86400], got {d}"),
+            ));
+        }
+        if spec.axes.is_empty() {
+            return Err(at("axes", "expected at least one [[axes]] entry".into()));
+        }
+        for (i, a) in spec.axes.iter().enumerate() {
+            let k = |n: &str| format!("axes[{i}].{n}");
+            if a.keys.is_empty() || a.values.is_empty() {
+                return Err(at(&k("keys"), "expected keys and values".into()));
+            }
+            if !a
+                .name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_')
+            {
+                return Err(at(&k("name"), "expected letters, digits and `_`".into()));
+            }
+            if a.scale.as_ref().is_some_and(|s| s.len() != a.keys.len()) {
+                return Err(at(&k("scale"), "expected one factor per key".into()));
+            }
+            for (j, v) in a.values.iter().enumerate() {
+                if let toml::Value::Array(arr) = v
+                    && arr.len() != a.keys.len()
+                {
+                    return Err(at(
+                        &k(&format!("values[{j}]")),
+                        format!("expected {} entries (one per key)", a.keys.len()),
+                    ));
+                }
+            }
+            for (n, len) in [
+                ("x", a.x.as_ref().map(Vec::len)),
+                ("labels", a.labels.as_ref().map(Vec::len)),
+            ] {
+                if len.is_some_and(|l| l != a.values.len()) {
+                    return Err(at(&k(n), "expected one entry per value".into()));
+                }
+            }
+        }
+        if spec.axes.iter().map(|a| a.values.len()).product::<usize>() * spec.seeds.len() > 100_000
+        {
+            return Err(at("axes", "more than 100,000 runs".into()));
+        }
+        let metrics = spec
+            .metrics
+            .clone()
+            .unwrap_or_else(|| DEFAULT_METRICS.iter().map(|s| s.to_string()).collect());
+        let known = crate::regress::METRICS
+            .iter()
+            .map(|m| m.0)
+            .chain(["recovery_s", "suite_switches"]);
+        let known: Vec<&str> = known.collect();
+        if let Some(m) = metrics.iter().find(|m| !known.contains(&m.as_str())) {
+            return Err(at(
+                "metrics",
+                format!("unknown metric `{m}` (known: {})", known.join(", ")),
+            ));
+        }
+        let sweep = Self {
+            spec,
+            file,
+            scenario_name,
+            base_text,
+            base_origin,
+            metrics,
+        };
+        // Every point must make a valid scenario: found now, not after hours of runs.
+        for p in sweep.points() {
+            sweep.scenario(&p)?;
+        }
+        Ok(sweep)
+    }
+
+    /// Every point of the grid, the last axis fastest.
+    pub fn points(&self) -> Vec<Point> {
+        let mut out = vec![Vec::new()];
+        for a in &self.spec.axes {
+            out = out
+                .into_iter()
+                .flat_map(|p| {
+                    (0..a.values.len()).map(move |i| {
+                        let mut q = p.clone();
+                        q.push(i);
+                        q
+                    })
+                })
+                .collect();
+        }
+        out
+    }
+
+    /// The number written for `point` on axis `a` (its `x`, its number, or its index).
+    pub fn x(&self, a: usize, i: usize) -> f64 {
+        let axis = &self.spec.axes[a];
+        if let Some(x) = &axis.x {
+            return x[i];
+        }
+        match &axis.values[i] {
+            toml::Value::Float(f) => *f,
+            toml::Value::Integer(n) => *n as f64,
+            _ => i as f64,
+        }
+    }
+
+    /// The tick label of value `i` of axis `a`.
+    pub fn label(&self, a: usize, i: usize) -> String {
+        let axis = &self.spec.axes[a];
+        match &axis.labels {
+            Some(l) => l[i].clone(),
+            None => format!("{}", self.x(a, i)),
+        }
+    }
+
+    /// The base scenario with the point's values set.
+    pub fn scenario(&self, point: &[usize]) -> Result<Scenario, SpecError> {
+        let mut doc: toml::Table =
+            self.base_text
+                .parse()
+                .map_err(|e: toml::de::Error| SpecError {
+                    file: self.file.clone(),
+                    key: "scenario".into(),
+                    line: None,
+                    message: format!("the base scenario is not TOML: {e}"),
+                })?;
+        for (a, &i) in point.iter().enumerate() {
+            let axis = &self.spec.axes[a];
+            for (k, key) in axis.keys.iter().enumerate() {
+                let value = match &axis.values[i] {
+                    toml::Value::Array(arr) => arr[k].clone(),
+                    toml::Value::Float(f) => {
+                        toml::Value::Float(f * axis.scale.as_ref().map_or(1.0, |s| s[k]))
+                    }
+                    v => v.clone(),
+                };
+                set_key(&mut doc, key, value).map_err(|m| SpecError {
+                    file: self.file.clone(),
+                    key: format!("axes[{a}].keys[{k}]"),
+                    line: None,
+                    message: format!("`{key}`: {m}"),
+                })?;
+            }
+        }
+        let text = toml::to_string(&doc).map_err(|e| SpecError {
+            file: self.file.clone(),
+            key: String::new(),
+            line: None,
+            message: e.to_string(),
+        })?;
+        Scenario::parse(&self.scenario_name, self.base_origin.clone(), &text).map_err(|e| {
+            SpecError {
+                message: format!(
+                    "at sweep point {}: {}",
+                    self.describe_point(point),
+                    e.message
+                ),
+                ..e
+            }
+        })
+    }
+
+    /// `name=label, …` of a point.
+    pub fn describe_point(&self, point: &[usize]) -> String {
+        point
+            .iter()
+            .enumerate()
+            .map(|(a, &i)| format!("{}={}", self.spec.axes[a].name, self.label(a, i)))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
+/// Sets `value` at a dotted key with array indices (`rig.cameras[1].T_b_c.translation_m[1]`),
+/// creating missing tables; the key's last part may be new, its parents' arrays must exist.
+fn set_key(doc: &mut toml::Table, key: &str, value: toml::Value) -> Result<(), String> {
+    let mut parts: Vec<(String, Vec<usize>)> = Vec::new();
+    for part in key.split('.') {
+        let (name, rest) = part.split_at(part.find('[').unwrap_or(part.len()));
+        let idx = rest
+            .split(['[', ']'])
+            .filter(|s| !s.is_empty())
+            .map(|s| s.parse::<usize>().map_err(|_| format!("bad index `{s}`")))
+            .collect::<Result<Vec<_>, _>>()?;
+        if name.is_empty() {
+            return Err("empty key part".into());
+        }
+        parts.push((name.to_string(), idx));
+    }
+    let mut table = doc;
+    let last = parts.len() - 1;
+    for (n, (name, idx)) in parts.into_iter().enumerate() {
+        if n == last && idx.is_empty() {
+            table.insert(name, value);
+            return Ok(());
+        }
+        let mut cur = table
+            .entry(name.clone())
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        for (m, &i) in idx.iter().enumerate() {
+            let arr = cur
+                .as_array_mut()
+                .ok_or_else(|| format!("`{name}` is not an array"))?;
+            let len = arr.len();
+            let slot = arr
+                .get_mut(i)
+                .ok_or_else(|| format!("`{name}` has {len} elements, no [{i}]"))?;
+            if n == last && m == idx.len() - 1 {
+                *slot = value;
+                return Ok(());
+            }
+            cur = slot;
+        }
+        table = cur
+            .as_table_mut()
+            .ok_or_else(|| format!("`{name}` is not a table"))?;
+    }
+    Ok(())
+}

@@ -1,0 +1,220 @@
+//! Running a sweep's runs (all, or one shard) on worker threads, and the files they produce:
+//! `results.csv` (one row per run, in run order) and `sweep.json` (the sweep's definition and
+//! size, identical for every shard, so merged shards equal one process's output).
+
+use std::fmt::Write as _;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use serde::Serialize;
+
+use super::Sweep;
+use crate::report;
+use crate::run::{RunOptions, run};
+
+/// A slice of the runs: those whose index is `index` modulo `count`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    /// This shard (0-based).
+    pub index: usize,
+    /// Number of shards.
+    pub count: usize,
+}
+
+impl Shard {
+    /// Every run.
+    pub const ALL: Shard = Shard { index: 0, count: 1 };
+
+    /// Parses `i/n` with `0 ≤ i < n`.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        let (i, n) = s
+            .split_once('/')
+            .ok_or_else(|| format!("--shard {s}: expected i/n"))?;
+        let parse = |v: &str| {
+            v.trim()
+                .parse::<usize>()
+                .map_err(|_| format!("--shard {s}: expected whole numbers i/n"))
+        };
+        let (index, count) = (parse(i)?, parse(n)?);
+        if count == 0 || index >= count {
+            return Err(format!("--shard {s}: expected 0 ≤ i < n"));
+        }
+        Ok(Self { index, count })
+    }
+
+    /// Whether run `r` belongs to this shard.
+    pub fn has(self, r: usize) -> bool {
+        r % self.count == self.index
+    }
+}
+
+/// One finished run: its index, point, seed and metric values.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunRow {
+    /// Run index (point-major, then seed).
+    pub run: usize,
+    /// Point index.
+    pub point: usize,
+    /// Seed.
+    pub seed: u64,
+    /// The sweep's metrics, in its order (`None`: not computable).
+    pub values: Vec<Option<f64>>,
+}
+
+/// `sweep.json`: the definition and size of the sweep (nothing shard- or machine-specific).
+#[derive(Clone, Debug, Serialize)]
+pub struct SweepJson {
+    /// The sweep's description.
+    pub description: String,
+    /// Base scenario name.
+    pub scenario: String,
+    /// Duration override (s).
+    pub duration_s: Option<f64>,
+    /// Seeds.
+    pub seeds: Vec<u64>,
+    /// Metrics.
+    pub metrics: Vec<String>,
+    /// Axes: name, keys, x positions and labels of the values.
+    pub axes: Vec<AxisJson>,
+    /// Number of points.
+    pub points: usize,
+    /// Number of runs (points × seeds).
+    pub runs: usize,
+}
+
+/// One axis in `sweep.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct AxisJson {
+    /// Name.
+    pub name: String,
+    /// Keys set together.
+    pub keys: Vec<String>,
+    /// Plot positions of the values.
+    pub x: Vec<f64>,
+    /// Labels of the values.
+    pub labels: Vec<String>,
+}
+
+impl Sweep {
+    /// `sweep.json`'s content.
+    pub fn json(&self) -> SweepJson {
+        let points = self.points().len();
+        SweepJson {
+            description: self.spec.description.clone(),
+            scenario: self.scenario_name.clone(),
+            duration_s: self.spec.duration_s,
+            seeds: self.spec.seeds.clone(),
+            metrics: self.metrics.clone(),
+            axes: self
+                .spec
+                .axes
+                .iter()
+                .enumerate()
+                .map(|(a, axis)| AxisJson {
+                    name: axis.name.clone(),
+                    keys: axis.keys.clone(),
+                    x: (0..axis.values.len()).map(|i| self.x(a, i)).collect(),
+                    labels: (0..axis.values.len()).map(|i| self.label(a, i)).collect(),
+                })
+                .collect(),
+            points,
+            runs: points * self.spec.seeds.len(),
+        }
+    }
+
+    /// Runs the shard's runs on `jobs` threads; rows in run order (the result does not depend
+    /// on `jobs`). `progress` is told each finished run.
+    pub fn run(
+        &self,
+        shard: Shard,
+        jobs: usize,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Vec<RunRow>, String> {
+        let points = self.points();
+        let seeds = &self.spec.seeds;
+        let todo: Vec<usize> = (0..points.len() * seeds.len())
+            .filter(|&r| shard.has(r))
+            .collect();
+        let results: Mutex<Vec<Option<Result<RunRow, String>>>> =
+            Mutex::new(vec![None; todo.len()]);
+        let next = AtomicUsize::new(0);
+        let done = AtomicUsize::new(0);
+        std::thread::scope(|s| {
+            for _ in 0..jobs.clamp(1, todo.len().max(1)) {
+                s.spawn(|| {
+                    loop {
+                        let k = next.fetch_add(1, Ordering::Relaxed);
+                        if k >= todo.len() {
+                            break;
+                        }
+                        let r = todo[k];
+                        let (p, si) = (r / seeds.len(), r % seeds.len());
+                        let row = self.run_one(&points[p], seeds[si]).map(|values| RunRow {
+                            run: r,
+                            point: p,
+                            seed: seeds[si],
+                            values,
+                        });
+                        results.lock().expect("no worker panicked")[k] = Some(row);
+                        progress(done.fetch_add(1, Ordering::Relaxed) + 1, todo.len());
+                    }
+                });
+            }
+        });
+        results
+            .into_inner()
+            .expect("no worker panicked")
+            .into_iter()
+            .map(|r| r.expect("every run ran"))
+            .collect()
+    }
+
+    /// One run's metric values.
+    fn run_one(&self, point: &[usize], seed: u64) -> Result<Vec<Option<f64>>, String> {
+        let scenario = self.scenario(point).map_err(|e| e.to_string())?;
+        let options = RunOptions {
+            seed: Some(seed),
+            duration_s: self.spec.duration_s,
+            ..Default::default()
+        };
+        let out = run(&scenario, &options, &mut |_| {})
+            .map_err(|e| format!("{} seed {seed}: {e}", self.describe_point(point)))?;
+        let eval = report::evaluate(&out, scenario.spec.suite);
+        let r = report::build_report(&scenario, &out, &eval);
+        Ok(self
+            .metrics
+            .iter()
+            .map(|m| r.metric(m).filter(|v| v.is_finite()))
+            .collect())
+    }
+
+    /// `results.csv`: a header, then one row per run in run order. Numbers are written in
+    /// their shortest exact form; an empty cell is a metric that could not be computed.
+    pub fn csv(&self, rows: &[RunRow]) -> String {
+        let points = self.points();
+        let mut s = String::from("run,point,seed");
+        for a in &self.spec.axes {
+            let _ = write!(s, ",{}", a.name);
+        }
+        for m in &self.metrics {
+            let _ = write!(s, ",{m}");
+        }
+        s.push('\n');
+        for row in rows {
+            let _ = write!(s, "{},{},{}", row.run, row.point, row.seed);
+            for (a, &i) in points[row.point].iter().enumerate() {
+                let _ = write!(s, ",{}", self.x(a, i));
+            }
+            for v in &row.values {
+                match v {
+                    Some(v) => {
+                        let _ = write!(s, ",{v}");
+                    }
+                    None => s.push(','),
+                }
+            }
+            s.push('\n');
+        }
+        s
+    }
+}
