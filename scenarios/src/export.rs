@@ -6,9 +6,12 @@
 //! `cam<i>/data.csv` + `sensor.yaml` with each camera's calibration) and `OUT/features.csv`
 //! (`t_ns,cam_id,feature_id,u,v`, distorted pixels). Rendered scenarios (`camera.mode =
 //! "rendered"`) also write every image as `mav0/cam<i>/data/<t_ns>.png` (depth images are not
-//! exported; `vio render` writes them); feature-level
-//! scenarios have no images: the camera `data.csv` lists the frame times, and `features.csv`
-//! holds what the cameras measured at those times.
+//! exported; `vio render` writes them), and each camera's `data.csv` lists exactly the images
+//! written; feature-level scenarios have no images, so their `data.csv` holds the header only
+//! and `features.csv` holds what the cameras measured and when. Feature ids in `features.csv`
+//! are renumbered densely from 0 in order of first appearance (they fit in 31 bits): one id is
+//! one track (`rig.track_ids = "realistic"`, the default: a re-acquired landmark is a new track)
+//! or one landmark (`"landmark"`), shared by the cameras that see it.
 
 use std::path::Path;
 
@@ -93,6 +96,27 @@ fn kalibr_camera(
 }
 
 /// Simulates `scenario` and writes its measurements and ground truth under `out`.
+/// Renumbers feature ids densely from 0 in order of first appearance (frames in time order,
+/// cameras and features in their order; each frame re-sorted by the new ids), so they fit in
+/// 31 bits: many tools read them as `int`,
+/// and the simulator's realistic track ids carry the landmark id in their low bits and a track
+/// counter above. One id still means one track (or one landmark with `track_ids = "landmark"`),
+/// shared by the cameras that see it.
+fn compact_feature_ids(frames: &mut [FeatureFrame]) {
+    let mut ids: std::collections::BTreeMap<u64, u64> = std::collections::BTreeMap::new();
+    for f in frames {
+        for c in &mut f.cameras {
+            for o in &mut c.features {
+                let next = ids.len() as u64;
+                o.feature_id = *ids.entry(o.feature_id).or_insert(next);
+            }
+            // A frame lists its features by increasing id.
+            c.features.sort_by_key(|o| o.feature_id);
+        }
+    }
+}
+
+/// Writes the scenario's measurements (see the module documentation).
 pub fn export(
     scenario: &Scenario,
     options: &RunOptions,
@@ -157,20 +181,18 @@ pub fn export(
                     let path = dir.join(format!("{}.png", frame.t_ns));
                     crate::images::write_gray_png(&path, &c.image).map_err(ExportError::Image)?;
                     images += 1;
-                }
-            }
-            Measurement::Frame(f) => {
-                for cf in &f.cameras {
-                    if let Some(cam) = data.cameras.get_mut(cf.cam_id) {
-                        cam.frames.push(CameraFrame::at(f.t_ns));
+                    // `data.csv` lists only the images that exist (an EuRoC reader opens them).
+                    if let Some(cam) = data.cameras.get_mut(c.cam_id) {
+                        cam.frames.push(CameraFrame::at(frame.t_ns));
                     }
                 }
-                frames.push(f);
             }
+            Measurement::Frame(f) => frames.push(f),
         }
     }
     stream_result(scenario, &stream)?;
     write_euroc(out.join("mav0"), &data)?;
+    compact_feature_ids(&mut frames);
     write_features_csv(out.join("features.csv"), &frames)?;
     Ok(ExportSummary {
         imu_samples: data.imu.len(),
