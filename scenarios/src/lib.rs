@@ -13,9 +13,11 @@
 //! - [`images`], [`tracks_image`] — `vio render`: images, depth, and the front end's tracks;
 //! - [`regress`] — `vio regress`: a regression catalog against a stored baseline, JUnit XML;
 //! - [`sweep`] — `vio sweep` / `sweep-merge`: a scenario over a parameter grid × seeds, sharded;
+//! - [`bench`] — `vio bench`: per-stage timing, frames per second and peak memory;
 //! - [`selfcheck`] — a quick end-to-end check of the estimator's mathematics.
 
 pub mod batch;
+pub mod bench;
 pub mod catalog;
 pub mod dataset;
 pub mod export;

@@ -276,6 +276,9 @@ pub fn run_interruptible(
     let mut last_progress = -1.0;
     let mut finished = false;
     let mut now_ns: i64 = 0;
+    // (camera stamp, front-end s, render s) of frames pushed and not yet estimated.
+    let mut pending_frontend: std::collections::VecDeque<(i64, f64, f64)> =
+        std::collections::VecDeque::new();
     while !finished {
         let m = if stop.load(Ordering::Relaxed) {
             out.interrupted_at_s.get_or_insert(now_ns as f64 * 1e-9);
@@ -285,7 +288,7 @@ pub fn run_interruptible(
         };
         let t_ns = m.as_ref().map_or(end_ns, |m| m.t_ns());
         now_ns = now_ns.max(t_ns.min(end_ns));
-        let (result, frontend_s, call_start) = match m {
+        let (result, _frontend_s, call_start) = match m {
             None => {
                 // End of the data: the estimator judges its last IMU samples and processes
                 // the frames still waiting for them.
@@ -307,6 +310,7 @@ pub fn run_interruptible(
                             message: e.to_string(),
                         })?;
                 out.frames_in += 1;
+                pending_frontend.push_back((frame.t_ns, frontend_s, render_s));
                 let start = Instant::now();
                 (estimator.push_frame(frame), frontend_s, start)
             }
@@ -325,6 +329,7 @@ pub fn run_interruptible(
                 let start = Instant::now();
                 let frame = f;
                 let frontend_s = start.elapsed().as_secs_f64();
+                pending_frontend.push_back((frame.t_ns, frontend_s, render_s));
                 (estimator.push_frame(frame), frontend_s, start)
             }
         };
@@ -380,11 +385,23 @@ pub fn run_interruptible(
             let truth = stream
                 .truth(e.t_ns)
                 .ok_or(RunError::NoTruth { t_ns: e.t_ns })?;
+            // An estimate often leaves the estimator in a later call than its frame entered
+            // (the frame waits for the IMU that covers it): its front-end and render times are
+            // those recorded when its frame was pushed (camera stamp = estimate − td).
+            let camera_t = e.t_ns - (e.td_s * 1e9).round() as i64;
+            let (mut frame_frontend_s, mut frame_render_s) = (0.0, render_s);
+            while let Some(&(t, f, r)) = pending_frontend.front() {
+                if t > camera_t {
+                    break;
+                }
+                pending_frontend.pop_front();
+                (frame_frontend_s, frame_render_s) = (f, r);
+            }
             let timing = FrameTiming {
-                frontend_s,
+                frontend_s: frame_frontend_s,
                 backend_s: e.backend_s,
-                total_s: frontend_s + call_s / n,
-                render_s,
+                total_s: frame_frontend_s + call_s / n,
+                render_s: frame_render_s,
             };
             out.frames.push(FrameRecord {
                 estimate: e,

@@ -149,6 +149,21 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Benchmark: fixed scenarios per suite and camera mode (`scenarios::bench::SCENARIOS`),
+    /// each in its own process; per-stage timing (median / p99 / max per frame), frames per
+    /// second, peak memory; a table and `OUT/bench.json` with date and machine.
+    Bench {
+        /// Short runs (8 s feature-level, 3 s rendered) instead of 20–30 s / 10 s.
+        #[arg(long)]
+        quick: bool,
+        /// Output folder [default: ./vio-out/bench].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Run one benchmark scenario in this process and print its row as JSON (what each
+        /// child process does).
+        #[arg(long, hide = true)]
+        one: Option<String>,
+    },
     /// Preintegrate a synthetic IMU interval and check every factor's Jacobians.
     Selfcheck,
     /// Compare an estimated trajectory with ground truth (TUM files): ATE and RPE with evo's
@@ -429,6 +444,7 @@ fn main() -> ExitCode {
                 ExitCode::from(BAD_INPUT)
             }
         },
+        Command::Bench { quick, out, one } => bench_command(quick, out, one),
         Command::Selfcheck => {
             let result = scenarios::selfcheck::run();
             say(&result.report);
@@ -502,6 +518,75 @@ fn sweep_command(
         started.elapsed().as_secs_f64(),
         out.display()
     ));
+    ExitCode::SUCCESS
+}
+
+fn bench_command(quick: bool, out: Option<PathBuf>, one: Option<String>) -> ExitCode {
+    use scenarios::bench;
+    let bad = |e: String| {
+        eprintln!("vio bench: error: {e}");
+        ExitCode::from(BAD_INPUT)
+    };
+    if let Some(name) = one {
+        return match bench::bench_one(&name, quick) {
+            Ok(row) => {
+                say(&(serde_json::to_string(&row).expect("plain data") + "\n"));
+                ExitCode::SUCCESS
+            }
+            Err(e) => bad(e),
+        };
+    }
+    let out = out.unwrap_or_else(|| PathBuf::from("vio-out").join("bench"));
+    if let Err(code) = check_out_dir(&out) {
+        return code;
+    }
+    let exe = match std::env::current_exe() {
+        Ok(e) => e,
+        Err(e) => return bad(format!("cannot find the vio executable: {e}")),
+    };
+    let mut rows = Vec::new();
+    for &(name, ..) in bench::SCENARIOS {
+        eprintln!("bench {name}");
+        let mut cmd = std::process::Command::new(&exe);
+        cmd.args(["bench", "--one", name]);
+        if quick {
+            cmd.arg("--quick");
+        }
+        let child = match cmd.output() {
+            Ok(o) => o,
+            Err(e) => return bad(format!("{name}: {e}")),
+        };
+        if !child.status.success() {
+            return bad(format!(
+                "{name}: {}",
+                String::from_utf8_lossy(&child.stderr).trim()
+            ));
+        }
+        match serde_json::from_slice::<bench::BenchRow>(&child.stdout) {
+            Ok(r) => rows.push(r),
+            Err(e) => return bad(format!("{name}: unreadable result: {e}")),
+        }
+    }
+    let json = bench::BenchJson {
+        date_utc: bench::now_utc(),
+        machine: bench::machine(),
+        quick,
+        vio_version: env!("CARGO_PKG_VERSION"),
+        rows,
+    };
+    say(&format!(
+        "{} on {}{}\n{}",
+        json.date_utc,
+        json.machine,
+        if quick { " (--quick)" } else { "" },
+        bench::table(&json.rows)
+    ));
+    let path = out.join("bench.json");
+    let text = serde_json::to_string_pretty(&json).expect("plain data") + "\n";
+    if let Err(e) = std::fs::write(&path, text) {
+        return bad(format!("{}: {e}", path.display()));
+    }
+    say(&format!("written: {}\n", path.display()));
     ExitCode::SUCCESS
 }
 

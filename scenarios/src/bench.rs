@@ -1,0 +1,242 @@
+//! `vio bench`: fixed benchmark scenarios per suite and camera mode, timed per stage.
+//!
+//! Each scenario runs in its own child process (`vio bench --one NAME`), so its peak memory is
+//! its own (`VmHWM` of `/proc/self/status`; `null` where that file does not exist). Per frame:
+//! rendering, front end, back end (of which the window solve and the marginalization), and the
+//! whole estimator call; the median, 99th percentile and maximum of each, the frames per second
+//! of the whole run (simulation, rendering and estimation, wall clock) and the ATE as a sanity
+//! check. Timings are measurements of this machine, not results: they vary run to run.
+
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use crate::report::{self, Stats};
+use crate::run::{RunOptions, run};
+use crate::spec::Scenario;
+
+/// `(catalog scenario, mode, duration s, quick duration s)` of the benchmark.
+pub const SCENARIOS: &[(&str, &str, f64, f64)] = &[
+    ("room_figure8_stereo_imu", "features", 30.0, 8.0),
+    ("room_figure8_mono_imu", "features", 30.0, 8.0),
+    ("room_figure8_stereo", "features", 30.0, 8.0),
+    ("room_replay_v2_02_stereo_imu", "features", 20.0, 8.0),
+    ("room_figure8_rendered_stereo_imu", "rendered", 10.0, 3.0),
+];
+
+/// Per-stage statistics (ms per frame).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StageStats {
+    /// Median.
+    pub median: f64,
+    /// 99th percentile.
+    pub p99: f64,
+    /// Maximum.
+    pub max: f64,
+}
+
+impl From<Stats> for StageStats {
+    fn from(s: Stats) -> Self {
+        Self {
+            median: s.median,
+            p99: s.p99,
+            max: s.max,
+        }
+    }
+}
+
+/// One benchmark scenario's figures (a row of `bench.json`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BenchRow {
+    /// Catalog scenario.
+    pub scenario: String,
+    /// `features` or `rendered`.
+    pub mode: String,
+    /// Suite.
+    pub suite: String,
+    /// Simulated seconds.
+    pub duration_s: f64,
+    /// Processed frames.
+    pub frames: usize,
+    /// Rendering per frame (rendered scenarios).
+    pub render_ms: Option<StageStats>,
+    /// Image front end per frame.
+    pub frontend_ms: StageStats,
+    /// Estimator back end per frame.
+    pub backend_ms: StageStats,
+    /// Window solve per frame.
+    pub solve_ms: StageStats,
+    /// Marginalization per frame.
+    pub marginalization_ms: StageStats,
+    /// Front end plus the whole estimator call per frame.
+    pub total_ms: StageStats,
+    /// Frames per second of the whole run (wall clock: simulation included).
+    pub frames_per_s: f64,
+    /// Wall time of the run (s).
+    pub wall_s: f64,
+    /// Peak resident memory of the process that ran it (MiB).
+    pub peak_memory_mib: Option<f64>,
+    /// ATE (m), a sanity check.
+    pub ate_rmse_m: Option<f64>,
+}
+
+/// The process's peak resident memory (MiB) from `/proc/self/status`.
+pub fn peak_memory_mib() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib / 1024.0)
+}
+
+/// Runs one benchmark scenario in this process.
+pub fn bench_one(name: &str, quick: bool) -> Result<BenchRow, String> {
+    let &(_, mode, full, short) = SCENARIOS
+        .iter()
+        .find(|s| s.0 == name)
+        .ok_or_else(|| format!("`{name}` is not a benchmark scenario"))?;
+    let scenario = Scenario::load(name).map_err(|e| e.to_string())?;
+    let duration = if quick { short } else { full };
+    let options = RunOptions {
+        duration_s: Some(duration),
+        ..Default::default()
+    };
+    let start = Instant::now();
+    let out = run(&scenario, &options, &mut |_| {}).map_err(|e| e.to_string())?;
+    let wall_s = start.elapsed().as_secs_f64();
+    let eval = report::evaluate(&out, scenario.spec.suite);
+    let rep = report::build_report(&scenario, &out, &eval);
+    let stage = |f: &dyn Fn(&crate::run::FrameRecord) -> f64| -> StageStats {
+        Stats::from_seconds(out.frames.iter().map(f)).into()
+    };
+    Ok(BenchRow {
+        scenario: name.to_string(),
+        mode: mode.to_string(),
+        suite: scenario.spec.suite.as_str().to_string(),
+        duration_s: out.duration_s,
+        frames: out.frames.len(),
+        render_ms: (mode == "rendered").then(|| stage(&|f| f.timing.render_s)),
+        frontend_ms: stage(&|f| f.timing.frontend_s),
+        backend_ms: stage(&|f| f.timing.backend_s),
+        solve_ms: stage(&|f| f.estimate.solve_s),
+        marginalization_ms: stage(&|f| f.estimate.marginalization_s),
+        total_ms: stage(&|f| f.timing.total_s),
+        frames_per_s: out.frames.len() as f64 / wall_s.max(1e-9),
+        wall_s,
+        peak_memory_mib: peak_memory_mib(),
+        ate_rmse_m: rep.ate_rmse_m,
+    })
+}
+
+/// The table `vio bench` prints.
+pub fn table(rows: &[BenchRow]) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{:<34} {:>6} {:>17} {:>17} {:>17} {:>17} {:>17} {:>17} {:>7} {:>8} {:>8}",
+        "scenario (ms per frame: median/p99/max)",
+        "frames",
+        "render",
+        "frontend",
+        "backend",
+        "solve",
+        "marginalize",
+        "total",
+        "fps",
+        "peak MiB",
+        "ATE m"
+    );
+    let st = |x: &StageStats| format!("{:.2}/{:.2}/{:.1}", x.median, x.p99, x.max);
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "{:<34} {:>6} {:>17} {:>17} {:>17} {:>17} {:>17} {:>17} {:>7.1} {:>8} {:>8}",
+            r.scenario,
+            r.frames,
+            r.render_ms.as_ref().map_or("—".to_string(), st),
+            st(&r.frontend_ms),
+            st(&r.backend_ms),
+            st(&r.solve_ms),
+            st(&r.marginalization_ms),
+            st(&r.total_ms),
+            r.frames_per_s,
+            r.peak_memory_mib
+                .map_or("n/a".to_string(), |m| format!("{m:.0}")),
+            r.ate_rmse_m
+                .map_or("n/a".to_string(), |a| format!("{a:.4}")),
+        );
+    }
+    s
+}
+
+/// `bench.json`: when, where, and the rows.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchJson {
+    /// UTC date and time of the run (ISO 8601, from the system clock).
+    pub date_utc: String,
+    /// The machine: CPU model and logical cores, from `/proc/cpuinfo`.
+    pub machine: String,
+    /// `--quick` durations.
+    pub quick: bool,
+    /// `vio` version.
+    pub vio_version: &'static str,
+    /// The scenarios.
+    pub rows: Vec<BenchRow>,
+}
+
+/// The CPU model and logical core count (`/proc/cpuinfo`), or what is known.
+pub fn machine() -> String {
+    let cores = std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get);
+    let model = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|c| {
+            c.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|m| m.trim().to_string())
+        })
+        .unwrap_or_else(|| std::env::consts::ARCH.to_string());
+    format!("{model}, {cores} logical cores")
+}
+
+/// The current UTC time as ISO 8601 (`YYYY-MM-DDTHH:MM:SSZ`), from the system clock.
+pub fn now_utc() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs()) as i64;
+    iso8601(secs)
+}
+
+/// Seconds since 1970-01-01 UTC as ISO 8601.
+fn iso8601(secs: i64) -> String {
+    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    // Civil date from days since 1970-01-01 (Howard Hinnant's algorithm).
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}Z",
+        rem / 3600,
+        rem % 3600 / 60,
+        rem % 60
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn iso8601_matches_known_instants() {
+        assert_eq!(iso8601(0), "1970-01-01T00:00:00Z");
+        // 2000-02-29 (a leap day of a century leap year) 12:34:56.
+        assert_eq!(iso8601(951_827_696), "2000-02-29T12:34:56Z");
+        assert_eq!(iso8601(1_795_046_400), "2026-11-19T00:00:00Z");
+    }
+}

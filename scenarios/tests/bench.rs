@@ -1,0 +1,30 @@
+//! `vio bench --one`: one benchmark scenario's row, as each child process prints it.
+
+mod common;
+
+use common::vio;
+
+#[test]
+fn one_benchmark_row_has_every_stage() {
+    let out = vio(&["bench", "--one", "room_figure8_stereo_imu", "--quick"]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let row: scenarios::bench::BenchRow = serde_json::from_slice(&out.stdout).unwrap();
+    // 8 s at 20 Hz, both ends included.
+    assert_eq!(row.frames, 161);
+    assert!(row.render_ms.is_none());
+    assert!(row.backend_ms.median > 0.0 && row.backend_ms.median <= row.backend_ms.p99);
+    assert!(row.solve_ms.median <= row.backend_ms.max);
+    assert!(row.frames_per_s > 0.0);
+    // Linux reports the peak resident memory.
+    if cfg!(target_os = "linux") {
+        assert!(row.peak_memory_mib.is_some_and(|m| m > 1.0));
+    }
+    assert!(row.ate_rmse_m.is_some_and(|a| a < 0.05));
+    let out = vio(&["bench", "--one", "no_such"]);
+    assert_eq!(out.status.code(), Some(2));
+}
