@@ -10,6 +10,7 @@
 
 mod euroc;
 mod features;
+pub mod kalibr;
 mod tum;
 mod yaml;
 

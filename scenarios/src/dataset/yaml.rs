@@ -4,12 +4,15 @@
 
 use super::RowResult;
 
-/// One `key: value` entry with its dotted path (`T_BS.data`) and 1-based line.
+/// One `key: value` entry with its dotted path (`T_BS.data`) and 1-based line; a key with no
+/// inline value may own a block sequence (`- [a, b]` lines), as Kalibr writes its matrices.
 #[derive(Debug, Clone)]
 pub(crate) struct Entry {
     pub key: String,
     pub value: String,
     pub line: usize,
+    /// Block-sequence items `(text, line)`.
+    pub items: Vec<(String, usize)>,
 }
 
 /// A parsed document: entries in file order (no hashing, so iteration is deterministic).
@@ -64,6 +67,27 @@ impl Doc {
             }
             let indent = content.len() - content.trim_start().len();
             let body = content.trim_start();
+            if let Some(item) = body.strip_prefix("- ") {
+                // An item of the block sequence of the innermost open key (at its indentation
+                // or deeper, as YAML allows).
+                while stack.last().is_some_and(|(ind, _)| *ind > indent) {
+                    stack.pop();
+                }
+                let owner = stack
+                    .iter()
+                    .map(|(_, k)| k.as_str())
+                    .collect::<Vec<_>>()
+                    .join(".");
+                let Some(entry) = entries
+                    .iter_mut()
+                    .rev()
+                    .find(|e: &&mut Entry| e.key == owner && e.value.is_empty())
+                else {
+                    return Err((line_no, format!("a sequence item outside a key: `{body}`")));
+                };
+                entry.items.push((item.trim().to_string(), line_no));
+                continue;
+            }
             let Some((key, value)) = body.split_once(':') else {
                 return Err((line_no, format!("expected `key: value`, found `{body}`")));
             };
@@ -104,6 +128,7 @@ impl Doc {
                 key: full,
                 value,
                 line: line_no,
+                items: Vec::new(),
             });
         }
         Ok(Doc { entries })
@@ -168,6 +193,18 @@ mod tests {
         );
         assert_eq!(d.get("rate_hz").unwrap().line, 7);
         assert_eq!(list(&d.get("intrinsics").unwrap().value).unwrap().len(), 2);
+    }
+
+    #[test]
+    fn block_sequences_of_flow_lists_belong_to_their_key() {
+        let text = "cam0:\n  T_cam_imu:\n  - [1, 0] # r0\n  - [0, 1]\n  model: pinhole\n";
+        let d = Doc::parse(text).unwrap();
+        let t = d.get("cam0.T_cam_imu").unwrap();
+        assert_eq!(t.items.len(), 2);
+        assert_eq!(list(&t.items[1].0).unwrap(), ["0", "1"]);
+        assert_eq!(t.items[1].1, 4);
+        assert_eq!(d.get("cam0.model").unwrap().value, "pinhole");
+        assert!(Doc::parse("- [1, 2]\n").is_err());
     }
 
     #[test]

@@ -147,6 +147,8 @@ impl Scenario {
             Origin::Catalog => format!("catalog:{name}"),
             Origin::File(p) => p.display().to_string(),
         };
+        let expanded = kalibr_expansion(&file, &origin, text)?;
+        let text = expanded.as_deref().unwrap_or(text);
         let de = toml::Deserializer::parse(text).map_err(|e| SpecError {
             file: file.clone(),
             key: String::new(),
@@ -284,6 +286,99 @@ impl Scenario {
             message: message.into(),
         }
     }
+}
+
+/// With `rig.kalibr`, the scenario text with the Kalibr files' `[[rig.cameras]]` and
+/// `[rig.imu]` tables appended (the original lines keep their numbers); `None` without it.
+fn kalibr_expansion(file: &str, origin: &Origin, text: &str) -> Result<Option<String>, SpecError> {
+    let Ok(table) = text.parse::<toml::Table>() else {
+        return Ok(None); // the deserializer reports the syntax error with its line
+    };
+    let Some(rig) = table.get("rig").and_then(|r| r.as_table()) else {
+        return Ok(None);
+    };
+    let Some(k) = rig.get("kalibr").and_then(|k| k.as_table()) else {
+        return Ok(None);
+    };
+    let err = |key: &str, m: String| SpecError {
+        file: file.into(),
+        key: key.into(),
+        line: line_of_key(text, key),
+        message: m,
+    };
+    let path_of = |key: &str| -> Result<Option<String>, SpecError> {
+        match k.get(key) {
+            None => Ok(None),
+            Some(toml::Value::String(s)) => Ok(Some(s.clone())),
+            Some(_) => Err(err(
+                &format!("rig.kalibr.{key}"),
+                "expected a file path".into(),
+            )),
+        }
+    };
+    let read = |key: &str, rel: &str| -> Result<(String, String), SpecError> {
+        let key = format!("rig.kalibr.{key}");
+        match origin {
+            Origin::Catalog => catalog::data(rel)
+                .map(|t| (t, rel.to_string()))
+                .ok_or_else(|| err(&key, format!("no embedded catalog data file `{rel}`"))),
+            Origin::File(p) => {
+                let path = p.parent().unwrap_or(Path::new(".")).join(rel);
+                std::fs::read(&path)
+                    .map(|b| {
+                        (
+                            String::from_utf8_lossy(&b).into_owned(),
+                            path.display().to_string(),
+                        )
+                    })
+                    .map_err(|e| {
+                        err(
+                            &key,
+                            format!(
+                                "cannot read {} (relative to the scenario file): {e}",
+                                path.display()
+                            ),
+                        )
+                    })
+            }
+        }
+    };
+    let kalibr_err = |e: crate::dataset::kalibr::KalibrError| SpecError {
+        file: e.file,
+        key: e.key,
+        line: e.line,
+        message: e.message,
+    };
+    let sigma = match k.get("pixel_sigma_px") {
+        None => 1.0,
+        Some(v) => v
+            .as_float()
+            .or_else(|| v.as_integer().map(|i| i as f64))
+            .ok_or_else(|| err("rig.kalibr.pixel_sigma_px", "expected a number".into()))?,
+    };
+    let mut out = text.trim_end().to_string() + "\n";
+    let Some(camchain) = path_of("camchain")? else {
+        return Err(err("rig.kalibr", "missing `camchain`".into()));
+    };
+    if rig.get("cameras").is_some() {
+        return Err(err(
+            "rig.cameras",
+            "`rig.kalibr.camchain` gives the cameras: remove the [[rig.cameras]] entries".into(),
+        ));
+    }
+    let (t, name) = read("camchain", &camchain)?;
+    out.push_str(&crate::dataset::kalibr::cameras_toml(&t, &name, sigma).map_err(kalibr_err)?);
+    if let Some(imu) = path_of("imu")? {
+        if rig.get("imu").is_some() {
+            return Err(err(
+                "rig.imu",
+                "`rig.kalibr.imu` gives the IMU: remove [rig.imu] (or `kalibr.imu`)".into(),
+            ));
+        }
+        let (t, name) = read("imu", &imu)?;
+        out.push_str(&crate::dataset::kalibr::imu_toml(&t, &name).map_err(kalibr_err)?);
+    }
+    Ok(Some(out))
 }
 
 #[cfg(test)]

@@ -417,10 +417,27 @@ pub struct RigSpec {
     /// re-association, and observations are kept whatever their noise).
     #[serde(default)]
     pub track_ids: TrackIdsSpec,
-    /// The cameras; index = `cam_id` (0 = left).
+    /// The cameras; index = `cam_id` (0 = left). Written by `kalibr.camchain` when that is
+    /// given.
+    #[serde(default)]
     pub cameras: Vec<CameraSpec>,
-    /// The IMU.
+    /// The IMU (written by `kalibr.imu` when that is given).
     pub imu: ImuSpec,
+    /// Kalibr calibration files instead of `[[rig.cameras]]` / `[rig.imu]`.
+    pub kalibr: Option<KalibrSpec>,
+}
+
+/// `rig.kalibr`: a Kalibr calibration as the rig (see [`crate::dataset::kalibr`]).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KalibrSpec {
+    /// `camchain-imucam.yaml`, relative to the scenario file: the cameras.
+    pub camchain: String,
+    /// `imu.yaml`, relative to the scenario file: the IMU's rate and densities (else
+    /// `[rig.imu]` is written out).
+    pub imu: Option<String>,
+    /// Feature noise of every camera (px); default 1.
+    pub pixel_sigma_px: Option<f64>,
 }
 
 /// `rig.track_ids`: how the feature-level cameras assign feature ids.

@@ -1,0 +1,214 @@
+//! Kalibr calibration files as a scenario rig: `camchain-imucam.yaml` (every camera's model,
+//! intrinsics, distortion, resolution and `T_cam_imu`) and `imu.yaml` (noise densities and
+//! rate), turned into the scenario's `[[rig.cameras]]` and `[rig.imu]` tables.
+//!
+//! Models: `pinhole` + `radtan` → `pinhole_radtan`, `pinhole` + `equidistant` →
+//! `kannala_brandt`, `omni` + `radtan` → `mei` (intrinsics `[xi, fu, fv, pu, pv]`), `ds` + `none`
+//! → `double_sphere` (intrinsics `[xi, alpha, fu, fv, pu, pv]`). `T_cam_imu` maps IMU to camera
+//! coordinates, so the rig's `T_b_c` is its inverse. `timeshift_cam_imu` is not used (set
+//! `rig.time_offset_s` / `estimator.td_s` for it).
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::yaml::{Doc, Entry, list};
+
+/// An error naming the Kalibr file, key and line.
+#[derive(Clone, Debug, PartialEq)]
+pub struct KalibrError {
+    /// The file.
+    pub file: String,
+    /// Its key (`cam1.T_cam_imu`).
+    pub key: String,
+    /// 1-based line, when known.
+    pub line: Option<usize>,
+    /// What was wrong.
+    pub message: String,
+}
+
+fn numbers(v: &str) -> Result<Vec<f64>, String> {
+    list(v)?
+        .iter()
+        .map(|x| {
+            x.parse::<f64>()
+                .ok()
+                .filter(|f| f.is_finite())
+                .ok_or_else(|| format!("`{x}` is not a finite number"))
+        })
+        .collect()
+}
+
+/// `[[rig.cameras]]` tables (TOML text) for the cameras of a Kalibr camchain, each with
+/// `pixel_sigma_px`.
+pub fn cameras_toml(text: &str, file: &str, pixel_sigma_px: f64) -> Result<String, KalibrError> {
+    let err = |key: &str, line: Option<usize>, m: String| KalibrError {
+        file: file.into(),
+        key: key.into(),
+        line,
+        message: m,
+    };
+    let doc = Doc::parse(text).map_err(|(l, m)| err("", Some(l), m))?;
+    let mut names: Vec<&str> = doc
+        .entries
+        .iter()
+        .filter(|e| !e.key.contains('.'))
+        .map(|e| e.key.as_str())
+        .collect();
+    names.retain(|n| n.starts_with("cam"));
+    if names.is_empty() {
+        return Err(err("", None, "no `cam0:` … entries".into()));
+    }
+    let mut out = String::new();
+    for cam in names {
+        let get = |k: &str| -> Result<&Entry, KalibrError> {
+            let key = format!("{cam}.{k}");
+            doc.get(&key)
+                .ok_or_else(|| err(&key, None, format!("missing `{k}` for {cam}")))
+        };
+        let nums = |k: &str| -> Result<Vec<f64>, KalibrError> {
+            let e = get(k)?;
+            numbers(&e.value).map_err(|m| err(&e.key, Some(e.line), m))
+        };
+        let model = get("camera_model")?;
+        let dist = get("distortion_model")?;
+        let intr = nums("intrinsics")?;
+        let coeffs = nums("distortion_coeffs").or_else(|e| {
+            if dist.value.trim() == "none" {
+                Ok(Vec::new())
+            } else {
+                Err(e)
+            }
+        })?;
+        let res = nums("resolution")?;
+        let need = |n: usize, what: &str, e: &Entry| {
+            if intr.len() == n {
+                Ok(())
+            } else {
+                Err(err(
+                    &format!("{cam}.intrinsics"),
+                    Some(e.line),
+                    format!("the {what} model needs {n} intrinsics, got {}", intr.len()),
+                ))
+            }
+        };
+        let (ours, intrinsics, xi, alpha) = match (model.value.trim(), dist.value.trim()) {
+            ("pinhole", "radtan") => {
+                need(4, "pinhole", model)?;
+                ("pinhole_radtan", &intr[..], None, None)
+            }
+            ("pinhole", "equidistant") => {
+                need(4, "pinhole", model)?;
+                ("kannala_brandt", &intr[..], None, None)
+            }
+            ("omni", "radtan") => {
+                need(5, "omni", model)?;
+                ("mei", &intr[1..], Some(intr[0]), None)
+            }
+            ("ds", "none") => {
+                need(6, "ds", model)?;
+                ("double_sphere", &intr[2..], Some(intr[0]), Some(intr[1]))
+            }
+            (m, d) => {
+                return Err(err(
+                    &format!("{cam}.camera_model"),
+                    Some(model.line),
+                    format!(
+                        "`{m}` with `{d}` distortion is not supported (pinhole/radtan, pinhole/equidistant, omni/radtan, ds/none)"
+                    ),
+                ));
+            }
+        };
+        let t = get("T_cam_imu")?;
+        let rows: Vec<Vec<f64>> = t
+            .items
+            .iter()
+            .map(|(r, line)| numbers(r).map_err(|m| err(&t.key, Some(*line), m)))
+            .collect::<Result<_, _>>()?;
+        if rows.len() != 4 || rows.iter().any(|r| r.len() != 4) {
+            return Err(err(
+                &t.key,
+                Some(t.line),
+                "expected a 4×4 matrix as four `- [a, b, c, d]` rows".into(),
+            ));
+        }
+        let r_c_b = Matrix3::from_fn(|i, j| rows[i][j]);
+        let t_c_b = Vector3::new(rows[0][3], rows[1][3], rows[2][3]);
+        if (r_c_b.transpose() * r_c_b - Matrix3::identity()).amax() > 1e-6
+            || (r_c_b.determinant() - 1.0).abs() > 1e-6
+        {
+            return Err(err(
+                &t.key,
+                Some(t.line),
+                "its rotation is not a rotation matrix (to 1e-6)".into(),
+            ));
+        }
+        // T_b_c = T_cam_imu⁻¹.
+        let r_b_c = r_c_b.transpose();
+        let t_b_c = -(r_b_c * t_c_b);
+        let f = |v: &[f64]| {
+            v.iter()
+                .map(|x| format!("{x:?}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        out.push_str(&format!(
+            "\n[[rig.cameras]]\nname = \"{cam}\"\nmodel = \"{ours}\"\nresolution = [{}, {}]\nintrinsics = [{}]\ndistortion = [{}]\n",
+            res.first().copied().unwrap_or(0.0) as u32,
+            res.get(1).copied().unwrap_or(0.0) as u32,
+            f(intrinsics),
+            f(&coeffs)
+        ));
+        if let Some(x) = xi {
+            out.push_str(&format!("xi = {x:?}\n"));
+        }
+        if let Some(a) = alpha {
+            out.push_str(&format!("alpha = {a:?}\n"));
+        }
+        out.push_str(&format!(
+            "T_b_c = {{ translation_m = [{}], rotation = [[{}], [{}], [{}]] }}\npixel_sigma_px = {pixel_sigma_px:?}\n",
+            f(t_b_c.as_slice()),
+            f(&[r_b_c[(0, 0)], r_b_c[(0, 1)], r_b_c[(0, 2)]]),
+            f(&[r_b_c[(1, 0)], r_b_c[(1, 1)], r_b_c[(1, 2)]]),
+            f(&[r_b_c[(2, 0)], r_b_c[(2, 1)], r_b_c[(2, 2)]]),
+        ));
+    }
+    Ok(out)
+}
+
+/// The `[rig.imu]` table (TOML text) of a Kalibr `imu.yaml` (keys at the top level or under
+/// `imu0:`).
+pub fn imu_toml(text: &str, file: &str) -> Result<String, KalibrError> {
+    let err = |key: &str, line: Option<usize>, m: String| KalibrError {
+        file: file.into(),
+        key: key.into(),
+        line,
+        message: m,
+    };
+    let doc = Doc::parse(text).map_err(|(l, m)| err("", Some(l), m))?;
+    let prefix = if doc.get("imu0").is_some() {
+        "imu0."
+    } else {
+        ""
+    };
+    let mut out = String::from("\n[rig.imu]\n");
+    for (kalibr, ours) in [
+        ("update_rate", "rate_hz"),
+        ("gyroscope_noise_density", "gyroscope_noise_density"),
+        ("accelerometer_noise_density", "accelerometer_noise_density"),
+        ("gyroscope_random_walk", "gyroscope_random_walk"),
+        ("accelerometer_random_walk", "accelerometer_random_walk"),
+    ] {
+        let key = format!("{prefix}{kalibr}");
+        let e = doc
+            .get(&key)
+            .ok_or_else(|| err(&key, None, format!("missing `{kalibr}`")))?;
+        let v: f64 = e
+            .value
+            .trim()
+            .parse()
+            .ok()
+            .filter(|v: &f64| v.is_finite())
+            .ok_or_else(|| err(&key, Some(e.line), format!("`{}` is not a number", e.value)))?;
+        out.push_str(&format!("{ours} = {v:?}\n"));
+    }
+    Ok(out)
+}
