@@ -38,7 +38,7 @@ pub struct TrackerSpec {
     /// Shi–Tomasi absolute floor.
     pub min_corner_response: Option<f64>,
     /// Bucketing grid `[columns, rows]`.
-    #[serde(default, deserialize_with = "crate::spec::schema::exact::option")]
+    #[serde(default, deserialize_with = "crate::spec::exact::option")]
     pub grid: Option<[usize; 2]>,
     /// Pyramid level of corner detection.
     pub detect_level: Option<usize>,

@@ -71,6 +71,7 @@ use crate::catalog;
 pub use crate::tracker_spec::{FrontendSpec, TrackerSpec};
 
 pub mod error;
+pub(crate) mod exact;
 mod mapping;
 pub mod schema;
 mod validate;

@@ -1,0 +1,152 @@
+//! `vio eval`: ATE and RPE of a trajectory file against ground truth, with evo's definitions.
+
+use std::path::PathBuf;
+
+use clap::ValueEnum;
+use scenarios::dataset::read_tum;
+use scenarios::metrics::{Alignment, EvalOptions, PairsFrom, RpeDelta, RpeOptions, evaluate};
+
+#[derive(Clone, Copy, ValueEnum)]
+enum AlignArg {
+    /// Rotation + translation (Umeyama; evo `-a`).
+    Se3,
+    /// Rotation + translation + scale (evo `-a --correct_scale`).
+    Sim3,
+    /// Translation + yaw (the 4 unobservable DoF of VIO).
+    Posyaw,
+    /// No alignment.
+    None,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum UnitArg {
+    /// Metres of travelled path.
+    M,
+    /// Frames (pose index distance).
+    F,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum PairsArg {
+    /// Select RPE pairs by the ground truth's path (evo `--pairs_from_reference`).
+    Gt,
+    /// Select RPE pairs by the aligned estimate's path (evo's default).
+    Est,
+}
+
+#[derive(clap::Args)]
+pub(super) struct EvalArgs {
+    /// Ground-truth trajectory (TUM: `t tx ty tz qx qy qz qw`).
+    #[arg(long)]
+    gt: PathBuf,
+    /// Estimated trajectory (TUM).
+    #[arg(long)]
+    est: PathBuf,
+    /// Alignment of the estimate before computing errors.
+    #[arg(long, value_enum, default_value = "se3")]
+    align: AlignArg,
+    /// Max. timestamp difference for association, in seconds (evo `--t_max_diff`).
+    #[arg(long, default_value_t = 0.01)]
+    t_max_diff: f64,
+    /// RPE pair spacing (evo `--delta`).
+    #[arg(long, default_value_t = 1.0)]
+    rpe_delta: f64,
+    /// Unit of the RPE spacing (evo `--delta_unit`).
+    #[arg(long, value_enum, default_value = "m")]
+    rpe_unit: UnitArg,
+    /// Which trajectory's path selects distance-based RPE pairs.
+    #[arg(long, value_enum, default_value = "gt")]
+    rpe_pairs_from: PairsArg,
+}
+
+pub(super) fn eval(args: &EvalArgs) -> Result<String, String> {
+    let gt = read_tum(&args.gt).map_err(|e| e.to_string())?;
+    let est = read_tum(&args.est).map_err(|e| e.to_string())?;
+    if !(args.t_max_diff.is_finite() && args.t_max_diff >= 0.0) {
+        return Err(format!(
+            "--t-max-diff must be ≥ 0 s, got {}",
+            args.t_max_diff
+        ));
+    }
+    let delta = match args.rpe_unit {
+        UnitArg::M => RpeDelta::Meters(args.rpe_delta),
+        UnitArg::F => {
+            if args.rpe_delta < 1.0 || args.rpe_delta.fract() != 0.0 {
+                return Err(format!(
+                    "--rpe-delta must be a whole number ≥ 1 with --rpe-unit f, got {}",
+                    args.rpe_delta
+                ));
+            }
+            RpeDelta::Frames(args.rpe_delta as usize)
+        }
+    };
+    let pairs_from = match args.rpe_pairs_from {
+        PairsArg::Gt => PairsFrom::Reference,
+        PairsArg::Est => PairsFrom::Estimate,
+    };
+    let alignment = match args.align {
+        AlignArg::Se3 => Alignment::Se3,
+        AlignArg::Sim3 => Alignment::Sim3,
+        AlignArg::Posyaw => Alignment::PosYaw,
+        AlignArg::None => Alignment::None,
+    };
+    let mut rpe = vec![RpeOptions {
+        delta,
+        pairs_from,
+        ..RpeOptions::default()
+    }];
+    if delta != RpeDelta::Frames(1) {
+        rpe.push(RpeOptions::frames(1));
+    }
+    let opts = EvalOptions {
+        alignment,
+        max_diff_ns: (args.t_max_diff * 1e9).round() as i64,
+        rpe,
+    };
+    let ev = evaluate(&gt, &est, &opts)
+        .map_err(|e| format!("{} vs {}: {e}", args.gt.display(), args.est.display()))?;
+
+    let mut out = String::new();
+    let a = &ev.ate.alignment;
+    out.push_str(&format!(
+        "ground truth {} ({} poses), estimate {} ({} poses): {} matched (max Δt {} s)\n",
+        args.gt.display(),
+        gt.len(),
+        args.est.display(),
+        est.len(),
+        ev.matched.pairs.len(),
+        args.t_max_diff
+    ));
+    out.push_str(&format!("alignment {alignment}"));
+    if alignment == Alignment::Sim3 {
+        out.push_str(&format!(", scale {:.9}", a.scale));
+    }
+    out.push_str("\n\n");
+    out.push_str(&format!(
+        "{:<24} {:>6} {:>12} {:>12} {:>12} {:>12} {:>12} {:>12}\n",
+        "metric", "n", "rmse", "mean", "median", "std", "min", "max"
+    ));
+    let mut row = |name: String, s: &scenarios::metrics::Stats| {
+        out.push_str(&format!(
+            "{:<24} {:>6} {:>12.9} {:>12.9} {:>12.9} {:>12.9} {:>12.9} {:>12.9}\n",
+            name, s.count, s.rmse, s.mean, s.median, s.std, s.min, s.max
+        ));
+    };
+    row("ATE trans (m)".into(), &ev.ate.translation);
+    row("ATE rot (deg)".into(), &ev.ate.rotation_deg);
+    let mut missing = Vec::new();
+    for (o, r) in opts.rpe.iter().zip(&ev.rpe) {
+        match r {
+            Ok(r) => {
+                row(format!("RPE trans (m) Δ={}", o.delta), &r.translation);
+                row(format!("RPE rot (deg) Δ={}", o.delta), &r.rotation_deg);
+            }
+            Err(e) => missing.push(format!("RPE Δ={}: {e}", o.delta)),
+        }
+    }
+    for m in missing {
+        out.push_str(&m);
+        out.push('\n');
+    }
+    Ok(out)
+}
