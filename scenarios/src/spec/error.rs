@@ -103,3 +103,31 @@ pub(crate) fn line_of_key(text: &str, key: &str) -> Option<usize> {
     }
     span.map(|s| line_of_offset(text, s.start))
 }
+
+/// Deserializes TOML `text` into `T`; a syntax or schema error names `file`, the key path and
+/// the line (the error's own span, else the key's line).
+pub(crate) fn deserialize_toml<T: serde::de::DeserializeOwned>(
+    text: &str,
+    file: &str,
+) -> Result<T, SpecError> {
+    let de = toml::Deserializer::parse(text).map_err(|e| SpecError {
+        file: file.into(),
+        key: String::new(),
+        line: e.span().map(|s| line_of_offset(text, s.start)),
+        message: e.message().trim().to_string(),
+    })?;
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let key = path_string(e.path());
+        let inner = e.into_inner();
+        let line = inner
+            .span()
+            .map(|s| line_of_offset(text, s.start))
+            .or_else(|| line_of_key(text, &key));
+        SpecError {
+            file: file.into(),
+            key,
+            line,
+            message: inner.message().trim().to_string(),
+        }
+    })
+}

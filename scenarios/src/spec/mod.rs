@@ -77,7 +77,7 @@ pub mod schema;
 mod validate;
 
 pub use error::SpecError;
-use error::{line_of_key, line_of_offset, path_string};
+use error::line_of_key;
 pub use schema::*;
 
 /// Where a scenario came from.
@@ -150,26 +150,7 @@ impl Scenario {
         };
         let expanded = kalibr_expansion(&file, &origin, text)?;
         let text = expanded.as_deref().unwrap_or(text);
-        let de = toml::Deserializer::parse(text).map_err(|e| SpecError {
-            file: file.clone(),
-            key: String::new(),
-            line: e.span().map(|s| line_of_offset(text, s.start)),
-            message: e.message().trim().to_string(),
-        })?;
-        let spec: ScenarioSpec = serde_path_to_error::deserialize(de).map_err(|e| {
-            let key = path_string(e.path());
-            let inner = e.into_inner();
-            let line = inner
-                .span()
-                .map(|s| line_of_offset(text, s.start))
-                .or_else(|| line_of_key(text, &key));
-            SpecError {
-                file: file.clone(),
-                key,
-                line,
-                message: inner.message().trim().to_string(),
-            }
-        })?;
+        let spec: ScenarioSpec = error::deserialize_toml(text, &file)?;
         let s = Self {
             name: name.into(),
             origin,

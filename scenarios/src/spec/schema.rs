@@ -253,6 +253,23 @@ pub struct TrajectorySpec {
     pub replay: Option<ReplaySpec>,
 }
 
+impl TrajectorySpec {
+    /// The motion tables given (`figure_eight`, `circle`, `lissajous`, `waypoints`, `replay`);
+    /// a valid file has exactly one.
+    pub fn motions_given(&self) -> Vec<&'static str> {
+        [
+            ("figure_eight", self.figure_eight.is_some()),
+            ("circle", self.circle.is_some()),
+            ("lissajous", self.lissajous.is_some()),
+            ("waypoints", self.waypoints.is_some()),
+            ("replay", self.replay.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(n, g)| g.then_some(n))
+        .collect()
+    }
+}
+
 /// `trajectory.static_start`.
 #[derive(Clone, Copy, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -130,16 +130,7 @@ impl Scenario {
             c.non_negative("trajectory.static_start.hold_s", ss.hold_s)?;
             c.non_negative("trajectory.static_start.ramp_s", ss.ramp_s)?;
         }
-        let given: Vec<&str> = [
-            ("figure_eight", t.figure_eight.is_some()),
-            ("circle", t.circle.is_some()),
-            ("lissajous", t.lissajous.is_some()),
-            ("waypoints", t.waypoints.is_some()),
-            ("replay", t.replay.is_some()),
-        ]
-        .into_iter()
-        .filter_map(|(n, g)| g.then_some(n))
-        .collect();
+        let given = t.motions_given();
         if given.len() != 1 {
             return Err(self.error(
                 "trajectory",
@@ -520,16 +511,10 @@ impl Scenario {
     /// file's seed here (the simulator checks again with the seed a run uses).
     pub(super) fn validate_free_space(&self) -> Result<(), SpecError> {
         let t = &self.spec.trajectory;
-        let key = [
-            ("trajectory.figure_eight", t.figure_eight.is_some()),
-            ("trajectory.circle", t.circle.is_some()),
-            ("trajectory.lissajous", t.lissajous.is_some()),
-            ("trajectory.waypoints", t.waypoints.is_some()),
-            ("trajectory.replay", t.replay.is_some()),
-        ]
-        .into_iter()
-        .find_map(|(k, given)| given.then_some(k))
-        .unwrap_or("trajectory");
+        let key = t
+            .motions_given()
+            .first()
+            .map_or("trajectory".to_string(), |m| format!("trajectory.{m}"));
         let reference: std::sync::Arc<dyn sim::motion::Reference> = match self.trajectory()? {
             sim::TrajectoryConfig::Lissajous(l) => std::sync::Arc::new(l),
             sim::TrajectoryConfig::Waypoints(w) => {
@@ -547,7 +532,7 @@ impl Scenario {
             .map_err(|e| {
                 let why = e.to_string();
                 let why = why.strip_prefix("invalid configuration: ").unwrap_or(&why);
-                self.error(key, why.to_string())
+                self.error(&key, why.to_string())
             })
     }
 

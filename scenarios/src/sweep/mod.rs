@@ -109,23 +109,7 @@ impl Sweep {
         };
         let text = std::fs::read_to_string(path)
             .map_err(|e| err("", None, format!("cannot read the sweep file: {e}")))?;
-        let de = toml::Deserializer::parse(&text).map_err(|e| {
-            err(
-                "",
-                e.span()
-                    .map(|s| crate::spec::error::line_of_offset(&text, s.start)),
-                e.message().trim().into(),
-            )
-        })?;
-        let spec: SweepSpec = serde_path_to_error::deserialize(de).map_err(|e| {
-            let key = crate::spec::error::path_string(e.path());
-            let inner = e.into_inner();
-            let line = inner
-                .span()
-                .map(|s| crate::spec::error::line_of_offset(&text, s.start))
-                .or_else(|| crate::spec::error::line_of_key(&text, &key));
-            err(&key, line, inner.message().trim().into())
-        })?;
+        let spec: SweepSpec = crate::spec::error::deserialize_toml(&text, &file)?;
         let at = |key: &str, m: String| err(key, crate::spec::error::line_of_key(&text, key), m);
         // The base scenario: a catalog name, else a path relative to the sweep file.
         let (scenario_name, base_text, base_origin) = match crate::catalog::get(&spec.scenario) {
