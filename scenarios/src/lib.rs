@@ -34,5 +34,4 @@ pub mod run;
 pub mod selfcheck;
 pub mod spec;
 pub mod sweep;
-pub mod tracker_spec;
 pub mod tracks_image;

@@ -9,9 +9,10 @@ use crate::imu::ImuNoise;
 use crate::problem::SolverOptions;
 
 /// Which sensors the estimator fuses.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Suite {
-    /// Stereo camera and IMU.
+    /// Stereo camera and IMU (the default).
+    #[default]
     StereoImu,
     /// Stereo camera only (visual odometry; the oldest pose anchors the gauge).
     Stereo,
@@ -48,15 +49,30 @@ pub struct CameraConfig {
 }
 
 /// Sliding-window estimator settings (defaults follow VINS-Fusion's EuRoC configuration).
-#[derive(Clone, Debug)]
+///
+/// The rig (`suite`, `cameras`, `imu_noise`) comes from the sensors and is not serialized;
+/// every other field is a setting that (de)serializes under its own name (a scenario's
+/// `[estimator]` table). Missing keys take [`EstimatorConfig::settings_default`]'s values;
+/// a nested table (`solver`, `health`) given in part takes its own type's defaults for the
+/// rest, so to change one key of it on top of these defaults, overlay the table on the
+/// serialized defaults (as the scenario loader does).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+#[serde(default = "EstimatorConfig::settings_default", deny_unknown_fields)]
 pub struct EstimatorConfig {
     /// Sensor suite.
+    #[serde(skip)]
     pub suite: Suite,
     /// Cameras: index 0 is the left (anchor) camera, index 1 the right one (stereo suites);
     /// the one camera of mono+IMU.
+    #[serde(skip)]
     pub cameras: Vec<CameraConfig>,
     /// IMU noise densities.
+    #[serde(skip)]
     pub imu_noise: ImuNoise,
+    /// Pixel noise σ (px) assumed for every camera instead of each camera's own
+    /// [`CameraConfig::pixel_sigma`] (the estimator applies it when built); `None`: each
+    /// camera's.
+    pub pixel_sigma_px: Option<f64>,
     /// Keyframes kept in the window (the newest frame comes on top).
     pub window_size: usize,
     /// Average parallax (px) between the second- and third-newest frames that makes the
@@ -194,6 +210,7 @@ impl EstimatorConfig {
             suite,
             cameras,
             imu_noise,
+            pixel_sigma_px: None,
             window_size: 10,
             keyframe_parallax_px: 10.0,
             keyframe_min_tracked: 20,
@@ -243,30 +260,41 @@ impl EstimatorConfig {
 }
 
 impl EstimatorConfig {
-    /// Checks every setting for finiteness and its range; the error names the field. The
-    /// estimator refuses a configuration that fails (no setting may panic later).
-    pub fn validate(&self) -> Result<(), String> {
+    /// The settings' defaults with an empty rig (stereo+IMU, no cameras, EuRoC IMU noise; not
+    /// valid on its own); what a deserialized configuration starts from.
+    pub fn settings_default() -> Self {
+        Self::new(Suite::default(), Vec::new(), ImuNoise::euroc())
+    }
+
+    /// Checks the rig and every setting ([`EstimatorConfig::validate_settings`]); the error
+    /// names the field. The estimator refuses a configuration that fails (no setting may
+    /// panic later).
+    pub fn validate(&self) -> Result<(), ConfigError> {
         if self.cameras.is_empty() || self.cameras.len() > 2 {
-            return Err(format!("cameras: need 1 or 2, got {}", self.cameras.len()));
+            return Err(ConfigError::new(
+                "cameras",
+                format!("need 1 or 2, got {}", self.cameras.len()),
+            ));
         }
         if self.cameras.len() != self.suite.cameras() {
-            return Err(format!(
-                "the {:?} suite needs exactly {} camera(s), got {}",
-                self.suite,
-                self.suite.cameras(),
-                self.cameras.len()
+            return Err(ConfigError::new(
+                "cameras",
+                format!(
+                    "the {:?} suite needs exactly {} camera(s), got {}",
+                    self.suite,
+                    self.suite.cameras(),
+                    self.cameras.len()
+                ),
             ));
         }
         for (i, c) in self.cameras.iter().enumerate() {
-            if !(c.pixel_sigma.is_finite() && c.pixel_sigma > 0.0) {
-                return Err(format!(
-                    "cameras[{i}].pixel_sigma must be finite and > 0, got {}",
-                    c.pixel_sigma
-                ));
-            }
+            positive(&format!("cameras[{i}].pixel_sigma"), c.pixel_sigma)?;
             let t = &c.T_b_c;
             if !(t.p.iter().all(|v| v.is_finite()) && t.q.coords.iter().all(|v| v.is_finite())) {
-                return Err(format!("cameras[{i}].T_b_c must be finite"));
+                return Err(ConfigError::new(
+                    format!("cameras[{i}].T_b_c"),
+                    "must be finite",
+                ));
             }
         }
         let n = &self.imu_noise;
@@ -283,16 +311,55 @@ impl EstimatorConfig {
             "imu_noise.accelerometer_random_walk",
             n.accelerometer_random_walk,
         )?;
-        if self.window_size < 3 {
-            return Err(format!("window_size must be ≥ 3, got {}", self.window_size));
-        }
         if self.suite.uses_imu() && self.init_frames < 4 {
-            return Err(format!("init_frames must be ≥ 4, got {}", self.init_frames));
+            return Err(ConfigError::new(
+                "init_frames",
+                format!("must be ≥ 4 with an IMU, got {}", self.init_frames),
+            ));
         }
-        if self.solver.max_iterations < 1 {
-            return Err("solver.max_iterations must be ≥ 1".into());
+        self.validate_settings()
+    }
+
+    /// Checks every setting (not the rig) for finiteness and its range, including bounds on
+    /// the resources a setting commits (the dense window system grows with the cube of its
+    /// size); the error names the field as it is serialized (`solver.max_iterations`).
+    pub fn validate_settings(&self) -> Result<(), ConfigError> {
+        if !(3..=MAX_WINDOW_SIZE).contains(&self.window_size) {
+            return Err(ConfigError::new(
+                "window_size",
+                format!(
+                    "expected 3 to {MAX_WINDOW_SIZE} keyframes, got {}",
+                    self.window_size
+                ),
+            ));
         }
-        non_negative("solver.function_tolerance", self.solver.function_tolerance)?;
+        if let Some(p) = self.pixel_sigma_px {
+            positive("pixel_sigma_px", p)?;
+        }
+        if !(4..=MAX_WINDOW_SIZE).contains(&self.init_frames) {
+            return Err(ConfigError::new(
+                "init_frames",
+                format!(
+                    "expected 4 to {MAX_WINDOW_SIZE} frames, got {}",
+                    self.init_frames
+                ),
+            ));
+        }
+        if !(1..=1000).contains(&self.solver.max_iterations) {
+            return Err(ConfigError::new(
+                "solver.max_iterations",
+                format!("expected 1 to 1000, got {}", self.solver.max_iterations),
+            ));
+        }
+        if !(0.0..=1.0).contains(&self.solver.function_tolerance) {
+            return Err(ConfigError::new(
+                "solver.function_tolerance",
+                format!(
+                    "expected a relative cost decrease in [0, 1], got {}",
+                    self.solver.function_tolerance
+                ),
+            ));
+        }
         non_negative("solver.gradient_tolerance", self.solver.gradient_tolerance)?;
         non_negative(
             "solver.parameter_tolerance",
@@ -309,16 +376,19 @@ impl EstimatorConfig {
         positive("min_depth_m", self.min_depth_m)?;
         positive("max_depth_m", self.max_depth_m)?;
         if self.min_depth_m >= self.max_depth_m {
-            return Err(format!(
-                "min_depth_m ({}) must be below max_depth_m ({})",
-                self.min_depth_m, self.max_depth_m
+            return Err(ConfigError::new(
+                "min_depth_m",
+                format!(
+                    "must be below max_depth_m ({}), got {}",
+                    self.max_depth_m, self.min_depth_m
+                ),
             ));
         }
         // A time offset is a small clock difference: a second is already far past any rig.
         if !(self.td_s.is_finite() && self.td_s.abs() <= 1.0) {
-            return Err(format!(
-                "td_s must be finite and within ±1 s, got {}",
-                self.td_s
+            return Err(ConfigError::new(
+                "td_s",
+                format!("expected a clock offset within ±1 s, got {}", self.td_s),
             ));
         }
         positive("mono_init_parallax_px", self.mono_init_parallax_px)?;
@@ -330,13 +400,32 @@ impl EstimatorConfig {
         positive("initial_bg_sigma", self.initial_bg_sigma)?;
         // Infinite: no gauge prior (the gauge tests study the free window).
         if self.gauge_sigma.is_nan() || self.gauge_sigma <= 0.0 {
-            return Err(format!(
-                "gauge_sigma must be > 0 (infinite: no gauge prior), got {}",
-                self.gauge_sigma
+            return Err(ConfigError::new(
+                "gauge_sigma",
+                format!(
+                    "must be > 0 (infinite: no gauge prior), got {}",
+                    self.gauge_sigma
+                ),
             ));
         }
         if self.min_track_frames < 1 {
-            return Err("min_track_frames must be ≥ 1".into());
+            return Err(ConfigError::new("min_track_frames", "must be ≥ 1"));
+        }
+        if self.max_persistent_points > MAX_PERSISTENT_POINTS {
+            return Err(ConfigError::new(
+                "max_persistent_points",
+                format!(
+                    "expected at most {MAX_PERSISTENT_POINTS} points in the dense window \
+                     system, got {}",
+                    self.max_persistent_points
+                ),
+            ));
+        }
+        if self.keyframe_min_tracked > 100_000 {
+            return Err(ConfigError::new(
+                "keyframe_min_tracked",
+                format!("expected at most 100000, got {}", self.keyframe_min_tracked),
+            ));
         }
         if let Some((g, a)) = self.imu_spike_threshold {
             positive("imu_spike_threshold (gyroscope)", g)?;
@@ -347,8 +436,9 @@ impl EstimatorConfig {
         if let Some((g, a)) = self.imu_range {
             // Infinite: that axis does not saturate.
             if !(g > 0.0 && a > 0.0) {
-                return Err(format!(
-                    "imu_range must be > 0 on both sensors, got ({g}, {a})"
+                return Err(ConfigError::new(
+                    "imu_range",
+                    format!("must be > 0 on both sensors, got [{g}, {a}]"),
                 ));
             }
         }
@@ -361,20 +451,52 @@ impl EstimatorConfig {
     }
 }
 
+/// Largest window (keyframes): the dense window solve grows with its cube.
+pub const MAX_WINDOW_SIZE: usize = 100;
+
+/// Most persistent world points: each adds 3 coordinates to the dense reduced system.
+pub const MAX_PERSISTENT_POINTS: usize = 1000;
+
+/// A setting out of its range: the field as serialized (`solver.max_iterations`,
+/// `cameras[1].pixel_sigma`) and why.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{field}: {message}")]
+pub struct ConfigError {
+    /// The field's path.
+    pub field: String,
+    /// What was wrong / expected.
+    pub message: String,
+}
+
+impl ConfigError {
+    fn new(field: impl Into<String>, message: impl Into<String>) -> Self {
+        Self {
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+}
+
 /// `Ok` if `v` is finite and > 0; else an error naming `field`.
-fn positive(field: &str, v: f64) -> Result<(), String> {
+fn positive(field: &str, v: f64) -> Result<(), ConfigError> {
     if v.is_finite() && v > 0.0 {
         Ok(())
     } else {
-        Err(format!("{field} must be finite and > 0, got {v}"))
+        Err(ConfigError::new(
+            field,
+            format!("expected a finite number > 0, got {v}"),
+        ))
     }
 }
 
 /// `Ok` if `v` is finite and ≥ 0; else an error naming `field`.
-fn non_negative(field: &str, v: f64) -> Result<(), String> {
+fn non_negative(field: &str, v: f64) -> Result<(), ConfigError> {
     if v.is_finite() && v >= 0.0 {
         Ok(())
     } else {
-        Err(format!("{field} must be finite and ≥ 0, got {v}"))
+        Err(ConfigError::new(
+            field,
+            format!("expected a finite number ≥ 0, got {v}"),
+        ))
     }
 }

@@ -15,7 +15,8 @@ use crate::geometry::{Pose, so3_log};
 use crate::problem::SolverSummary;
 
 /// Limits of a plausible solved state (defaults: VINS-Fusion's failure detection).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct HealthLimits {
     /// Largest accelerometer bias norm (m/s²; VINS-Fusion: 2.5).
     pub max_accel_bias_m_s2: f64,

@@ -31,7 +31,9 @@ use std::time::Instant;
 use nalgebra::{DMatrix, UnitQuaternion, Vector2, Vector3};
 
 use batch::History;
-pub use config::{CameraConfig, EstimatorConfig, Suite};
+pub use config::{
+    CameraConfig, ConfigError, EstimatorConfig, MAX_PERSISTENT_POINTS, MAX_WINDOW_SIZE, Suite,
+};
 pub use covariance::WindowSystem;
 pub use events::{Event, EventKind, LiveSuite};
 use features::Observation;
@@ -181,8 +183,15 @@ struct KnownStart {
 
 impl Estimator {
     /// Creates an estimator; fails on an unusable configuration.
-    pub fn new(config: EstimatorConfig) -> Result<Self, EstimatorError> {
-        config.validate().map_err(EstimatorError::Config)?;
+    pub fn new(mut config: EstimatorConfig) -> Result<Self, EstimatorError> {
+        config
+            .validate()
+            .map_err(|e| EstimatorError::Config(e.to_string()))?;
+        if let Some(sigma) = config.pixel_sigma_px {
+            for c in &mut config.cameras {
+                c.pixel_sigma = sigma;
+            }
+        }
         let mut focal = Vec::new();
         for (i, c) in config.cameras.iter().enumerate() {
             // Effective focal length: the projection's derivative on the optical axis.

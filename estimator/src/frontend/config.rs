@@ -3,7 +3,11 @@
 use super::klt::KltParams;
 
 /// Tracker settings (defaults after VINS-Fusion's EuRoC configuration).
-#[derive(Clone, Copy, Debug, PartialEq)]
+///
+/// Deserializable (a scenario's `[camera.tracker]`): missing keys take the defaults; `seed` is
+/// not read (the caller seeds RANSAC).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct TrackerConfig {
     /// Features kept per frame on the primary camera.
     pub max_features: usize,
@@ -62,6 +66,7 @@ pub struct TrackerConfig {
     /// Start temporal KLT where the gyro rotation predicts each feature.
     pub gyro_prediction: bool,
     /// Seed of the per-frame RANSAC streams (mixed with the frame stamp).
+    #[serde(skip)]
     pub seed: u64,
 }
 

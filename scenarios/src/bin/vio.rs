@@ -72,6 +72,14 @@ enum Command {
     },
     /// List the built-in scenarios.
     List,
+    /// Print the scenario's effective estimator and front-end settings as the TOML tables
+    /// `[estimator]`, `[estimator.solver]`, `[estimator.health]` and `[camera.tracker]`: every
+    /// key a scenario file may set, with the value this scenario runs with.
+    Settings {
+        /// A catalog scenario name or a path to a scenario .toml file; default: the default
+        /// scenario.
+        scenario: Option<String>,
+    },
     /// Write a scenario's simulated measurements and ground truth in the EuRoC ASL layout
     /// (`OUT/mav0/…`) and its feature tracks as `OUT/features.csv`.
     Export {
@@ -260,6 +268,19 @@ fn main() -> ExitCode {
             out,
             threads,
         } => nees_command(scenario, seeds, duration, out, threads),
+        Command::Settings { scenario } => {
+            match load_scenario(scenario.as_deref()).map(|s| s.settings_toml()) {
+                Ok(Ok(text)) => {
+                    say(&text);
+                    ExitCode::SUCCESS
+                }
+                Ok(Err(e)) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(BAD_INPUT)
+                }
+                Err(code) => code,
+            }
+        }
         Command::List => {
             for e in catalog::entries() {
                 match Scenario::load(e.name) {

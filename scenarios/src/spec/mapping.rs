@@ -9,7 +9,6 @@ use estimator::camera::{
 use estimator::estimator::{CameraConfig as EstCamera, EstimatorConfig};
 use estimator::geometry::Pose;
 use estimator::imu::ImuNoise;
-use estimator::problem::Method;
 use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 use sim::camera::{CameraConfig as SimCamera, RigConfig, TrackIds};
 use sim::faults::Fault;
@@ -544,77 +543,32 @@ impl Scenario {
         }
     }
 
-    /// The estimator configuration: the same camera models and extrinsics the simulator uses.
+    /// The estimator configuration: the `[estimator]` settings with the same camera models and
+    /// extrinsics the simulator uses, and the rig's IMU noise and ranges.
     pub fn estimator_config(&self) -> Result<EstimatorConfig, SpecError> {
         let s = &self.spec;
-        let e = &s.estimator;
         let mut cameras = Vec::new();
         let used = s.suite.suite().cameras();
         for (i, c) in s.rig.cameras.iter().enumerate().take(used) {
             cameras.push(EstCamera {
                 model: self.models[i].clone(),
                 T_b_c: self.extrinsic(i)?,
-                pixel_sigma: e.pixel_sigma_px.unwrap_or(c.pixel_sigma_px.max(0.5)),
+                // Below half a pixel the noise model would trust the simulated corner more
+                // than any real one; `estimator.pixel_sigma_px` overrides it.
+                pixel_sigma: c.pixel_sigma_px.max(0.5),
             });
         }
-        let mut cfg = EstimatorConfig::new(s.suite.suite(), cameras, self.imu_noise());
-        if let Some(v) = e.window_size {
-            cfg.window_size = v;
-        }
-        if let Some(v) = e.solver_iterations {
-            cfg.solver.max_iterations = v;
-        }
-        if let Some(v) = e.solver_function_tolerance {
-            cfg.solver.function_tolerance = v;
-        }
-        if let Some(m) = e.solver_method {
-            cfg.solver.method = match m {
-                MethodSpec::LevenbergMarquardt => Method::LevenbergMarquardt,
-                MethodSpec::Dogleg => Method::Dogleg,
-            };
-        }
-        if let Some(v) = e.keyframe_parallax_px {
-            cfg.keyframe_parallax_px = v;
-        }
-        if let Some(v) = e.keyframe_min_tracked {
-            cfg.keyframe_min_tracked = v;
-        }
-        if let Some(v) = e.huber_sigma {
-            cfg.huber_sigma = v;
-        }
-        if let Some(v) = e.outlier_reprojection_px {
-            cfg.outlier_reprojection_px = v;
-        }
-        if let Some(v) = e.init_frames {
-            cfg.init_frames = v;
-        }
-        if let Some(v) = e.td_s {
-            cfg.td_s = v;
-        }
-        if let Some(v) = e.estimate_td {
-            cfg.estimate_td = v;
-        }
-        if let Some(v) = e.estimate_extrinsics {
-            cfg.estimate_extrinsics = v;
-        }
-        if let Some(v) = e.reuse_marginalized_tracks {
-            cfg.reuse_marginalized_tracks = v;
-        }
-        if let Some(v) = e.min_track_frames {
-            cfg.min_track_frames = v;
-        }
-        if let Some(v) = e.max_persistent_points {
-            cfg.max_persistent_points = v;
-        }
-        if let Some(v) = e.first_estimate_jacobians {
-            cfg.first_estimate_jacobians = v;
-        }
-        if let Some(v) = e.first_estimate_points {
-            cfg.first_estimate_points = v;
-        }
+        let mut cfg = EstimatorConfig {
+            suite: s.suite.suite(),
+            cameras,
+            imu_noise: self.imu_noise(),
+            ..self.settings.clone()
+        };
         // The IMU's datasheet ranges: the estimator treats readings on them as clipped.
         let imu = &s.rig.imu;
-        if imu.gyro_range_rad_s.is_some() || imu.accel_range_m_s2.is_some() {
+        if cfg.imu_range.is_none()
+            && (imu.gyro_range_rad_s.is_some() || imu.accel_range_m_s2.is_some())
+        {
             cfg.imu_range = Some((
                 imu.gyro_range_rad_s.unwrap_or(f64::INFINITY),
                 imu.accel_range_m_s2.unwrap_or(f64::INFINITY),

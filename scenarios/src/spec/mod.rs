@@ -62,17 +62,18 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use estimator::camera::CameraModel;
-use estimator::frontend::TrackerConfig;
+use estimator::estimator::EstimatorConfig;
+use estimator::frontend::{TrackerConfig, TrackerError};
 use sim::motion::Replay;
 use sim::motion::recording::RecordingReport;
-use sim::render::{GainStep, MotionBlur, Photometric, RenderBackend, RenderConfig, RenderError};
+use sim::render::{RenderConfig, RenderError};
 
 use crate::catalog;
-pub use crate::tracker_spec::{FrontendSpec, TrackerSpec};
 
 pub mod error;
 pub(crate) mod exact;
 mod mapping;
+mod overlay;
 pub mod schema;
 mod validate;
 
@@ -100,6 +101,13 @@ pub struct Scenario {
     pub spec: ScenarioSpec,
     /// The file's text (kept for line lookups in later errors).
     text: String,
+    /// The `[estimator]` settings laid over the estimator's defaults (no rig yet).
+    settings: EstimatorConfig,
+    /// The `[camera.tracker]` settings laid over the front end's defaults (seed unset).
+    tracker: TrackerConfig,
+    /// The `[camera.render]` settings laid over the renderer's defaults, `[camera.photometric]`
+    /// over their `photometric` part.
+    render: RenderConfig,
     /// The camera models, built once: the simulator and the estimator share these.
     models: Vec<Arc<dyn CameraModel>>,
     /// A replayed recording, read, checked and fitted once (`trajectory.replay`).
@@ -151,11 +159,42 @@ impl Scenario {
         let expanded = kalibr_expansion(&file, &origin, text)?;
         let text = expanded.as_deref().unwrap_or(text);
         let spec: ScenarioSpec = error::deserialize_toml(text, &file)?;
+        let settings = overlay::overlay(
+            &EstimatorConfig::settings_default(),
+            &spec.estimator,
+            "estimator",
+            text,
+            &file,
+        )?;
+        let tracker = overlay::overlay(
+            &TrackerConfig::default(),
+            &spec.camera.tracker,
+            "camera.tracker",
+            text,
+            &file,
+        )?;
+        let mut render = overlay::overlay(
+            &RenderConfig::default(),
+            &spec.camera.render,
+            "camera.render",
+            text,
+            &file,
+        )?;
+        render.photometric = overlay::overlay(
+            &render.photometric,
+            &spec.camera.photometric,
+            "camera.photometric",
+            text,
+            &file,
+        )?;
         let s = Self {
             name: name.into(),
             origin,
             spec,
             text: text.into(),
+            settings,
+            tracker,
+            render,
             models: Vec::new(),
             recording: None,
         };
@@ -171,6 +210,38 @@ impl Scenario {
         Ok(s)
     }
 
+    /// The effective settings as TOML: `[estimator]` (the rig's cameras and IMU noise left
+    /// out), `[camera.tracker]`, `[camera.render]` and `[camera.photometric]`, every key a
+    /// scenario may set in them with this scenario's value (`vio settings`).
+    pub fn settings_toml(&self) -> Result<String, SpecError> {
+        fn table<T: serde::Serialize>(
+            s: &Scenario,
+            key: &str,
+            v: &T,
+        ) -> Result<toml::Table, SpecError> {
+            toml::Table::try_from(v)
+                .map_err(|e| s.error(key, format!("cannot write the settings: {e}")))
+        }
+        let mut render = table(self, "camera.render", &self.render)?;
+        let photometric = render.remove("photometric");
+        let mut camera = toml::Table::new();
+        camera.insert(
+            "tracker".into(),
+            table(self, "camera.tracker", &self.tracker)?.into(),
+        );
+        camera.insert("render".into(), render.into());
+        if let Some(p) = photometric {
+            camera.insert("photometric".into(), p);
+        }
+        let mut root = toml::Table::new();
+        root.insert(
+            "estimator".into(),
+            table(self, "estimator", &self.estimator_config()?)?.into(),
+        );
+        root.insert("camera".into(), camera.into());
+        toml::to_string(&root).map_err(|e| self.error("estimator", e.to_string()))
+    }
+
     /// The renderer configuration of a rendered scenario (`None` for feature-level ones).
     pub fn render_config(&self) -> Result<Option<RenderConfig>, SpecError> {
         let cfg = self.render_settings()?;
@@ -180,42 +251,7 @@ impl Scenario {
     /// The scenario's rendering settings whatever its mode (`vio render` uses them for
     /// feature-level scenarios too); validated, errors name the key.
     pub fn render_settings(&self) -> Result<RenderConfig, SpecError> {
-        let c = &self.spec.camera;
-        let (r, p) = (&c.render, &c.photometric);
-        let d = RenderConfig::default();
-        let dp = d.photometric;
-        let cfg = RenderConfig {
-            backend: match r.backend {
-                Some(BackendSpec::Vulkan) => RenderBackend::Vulkan,
-                _ => RenderBackend::Gl,
-            },
-            adapter: r.adapter.clone(),
-            msaa: r.msaa.unwrap_or(d.msaa),
-            trilinear: r.trilinear.unwrap_or(d.trilinear),
-            anisotropy: r.anisotropy.unwrap_or(d.anisotropy),
-            pinhole_scale: r.pinhole_scale.unwrap_or(d.pinhole_scale),
-            texture_size: r.texture_size.unwrap_or(d.texture_size),
-            texel_m: r.texel_m.unwrap_or(d.texel_m),
-            max_half_angle_deg: r.max_half_angle_deg.unwrap_or(d.max_half_angle_deg),
-            max_pinhole_size: d.max_pinhole_size,
-            depth: r.depth.unwrap_or(d.depth),
-            motion_blur: r.motion_blur.map(|b| MotionBlur {
-                exposure_s: b.exposure_s,
-                samples: b.samples,
-            }),
-            photometric: Photometric {
-                gain: p.gain.unwrap_or(dp.gain),
-                gain_variation: p.gain_variation.unwrap_or(dp.gain_variation),
-                gain_period_s: p.gain_period_s.unwrap_or(dp.gain_period_s),
-                vignetting: p.vignetting.unwrap_or(dp.vignetting),
-                read_noise: p.read_noise.unwrap_or(dp.read_noise),
-                electrons_per_level: p.electrons_per_level.unwrap_or(dp.electrons_per_level),
-                gain_step: p.gain_step.map(|g| GainStep {
-                    at_s: g.at_s,
-                    factor: g.factor,
-                }),
-            },
-        };
+        let cfg = self.render.clone();
         cfg.validate().map_err(|e| {
             let key = match &e {
                 RenderError::Field { field, .. } if field.starts_with("photometric.") => {
@@ -233,10 +269,16 @@ impl Scenario {
     /// (`mode = "rendered"` and `frontend = "klt"`); `None` otherwise.
     pub fn tracker_config(&self, seed: u64) -> Result<Option<TrackerConfig>, SpecError> {
         let c = &self.spec.camera;
-        let cfg = c
-            .tracker
-            .config(seed)
-            .map_err(|(field, why)| self.error(&format!("camera.tracker.{field}"), why))?;
+        let cfg = TrackerConfig {
+            seed,
+            ..self.tracker
+        };
+        cfg.validate().map_err(|e| match e {
+            TrackerError::Config { field, message } => {
+                self.error(&format!("camera.tracker.{field}"), message)
+            }
+            e => self.error("camera.tracker", e.to_string()),
+        })?;
         Ok((c.mode == CameraMode::Rendered && c.frontend == FrontendSpec::Klt).then_some(cfg))
     }
 

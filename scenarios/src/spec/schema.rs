@@ -4,7 +4,6 @@ use serde::Deserialize;
 
 use super::exact;
 
-use super::{FrontendSpec, TrackerSpec};
 use estimator::estimator::Suite;
 
 /// A scenario file as written (see the module documentation).
@@ -26,9 +25,11 @@ pub struct ScenarioSpec {
     /// settings.
     #[serde(default)]
     pub camera: CameraModeSpec,
-    /// Estimator settings (every key optional; defaults from `EstimatorConfig::new`).
+    /// Estimator settings: any [`estimator::estimator::EstimatorConfig`] setting by its name,
+    /// nested ones as tables (`[estimator.solver]`, `[estimator.health]`); unset keys keep
+    /// the defaults. Read through [`super::Scenario::estimator_config`].
     #[serde(default)]
-    pub estimator: EstimatorSpec,
+    pub estimator: toml::Table,
     /// Fault timeline.
     #[serde(default)]
     pub faults: Vec<FaultSpec>,
@@ -76,7 +77,7 @@ impl SuiteSpec {
 /// [camera]
 /// mode = "rendered"            # or "features" (default)
 /// frontend = "klt"             # rendered: "klt" (default) or "truth" (ideal tracks)
-/// [camera.tracker]             # every key optional (see `TrackerSpec`)
+/// [camera.tracker]             # any `estimator::frontend::TrackerConfig` field
 /// [camera.render]              # every key optional
 /// backend = "gl"               # "gl" (Mesa llvmpipe without a GPU) or "vulkan"
 /// msaa = false                 # 4× multisampling of geometric edges
@@ -91,19 +92,34 @@ pub struct CameraModeSpec {
     /// `features` (projected landmarks with pixel noise) or `rendered` (images as well).
     #[serde(default)]
     pub mode: CameraMode,
-    /// Renderer settings (defaults: `sim::render::RenderConfig::default()`).
+    /// Renderer settings: any [`sim::render::RenderConfig`] field by its name (unset keys keep
+    /// its defaults; read through [`super::Scenario::render_config`]).
     #[serde(default)]
-    pub render: RenderSpec,
-    /// Exposure, vignetting and noise (defaults: none).
+    pub render: toml::Table,
+    /// Exposure, vignetting and noise: any [`sim::render::Photometric`] field (defaults: none
+    /// of the effects); laid over `render.photometric`.
     #[serde(default)]
-    pub photometric: PhotometricSpec,
+    pub photometric: toml::Table,
     /// Rendered mode: `klt` (default: the image front end tracks the rendered images) or
     /// `truth` (the simulator's ideal tracks of the same captures).
     #[serde(default)]
     pub frontend: FrontendSpec,
-    /// The image front end's settings.
+    /// The image front end's settings: any [`estimator::frontend::TrackerConfig`] field by
+    /// its name (unset keys keep its defaults; read through [`super::Scenario::tracker_config`]).
     #[serde(default)]
-    pub tracker: TrackerSpec,
+    pub tracker: toml::Table,
+}
+
+/// Which features the estimator gets in a rendered scenario.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum FrontendSpec {
+    /// The image front end (`estimator::frontend::FeatureTracker`) on the rendered images
+    /// (the default when images are rendered).
+    #[default]
+    Klt,
+    /// The simulator's ideal feature tracks of the same captures (for comparison).
+    Truth,
 }
 
 /// Camera measurement mode.
@@ -116,84 +132,6 @@ pub enum CameraMode {
     /// Rendered images too; the estimator gets what the image front end tracks in them (or,
     /// with `frontend = "truth"`, the ideal tracks of the same captures).
     Rendered,
-}
-
-/// Renderer backend.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum BackendSpec {
-    /// OpenGL through EGL.
-    Gl,
-    /// Vulkan.
-    Vulkan,
-}
-
-/// `[camera.render]` (see `sim::render::RenderConfig` for each key's meaning).
-#[derive(Clone, Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RenderSpec {
-    /// Backend (default `gl`).
-    pub backend: Option<BackendSpec>,
-    /// Adapter name substring.
-    pub adapter: Option<String>,
-    /// 4× MSAA.
-    pub msaa: Option<bool>,
-    /// Trilinear texture filtering.
-    pub trilinear: Option<bool>,
-    /// Anisotropic filtering clamp.
-    pub anisotropy: Option<u16>,
-    /// Virtual pinhole focal scale.
-    pub pinhole_scale: Option<f64>,
-    /// Texture tile size (texels).
-    pub texture_size: Option<u32>,
-    /// Texel size (m).
-    pub texel_m: Option<f64>,
-    /// Largest rendered off-axis angle (deg).
-    pub max_half_angle_deg: Option<f64>,
-    /// Render depth images too.
-    pub depth: Option<bool>,
-    /// Motion blur.
-    pub motion_blur: Option<MotionBlurSpec>,
-}
-
-/// `motion_blur = { exposure_s, samples }`.
-#[derive(Clone, Copy, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct MotionBlurSpec {
-    /// Exposure (s).
-    pub exposure_s: f64,
-    /// Sub-frame renders (2..=32).
-    pub samples: u32,
-}
-
-/// `[camera.photometric]` (see `sim::render::Photometric`).
-#[derive(Clone, Copy, Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PhotometricSpec {
-    /// Mean gain.
-    pub gain: Option<f64>,
-    /// Relative gain oscillation amplitude.
-    pub gain_variation: Option<f64>,
-    /// Gain oscillation period (s).
-    pub gain_period_s: Option<f64>,
-    /// Corner darkening (0..=1).
-    pub vignetting: Option<f64>,
-    /// Read noise σ (grey levels).
-    pub read_noise: Option<f64>,
-    /// Electrons per grey level (shot noise; 0 = none).
-    pub electrons_per_level: Option<f64>,
-    /// A gain step: `{ at_s, factor }`.
-    pub gain_step: Option<GainStepSpec>,
-}
-
-/// `gain_step = { at_s, factor }`.
-#[derive(Clone, Copy, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct GainStepSpec {
-    /// When (s).
-    pub at_s: f64,
-    /// Gain factor from then on.
-    pub factor: f64,
 }
 
 /// `[world]`: scene and seed.
@@ -566,61 +504,6 @@ pub struct ImuSpec {
     pub gyro_range_rad_s: Option<f64>,
     /// Per-axis accelerometer range (m/s²); none: no saturation.
     pub accel_range_m_s2: Option<f64>,
-}
-
-/// `[estimator]`: every key optional.
-#[derive(Clone, Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct EstimatorSpec {
-    /// Keyframes in the window.
-    pub window_size: Option<usize>,
-    /// Solver iterations per frame.
-    pub solver_iterations: Option<usize>,
-    /// `levenberg_marquardt` or `dogleg`.
-    pub solver_method: Option<MethodSpec>,
-    /// The solve stops once an accepted step lowers the cost by less than this fraction.
-    pub solver_function_tolerance: Option<f64>,
-    /// Keyframe parallax threshold (px).
-    pub keyframe_parallax_px: Option<f64>,
-    /// Keyframe when fewer features are tracked.
-    pub keyframe_min_tracked: Option<usize>,
-    /// Huber threshold (σ units).
-    pub huber_sigma: Option<f64>,
-    /// Outlier track threshold (px).
-    pub outlier_reprojection_px: Option<f64>,
-    /// Frames collected before visual-inertial initialization.
-    pub init_frames: Option<usize>,
-    /// Pixel noise σ the estimator assumes (default: each camera's `pixel_sigma_px`, at
-    /// least 0.5).
-    pub pixel_sigma_px: Option<f64>,
-    /// Initial camera-IMU time offset (s).
-    pub td_s: Option<f64>,
-    /// Estimate the time offset online.
-    pub estimate_td: Option<bool>,
-    /// Estimate the camera extrinsics online.
-    pub estimate_extrinsics: Option<bool>,
-    /// Keep using the tracks of a marginalized keyframe (VINS-Fusion; counts their
-    /// observations twice) instead of ending them.
-    pub reuse_marginalized_tracks: Option<bool>,
-    /// Frames a track must span before it enters the optimization.
-    pub min_track_frames: Option<usize>,
-    /// Persistent world points kept through marginalization (0: none).
-    pub max_persistent_points: Option<usize>,
-    /// Evaluate every factor's Jacobians of states in the marginalization prior at the
-    /// prior's linearization point (first-estimate Jacobians).
-    pub first_estimate_jacobians: Option<bool>,
-    /// Also first-estimate Jacobians for the persistent world points.
-    pub first_estimate_points: Option<bool>,
-}
-
-/// Solver methods.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum MethodSpec {
-    /// Levenberg–Marquardt.
-    LevenbergMarquardt,
-    /// Powell's dogleg.
-    Dogleg,
 }
 
 /// Fault kinds.

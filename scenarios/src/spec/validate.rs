@@ -14,8 +14,6 @@ const MIN_IMAGE_SIDE_PX: u32 = 16;
 const MAX_IMAGE_SIDE_PX: u32 = 16_384;
 /// Smallest stereo baseline (m) a stereo suite accepts.
 const MIN_BASELINE_M: f64 = 1e-3;
-/// Largest estimator window (keyframes): the dense window solve grows with its cube.
-const MAX_WINDOW_SIZE: usize = 100;
 
 /// Number checks that name the key.
 struct Check<'a> {
@@ -363,82 +361,24 @@ impl Scenario {
         Ok(())
     }
 
+    /// The `[estimator]` settings' own ranges ([`EstimatorConfig::validate_settings`]), the
+    /// error at the setting's key.
     fn validate_estimator(&self) -> Result<(), SpecError> {
-        let c = Check { scenario: self };
-        let e = &self.spec.estimator;
-        if let Some(w) = e.window_size
-            && !(3..=MAX_WINDOW_SIZE).contains(&w)
-        {
-            return Err(self.error(
-                "estimator.window_size",
-                format!("expected 3 to {MAX_WINDOW_SIZE} keyframes, got {w}"),
-            ));
-        }
-        if let Some(n) = e.init_frames
-            && n < 4
-        {
-            return Err(self.error("estimator.init_frames", "expected ≥ 4"));
-        }
-        if let Some(n) = e.solver_iterations
-            && !(1..=1000).contains(&n)
-        {
-            return Err(self.error("estimator.solver_iterations", "expected 1 to 1000"));
-        }
-        if let Some(n) = e.min_track_frames
-            && n < 1
-        {
-            return Err(self.error("estimator.min_track_frames", "expected ≥ 1"));
-        }
-        if let Some(n) = e.max_persistent_points {
-            c.at_most(
-                "estimator.max_persistent_points",
-                n,
-                1000,
-                "points in the dense window system",
-            )?;
-        }
-        if let Some(p) = e.pixel_sigma_px {
-            c.positive("estimator.pixel_sigma_px", p)?;
-        }
-        if let Some(v) = e.solver_function_tolerance {
-            c.within(
-                "estimator.solver_function_tolerance",
-                v,
-                0.0,
-                1.0,
-                "a relative cost decrease",
-            )?;
-        }
-        if let Some(v) = e.td_s {
-            c.within(
-                "estimator.td_s",
-                v,
-                -limits::MAX_TIME_OFFSET_S,
-                limits::MAX_TIME_OFFSET_S,
-                "a clock offset",
-            )?;
-        }
-        for (key, v) in [
-            ("estimator.keyframe_parallax_px", e.keyframe_parallax_px),
-            ("estimator.huber_sigma", e.huber_sigma),
-            (
-                "estimator.outlier_reprojection_px",
-                e.outlier_reprojection_px,
-            ),
-        ] {
-            if let Some(v) = v {
-                c.positive(key, v)?;
-            }
-        }
-        Ok(())
+        self.settings
+            .validate_settings()
+            .map_err(|e| self.error(&format!("estimator.{}", e.field), e.message))
     }
 
     /// The estimator's own checks as a backstop (after the camera models are built): whatever
     /// it refuses is refused here, with its field named.
     pub(super) fn validate_estimator_config(&self) -> Result<(), SpecError> {
         let cfg = self.estimator_config()?;
-        cfg.validate()
-            .map_err(|m| self.error("estimator", format!("unusable estimator settings: {m}")))
+        cfg.validate().map_err(|e| {
+            self.error(
+                "estimator",
+                format!("unusable estimator settings: {e} (from the rig and [estimator])"),
+            )
+        })
     }
 
     fn validate_expectations(&self) -> Result<(), SpecError> {

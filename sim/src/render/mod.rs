@@ -50,7 +50,8 @@ use rand::RngExt;
 use wgpu::util::DeviceExt;
 
 /// Which wgpu backend renders.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum RenderBackend {
     /// OpenGL through EGL (Mesa llvmpipe on machines without a GPU).
     #[default]
@@ -77,7 +78,8 @@ impl RenderBackend {
 }
 
 /// Motion blur: the image is the average of `samples` renders spread over the exposure.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct MotionBlur {
     /// Exposure time (s), centred on the capture time.
     pub exposure_s: f64,
@@ -85,8 +87,9 @@ pub struct MotionBlur {
     pub samples: u32,
 }
 
-/// Photometric effects.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Photometric effects (deserialized: missing keys take the defaults, none of the effects).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct Photometric {
     /// Mean gain (exposure × analogue gain) applied to albedo · shade.
     pub gain: f64,
@@ -108,7 +111,8 @@ pub struct Photometric {
 }
 
 /// A step in the gain (an auto-exposure jump between two frames).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct GainStep {
     /// When (s of true time).
     pub at_s: f64,
@@ -131,8 +135,9 @@ impl Default for Photometric {
     }
 }
 
-/// Renderer settings.
-#[derive(Clone, Debug, PartialEq)]
+/// Renderer settings (deserialized: missing keys take [`RenderConfig::default`]'s values).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct RenderConfig {
     /// Backend (pinned: backends differ by a grey level here and there).
     pub backend: RenderBackend,

@@ -26,7 +26,8 @@ pub(crate) use schur::{ReducedSystem, Step};
 use super::graph::Problem;
 
 /// Which trust-region strategy to use.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Method {
     /// Levenberg–Marquardt with Ceres-style Jacobi damping `λ·diag(JᵀJ)`.
     LevenbergMarquardt,
@@ -36,7 +37,10 @@ pub enum Method {
 
 /// Solver settings. Stop criteria are all relative or absolute tolerances and an iteration
 /// cap, never time.
-#[derive(Clone, Copy, Debug)]
+///
+/// Deserializable: a table's missing keys take [`SolverOptions::default`]'s values.
+#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct SolverOptions {
     /// Trust-region strategy.
     pub method: Method,

@@ -1,0 +1,58 @@
+//! Settings tables embedded whole: a scenario's `[estimator]` or `[camera.tracker]` table laid
+//! over the owning crate's serialized defaults, then deserialized into that crate's type.
+//!
+//! Serde fills a missing key from the type's own default, which for a nested table
+//! (`[estimator.solver]`) is the nested type's default rather than the value the outer
+//! configuration starts from. Laying the file's keys over the serialized defaults, table by
+//! table, keeps every unset key at the configuration's default at any depth, and the type's
+//! `deny_unknown_fields` still rejects a misspelt key.
+
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+
+use super::SpecError;
+use super::error::{line_of_key, path_string};
+
+/// `defaults` with the keys of `table` laid over them; `key` is the table's path in the
+/// scenario (`estimator`), `text` and `file` locate an error.
+pub(crate) fn overlay<T: Serialize + DeserializeOwned>(
+    defaults: &T,
+    table: &toml::Table,
+    key: &str,
+    text: &str,
+    file: &str,
+) -> Result<T, SpecError> {
+    let mut merged = toml::Table::try_from(defaults).map_err(|e| SpecError {
+        file: file.into(),
+        key: key.into(),
+        line: None,
+        message: format!("cannot serialize the defaults: {e}"),
+    })?;
+    lay_over(&mut merged, table);
+    serde_path_to_error::deserialize(toml::Value::Table(merged)).map_err(|e| {
+        let path = path_string(e.path());
+        let full = if path.is_empty() {
+            key.to_string()
+        } else {
+            format!("{key}.{path}")
+        };
+        SpecError {
+            file: file.into(),
+            line: line_of_key(text, &full),
+            key: full,
+            message: e.into_inner().message().trim().to_string(),
+        }
+    })
+}
+
+/// Replaces the values of `base` by those of `top`, descending into tables present in both.
+fn lay_over(base: &mut toml::Table, top: &toml::Table) {
+    for (k, v) in top {
+        match (base.get_mut(k), v) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(t)) => lay_over(b, t),
+            _ => {
+                base.insert(k.clone(), v.clone());
+            }
+        }
+    }
+}
