@@ -9,7 +9,7 @@
 //! exported; `vio render` writes them), and each camera's `data.csv` lists exactly the images
 //! written; feature-level scenarios have no images, so their `data.csv` holds the header only
 //! and `features.csv` holds what the cameras measured and when. Feature ids in `features.csv`
-//! are renumbered densely from 0 in order of first appearance (they fit in 31 bits): one id is
+//! are renumbered densely from 0 keeping their order (they fit in 31 bits): one id is
 //! one track (`rig.track_ids = "realistic"`, the default: a re-acquired landmark is a new track)
 //! or one landmark (`"landmark"`), shared by the cameras that see it.
 
@@ -96,22 +96,25 @@ fn kalibr_camera(
 }
 
 /// Simulates `scenario` and writes its measurements and ground truth under `out`.
-/// Renumbers feature ids densely from 0 in order of first appearance (frames in time order,
-/// cameras and features in their order; each frame re-sorted by the new ids), so they fit in
-/// 31 bits: many tools read them as `int`,
-/// and the simulator's realistic track ids carry the landmark id in their low bits and a track
-/// counter above. One id still means one track (or one landmark with `track_ids = "landmark"`),
-/// shared by the cameras that see it.
+/// Renumbers feature ids densely from 0, keeping their order (an id's new value is its rank
+/// among all ids of the export), so they fit in 31 bits: many tools read them as `int`, and the
+/// simulator's realistic track ids carry the landmark id in their low bits and a track counter
+/// above. Keeping the order keeps every id-ordered choice of the estimator (which tracks become
+/// persistent points, the order of factors), so the exported tracks reproduce the run exactly.
+/// One id still means one track (or one landmark with `track_ids = "landmark"`), shared by the
+/// cameras that see it.
 fn compact_feature_ids(frames: &mut [FeatureFrame]) {
-    let mut ids: std::collections::BTreeMap<u64, u64> = std::collections::BTreeMap::new();
+    let all: std::collections::BTreeSet<u64> = frames
+        .iter()
+        .flat_map(|f| f.cameras.iter())
+        .flat_map(|c| c.features.iter().map(|o| o.feature_id))
+        .collect();
+    let rank: std::collections::BTreeMap<u64, u64> = all.into_iter().zip(0u64..).collect();
     for f in frames {
         for c in &mut f.cameras {
             for o in &mut c.features {
-                let next = ids.len() as u64;
-                o.feature_id = *ids.entry(o.feature_id).or_insert(next);
+                o.feature_id = rank[&o.feature_id];
             }
-            // A frame lists its features by increasing id.
-            c.features.sort_by_key(|o| o.feature_id);
         }
     }
 }

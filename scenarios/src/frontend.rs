@@ -123,13 +123,13 @@ pub fn tracker_cameras(config: &EstimatorConfig) -> Vec<TrackerCamera> {
 /// Body rotation since the last frame from raw gyroscope samples (midpoint of consecutive
 /// samples; the bias is ignored: over 50 ms it moves a pixel by far less than the KLT basin).
 #[derive(Debug, Default)]
-struct GyroIntegrator {
+pub(crate) struct GyroIntegrator {
     last: Option<ImuSample>,
     rotation: Option<UnitQuaternion<f64>>,
 }
 
 impl GyroIntegrator {
-    fn push(&mut self, s: &ImuSample) {
+    pub(crate) fn push(&mut self, s: &ImuSample) {
         if let Some(prev) = self.last {
             let dt = (s.t_ns - prev.t_ns) as f64 * 1e-9;
             if dt > 0.0 && dt < 0.1 {
@@ -142,7 +142,7 @@ impl GyroIntegrator {
     }
 
     /// `R_bprev_bcur` since the last call (`None` before any rotation was integrated).
-    fn take(&mut self) -> Option<UnitQuaternion<f64>> {
+    pub(crate) fn take(&mut self) -> Option<UnitQuaternion<f64>> {
         self.rotation.take()
     }
 }

@@ -20,6 +20,7 @@ pub mod batch;
 pub mod bench;
 pub mod catalog;
 pub mod dataset;
+pub mod euroc;
 pub mod export;
 pub mod frontend;
 pub mod images;

@@ -4,10 +4,13 @@
 //! Determinism: everything but the timing fields is a function of the scenario and the seed; the
 //! wall clock is read only to fill [`FrameTiming`].
 
+use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
-use estimator::estimator::{Estimate, Estimator, EventKind as EstimatorEventKind, Status};
+use estimator::estimator::{
+    Estimate, Estimator, EstimatorError, EventKind as EstimatorEventKind, Status,
+};
 use estimator::geometry::Pose;
 use estimator::problem::{SolverOptions, SolverSummary};
 use sim::World;
@@ -254,7 +257,7 @@ pub fn run_interruptible(
     })?;
     let end_ns = world.end_ns();
     let (mut stream, renderer) = measurement_stream(scenario, &world)?;
-    let mut out = RunOutput {
+    let out = RunOutput {
         scenario: scenario.name.clone(),
         seed,
         duration_s: end_ns as f64 * 1e-9,
@@ -272,16 +275,16 @@ pub fn run_interruptible(
         interrupted_at_s: None,
     };
     let mut render_s = 0.0;
-    let mut status = estimator.status();
+    let mut recorder = Recorder::new(out, estimator.status());
     let mut last_progress = -1.0;
     let mut finished = false;
     let mut now_ns: i64 = 0;
-    // (camera stamp, front-end s, render s) of frames pushed and not yet estimated.
-    let mut pending_frontend: std::collections::VecDeque<(i64, f64, f64)> =
-        std::collections::VecDeque::new();
     while !finished {
         let m = if stop.load(Ordering::Relaxed) {
-            out.interrupted_at_s.get_or_insert(now_ns as f64 * 1e-9);
+            recorder
+                .out
+                .interrupted_at_s
+                .get_or_insert(now_ns as f64 * 1e-9);
             None
         } else {
             stream.next()
@@ -309,13 +312,12 @@ pub fn run_interruptible(
                             file: scenario.file_label(),
                             message: e.to_string(),
                         })?;
-                out.frames_in += 1;
-                pending_frontend.push_back((frame.t_ns, frontend_s, render_s));
+                recorder.frame_pushed(frame.t_ns, frontend_s, render_s);
                 let start = Instant::now();
                 (estimator.push_frame(frame), frontend_s, start)
             }
             Some(Measurement::Imu(s)) => {
-                out.imu_samples += 1;
+                recorder.out.imu_samples += 1;
                 if let Some(fe) = frontend.as_mut().filter(|_| uses_imu) {
                     fe.push_imu(&s);
                 }
@@ -324,16 +326,86 @@ pub fn run_interruptible(
             }
             Some(Measurement::Frame(_)) if frontend.is_some() => continue,
             Some(Measurement::Frame(f)) => {
-                out.frames_in += 1;
                 // Feature-level input: the frame is already the estimator's input.
                 let start = Instant::now();
                 let frame = f;
                 let frontend_s = start.elapsed().as_secs_f64();
-                pending_frontend.push_back((frame.t_ns, frontend_s, render_s));
+                recorder.frame_pushed(frame.t_ns, frontend_s, render_s);
                 (estimator.push_frame(frame), frontend_s, start)
             }
         };
         let call_s = call_start.elapsed().as_secs_f64();
+        recorder.absorb(&mut estimator, result, t_ns, call_s, render_s, |e| {
+            stream.truth(e.t_ns)
+        })?;
+        let frac = (t_ns as f64 / end_ns.max(1) as f64).clamp(0.0, 1.0);
+        if frac - last_progress >= 0.001 {
+            progress(frac);
+            last_progress = frac;
+        }
+    }
+    let mut out = recorder.out;
+    out.frontend = frontend.map(|f| f.stats());
+    match out.interrupted_at_s {
+        Some(t) => out.duration_s = t,
+        None => stream_result(scenario, &stream)?,
+    }
+    if options.batch_reference {
+        out.batch_reference = Some(batch_reference(&mut estimator));
+    }
+    progress(1.0);
+    Ok(out)
+}
+
+/// Collects a run's output from the estimator's calls: estimates with their ground truth and
+/// timing, status changes and the estimator's events. Shared by simulated runs and recorded
+/// datasets (`vio euroc`).
+#[derive(Debug)]
+pub(crate) struct Recorder {
+    /// The output so far.
+    pub out: RunOutput,
+    /// Leave estimates without ground truth out of the frames (counted in `without_truth`)
+    /// instead of failing with [`RunError::NoTruth`].
+    pub skip_without_truth: bool,
+    /// Estimates left out for want of ground truth.
+    pub without_truth: usize,
+    status: Status,
+    /// (camera stamp, front-end s, render s) of frames pushed and not yet estimated.
+    pending: VecDeque<(i64, f64, f64)>,
+}
+
+impl Recorder {
+    /// A recorder filling `out`, the estimator starting in `status`.
+    pub fn new(out: RunOutput, status: Status) -> Self {
+        Self {
+            out,
+            skip_without_truth: false,
+            without_truth: 0,
+            status,
+            pending: VecDeque::new(),
+        }
+    }
+
+    /// A frame stamped `t_ns` (camera clock) went to the estimator after `frontend_s` of
+    /// front-end and `render_s` of rendering time.
+    pub fn frame_pushed(&mut self, t_ns: i64, frontend_s: f64, render_s: f64) {
+        self.out.frames_in += 1;
+        self.pending.push_back((t_ns, frontend_s, render_s));
+    }
+
+    /// Records one estimator call made at `t_ns` that took `call_s`: its events, and its
+    /// estimates with their `truth` (an estimate without: see
+    /// [`Recorder::skip_without_truth`]).
+    pub fn absorb(
+        &mut self,
+        estimator: &mut Estimator,
+        result: Result<Vec<Estimate>, EstimatorError>,
+        t_ns: i64,
+        call_s: f64,
+        render_s: f64,
+        mut truth: impl FnMut(&Estimate) -> Option<GroundTruth>,
+    ) -> Result<(), RunError> {
+        let out = &mut self.out;
         for e in estimator.take_events() {
             let kind = match e.kind {
                 EstimatorEventKind::SuiteSwitch { from, to, reason } => {
@@ -372,29 +444,33 @@ pub fn run_interruptible(
         };
         let n = estimates.len().max(1) as f64;
         for e in estimates {
-            if e.status != status {
+            if e.status != self.status {
                 out.events.push(Event {
                     t_ns: e.t_ns,
                     kind: EventKind::StatusChange {
-                        from: status,
+                        from: self.status,
                         to: e.status,
                     },
                 });
-                status = e.status;
+                self.status = e.status;
             }
-            let truth = stream
-                .truth(e.t_ns)
-                .ok_or(RunError::NoTruth { t_ns: e.t_ns })?;
+            let Some(truth) = truth(&e) else {
+                if self.skip_without_truth {
+                    self.without_truth += 1;
+                    continue;
+                }
+                return Err(RunError::NoTruth { t_ns: e.t_ns });
+            };
             // An estimate often leaves the estimator in a later call than its frame entered
             // (the frame waits for the IMU that covers it): its front-end and render times are
             // those recorded when its frame was pushed (camera stamp = estimate − td).
             let camera_t = e.t_ns - (e.td_s * 1e9).round() as i64;
             let (mut frame_frontend_s, mut frame_render_s) = (0.0, render_s);
-            while let Some(&(t, f, r)) = pending_frontend.front() {
+            while let Some(&(t, f, r)) = self.pending.front() {
                 if t > camera_t {
                     break;
                 }
-                pending_frontend.pop_front();
+                self.pending.pop_front();
                 (frame_frontend_s, frame_render_s) = (f, r);
             }
             let timing = FrameTiming {
@@ -409,22 +485,8 @@ pub fn run_interruptible(
                 timing,
             });
         }
-        let frac = (t_ns as f64 / end_ns.max(1) as f64).clamp(0.0, 1.0);
-        if frac - last_progress >= 0.001 {
-            progress(frac);
-            last_progress = frac;
-        }
+        Ok(())
     }
-    out.frontend = frontend.map(|f| f.stats());
-    match out.interrupted_at_s {
-        Some(t) => out.duration_s = t,
-        None => stream_result(scenario, &stream)?,
-    }
-    if options.batch_reference {
-        out.batch_reference = Some(batch_reference(&mut estimator));
-    }
-    progress(1.0);
-    Ok(out)
 }
 
 /// Iterations of the batch reference solve: it starts from the window's estimates, so a few

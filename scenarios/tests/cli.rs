@@ -346,20 +346,15 @@ fn export_writes_an_euroc_folder_that_reads_back() {
     assert_eq!(cam.resolution, [752, 480]);
     let frames = scenarios::dataset::read_features_csv(dir.join("features.csv")).unwrap();
     assert_eq!(frames.len(), 41);
-    // Ids renumbered densely from 0 in order of first appearance: they fit in 31 bits.
+    // Ids renumbered densely from 0 (keeping their order): they fit in 31 bits.
     let mut seen = std::collections::BTreeSet::new();
     for f in &frames {
         for c in &f.cameras {
-            for o in &c.features {
-                assert!(
-                    o.feature_id <= seen.len() as u64,
-                    "{} skips ahead",
-                    o.feature_id
-                );
-                seen.insert(o.feature_id);
-            }
+            seen.extend(c.features.iter().map(|o| o.feature_id));
         }
     }
+    assert_eq!(seen.first(), Some(&0));
+    assert_eq!(seen.last(), Some(&(seen.len() as u64 - 1)), "not dense");
     assert!(seen.len() > 100 && (seen.len() as u64) < (1 << 31));
     assert!(
         frames
@@ -457,5 +452,49 @@ fn render_tracks_draws_the_front_end_tracks_over_the_stereo_pair() {
         .filter(|p| p.0[0].abs_diff(p.0[1]) > 60 || p.0[1].abs_diff(p.0[2]) > 60)
         .count();
     assert!(coloured > 1000, "{coloured} coloured pixels");
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn euroc_runs_an_exported_folder_and_writes_the_run_files() {
+    let dir = scratch("euroc");
+    let exp = dir.join("exp");
+    let out = vio(&["export", "--out", exp.to_str().unwrap(), "--duration", "3"]);
+    assert!(out.status.success());
+    let run_dir = dir.join("run");
+    let out = vio(&[
+        "euroc",
+        exp.to_str().unwrap(),
+        "--features",
+        exp.join("features.csv").to_str().unwrap(),
+        "--out",
+        run_dir.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{stdout}");
+    assert!(stdout.contains("61 frames from feature tracks"), "{stdout}");
+    assert!(stdout.contains("ATE"), "{stdout}");
+    for f in [
+        "estimate.tum",
+        "estimate_source_time.tum",
+        "groundtruth.tum",
+        "report.json",
+        "trajectory.png",
+    ] {
+        assert!(run_dir.join(f).exists(), "{f} missing");
+    }
+    // Bad input: exit 2 naming the file; nothing left behind.
+    let bad_out = dir.join("bad-out");
+    let out = vio(&[
+        "euroc",
+        dir.join("nowhere").to_str().unwrap(),
+        "--out",
+        bad_out.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("nowhere"));
+    assert!(!bad_out.exists());
+    let out = vio(&["euroc", exp.to_str().unwrap(), "--suite", "quad"]);
+    assert_eq!(out.status.code(), Some(2));
     let _ = std::fs::remove_dir_all(dir);
 }

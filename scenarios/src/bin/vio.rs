@@ -12,11 +12,14 @@ use scenarios::run::RunOptions;
 use scenarios::spec::Scenario;
 use scenarios::{catalog, report};
 
+#[path = "vio/euroc.rs"]
+mod euroc;
 #[path = "vio/eval.rs"]
 mod eval;
 #[path = "vio/studies.rs"]
 mod studies;
 
+use euroc::{EurocArgs, euroc_command};
 use eval::{EvalArgs, eval};
 use studies::{bench_command, nees_command, regress_command, sweep_command};
 
@@ -70,6 +73,11 @@ enum Command {
         #[arg(long)]
         threads: Option<usize>,
     },
+    /// Run the image front end and the estimator on a recorded EuRoC ASL folder (`mav0/`:
+    /// `imu0`, `cam0`, `cam1` with `data.csv`, PNG images and `sensor.yaml`; ground truth
+    /// optional) and write what `vio run` writes (evaluated when the folder has
+    /// `state_groundtruth_estimate0`).
+    Euroc(EurocArgs),
     /// List the built-in scenarios.
     List,
     /// Print the scenario's effective estimator and front-end settings as the TOML tables
@@ -281,6 +289,7 @@ fn main() -> ExitCode {
                 Err(code) => code,
             }
         }
+        Command::Euroc(args) => euroc_command(args),
         Command::List => {
             for e in catalog::entries() {
                 match Scenario::load(e.name) {

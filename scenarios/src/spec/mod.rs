@@ -73,7 +73,7 @@ use crate::catalog;
 pub mod error;
 pub(crate) mod exact;
 mod mapping;
-mod overlay;
+pub(crate) mod overlay;
 pub mod schema;
 mod validate;
 

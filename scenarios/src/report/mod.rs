@@ -37,8 +37,6 @@
 //!
 //! Both TUM files are written by [`crate::dataset::write_tum`].
 
-use std::fmt::Write as _;
-
 use crate::replay_report::ReplayReport;
 use std::path::Path;
 
@@ -53,7 +51,53 @@ use crate::metrics::{self, Alignment, AteResult, MetricsError, RpeOptions, RpeRe
 use crate::plot::{self, PlotData};
 use crate::recovery;
 use crate::run::{EventKind, RunOutput};
-use crate::spec::{Scenario, SuiteSpec};
+use crate::spec::{Bound, Scenario, SuiteSpec};
+
+mod summary;
+pub use summary::summary;
+
+/// Where a run came from, as far as its report, plot and files are concerned: a scenario
+/// ([`RunContext::of`]) or a recorded dataset (`vio euroc`).
+#[derive(Clone, Debug)]
+pub struct RunContext {
+    /// One-line description.
+    pub description: String,
+    /// The sensor suite (picks the alignment and the bias metrics).
+    pub suite: SuiteSpec,
+    /// Fault intervals `(kind, start s, end s)` (end infinite for permanent faults).
+    pub faults: Vec<(String, f64, f64)>,
+    /// Bounds to check, `(metric, bound)`.
+    pub expectations: Vec<(&'static str, Bound)>,
+    /// What the checks of a replayed recording found and did.
+    pub replay: Option<ReplayReport>,
+    /// The recording's own clock: added to the estimate stamps (ns) for
+    /// `estimate_source_time.tum`; `None`: that file is not written.
+    pub source_time_offset_ns: Option<i64>,
+    /// Whether the run's frames carry ground truth. Without it the report's error metrics are
+    /// `null`, no expectation is checked, and neither `groundtruth.tum` nor the plot is written.
+    pub ground_truth: bool,
+}
+
+impl RunContext {
+    /// The context of a scenario run.
+    pub fn of(scenario: &Scenario) -> Self {
+        let spec = &scenario.spec;
+        Self {
+            description: spec.description.clone(),
+            suite: spec.suite,
+            faults: scenario.fault_intervals(),
+            expectations: spec.expectations.bounds(),
+            replay: scenario.recording_report().map(ReplayReport::from),
+            // A replay without a static start runs on the recording's clock shifted to start
+            // at 0.
+            source_time_offset_ns: scenario
+                .recording_start_s()
+                .filter(|_| spec.trajectory.static_start.is_none())
+                .map(|t0| (t0 * 1e9).round() as i64),
+            ground_truth: true,
+        }
+    }
+}
 
 /// Pair spacing of the relative pose error: metres of ground-truth path.
 pub const RPE_DELTA_M: f64 = 1.0;
@@ -376,7 +420,11 @@ impl Report {
 
 /// Builds the report of a run and checks the scenario's expectations.
 pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> Report {
-    let spec = &scenario.spec;
+    build_report_in(&RunContext::of(scenario), run, eval)
+}
+
+/// [`build_report`] for a run described by `ctx`.
+pub fn build_report_in(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> Report {
     let frames = &run.frames;
     let timing_ms = TimingReport {
         frontend: Stats::from_seconds(frames.iter().map(|f| f.timing.frontend_s)),
@@ -422,11 +470,11 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
         })
         .collect();
     let errors = eval.position_errors(run);
-    let faults = scenario
-        .fault_intervals()
-        .into_iter()
-        .map(|(kind, a, b)| FaultReport {
-            kind,
+    let faults = ctx
+        .faults
+        .iter()
+        .map(|&(ref kind, a, b)| FaultReport {
+            kind: kind.clone(),
             start_s: a,
             end_s: b.is_finite().then_some(b),
             back_s: recovery::back_after(&switches, a, b),
@@ -442,8 +490,8 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
         .collect();
     let mut report = Report {
         scenario: run.scenario.clone(),
-        description: spec.description.clone(),
-        suite: spec.suite.as_str(),
+        description: ctx.description.clone(),
+        suite: ctx.suite.as_str(),
         seed: run.seed,
         frames: frames.len(),
         tracking_frames: eval.tracking_frames,
@@ -472,13 +520,22 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
         events,
         faults,
         batch_reference: batch::batch_report(run, eval.alignment),
-        replay: scenario.recording_report().map(ReplayReport::from),
+        replay: ctx.replay.clone(),
         interrupted_at_s: run.interrupted_at_s,
         expectations: Vec::new(),
         passed: true,
         vio_version: env!("CARGO_PKG_VERSION"),
     };
-    let mut bounds = spec.expectations.bounds();
+    if !ctx.ground_truth {
+        report.ate_rmse_m = None;
+        report.ate_rot_rmse_deg = None;
+        report.rpe_trans_rmse_m = None;
+        report.gyro_bias_error_rad_s = None;
+        report.accel_bias_error_m_s2 = None;
+        report.faults.clear();
+        return report;
+    }
+    let mut bounds = ctx.expectations.clone();
     let path_m: f64 = frames
         .windows(2)
         .map(|w| (w[1].truth.pose.p - w[0].truth.pose.p).norm())
@@ -506,177 +563,8 @@ pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> 
     report
 }
 
-fn opt(v: Option<f64>, digits: usize, unit: &str) -> String {
-    match v {
-        Some(v) => format!("{v:.digits$}{unit}"),
-        None => "n/a".into(),
-    }
-}
-
-/// The short human summary `vio run` prints.
-pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
-    let mut s = String::new();
-    let r = report;
-    let _ = writeln!(
-        s,
-        "scenario      {} ({}, seed {})",
-        r.scenario, r.suite, r.seed
-    );
-    let _ = writeln!(
-        s,
-        "frames        {} processed, {} tracking ({:.1} %), {} degraded, {:.1} s simulated",
-        r.frames,
-        r.tracking_frames,
-        100.0 * r.tracking_fraction,
-        r.degraded_frames,
-        r.duration_s
-    );
-    let _ = writeln!(
-        s,
-        "ATE           {} RMSE, rotation {} RMSE ({} alignment)",
-        opt(r.ate_rmse_m, 4, " m"),
-        opt(r.ate_rot_rmse_deg, 3, "°"),
-        r.alignment.replace('_', "+")
-    );
-    let _ = writeln!(
-        s,
-        "RPE ({} m)     {} translation RMSE, pose pairs {} m of ground-truth path apart",
-        r.rpe_delta_m,
-        opt(r.rpe_trans_rmse_m, 4, " m"),
-        r.rpe_delta_m
-    );
-    if r.gyro_bias_error_rad_s.is_some() {
-        let _ = writeln!(
-            s,
-            "final biases  gyro error {}, accel error {}",
-            opt(r.gyro_bias_error_rad_s, 5, " rad/s"),
-            opt(r.accel_bias_error_m_s2, 4, " m/s²")
-        );
-    }
-    if let Some(p) = &r.replay {
-        let _ = writeln!(
-            s,
-            "replay        {} samples, stamps in {}{}; {} glitches dropped (largest {:.3} m / {:.1}°), {} gaps bridged (longest {:.2} s); spline within {:.4} m / {:.3}° of the file",
-            p.samples,
-            p.time_unit,
-            if p.time_unit_detected {
-                " (detected)"
-            } else {
-                ""
-            },
-            p.glitches_dropped,
-            p.largest_glitch_m,
-            p.largest_glitch_deg,
-            p.gaps_bridged,
-            p.longest_gap_s,
-            p.fit_max_m,
-            p.fit_max_deg
-        );
-    }
-    let t = &r.timing_ms;
-    let _ = writeln!(
-        s,
-        "timing        per frame median / p99 / max: backend {:.2} / {:.2} / {:.2} ms, total {:.2} / {:.2} / {:.2} ms, frontend {:.3} ms",
-        t.backend.median,
-        t.backend.p99,
-        t.backend.max,
-        t.total.median,
-        t.total.p99,
-        t.total.max,
-        t.frontend.median
-    );
-    if let (Some(rt), Some(adapter)) = (&t.render, &r.renderer) {
-        let _ = writeln!(
-            s,
-            "rendering     per frame median / p99 / max: {:.2} / {:.2} / {:.2} ms on {adapter}",
-            rt.median, rt.p99, rt.max
-        );
-    }
-    if let Some(f) = &r.frontend {
-        let _ = writeln!(
-            s,
-            "front end     {:.0} features/frame (min {}), tracks {:.1} frames, stereo {:.0} %, track error median / p95 {:.3} / {:.3} px, wrong {:.2} % → {:.2} % after RANSAC, stereo error median {:.3} px",
-            f.features_mean,
-            f.features_min,
-            f.mean_track_length,
-            100.0 * f.stereo_match_ratio,
-            f.track_error_median_px,
-            f.track_error_p95_px,
-            100.0 * f.wrong_before_ransac,
-            100.0 * f.wrong_after_ransac,
-            f.stereo_error_median_px
-        );
-    }
-    let _ = writeln!(s, "resets        {}", r.resets);
-    let _ = writeln!(
-        s,
-        "sensors       {} suite switches, {} IMU samples excluded as spikes, {} saturated",
-        r.suite_switches, r.imu_samples_excluded, r.imu_samples_saturated
-    );
-    if let Some(b) = &r.batch_reference {
-        let _ = writeln!(s, "batch ref     {}", batch::summary_line(b));
-    }
-    for e in r
-        .events
-        .iter()
-        .filter(|e| e.kind == "suite_switch" || e.kind == "reset")
-    {
-        let _ = writeln!(s, "  {:>8.2} s   {} {}", e.t_s, e.kind, e.detail);
-    }
-    for f in &r.faults {
-        let end = f.end_s.map_or("on".to_string(), |e| format!("{e:.2} s"));
-        let back = f
-            .back_s
-            .map_or("never".to_string(), |b| format!("after {b:.2} s"));
-        let _ = writeln!(
-            s,
-            "fault         {} {:.2} s – {end}: suite back {back}, error {} at the end, {} 10 s later, {} resets",
-            f.kind,
-            f.start_s,
-            opt(f.error_at_end_m, 4, " m"),
-            opt(f.error_10s_after_m, 4, " m"),
-            f.resets
-        );
-    }
-    if r.expectations.is_empty() {
-        let _ = writeln!(s, "expectations  none");
-    } else {
-        let _ = writeln!(s, "expectations");
-        for e in &r.expectations {
-            let bound = match (e.min, e.max) {
-                (Some(a), Some(b)) => format!("in [{a}, {b}]"),
-                (Some(a), None) => format!("≥ {a}"),
-                (None, Some(b)) => format!("≤ {b}"),
-                (None, None) => String::new(),
-            };
-            let _ = writeln!(
-                s,
-                "  {:<24} {:<14} {:>12}  {}",
-                e.metric,
-                bound,
-                opt(e.value, 4, ""),
-                if e.passed { "pass" } else { "FAIL" }
-            );
-        }
-    }
-    let _ = write!(
-        s,
-        "result        {}",
-        match (r.passed, r.interrupted_at_s) {
-            (true, _) => "PASS".to_string(),
-            (false, Some(t)) => format!("FAIL (interrupted at t = {t:.2} s: partial run)"),
-            (false, None) => "FAIL (an expectation is not met)".to_string(),
-        }
-    );
-    if let Some(d) = out_dir {
-        let _ = write!(s, "; files in {}", d.display());
-    }
-    s.push('\n');
-    s
-}
-
 /// The plot data of a run.
-pub fn plot_data(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> PlotData {
+pub fn plot_data(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> PlotData {
     let gt_all = run
         .frames
         .iter()
@@ -707,7 +595,7 @@ pub fn plot_data(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> Plo
         title: format!(
             "{} ({}, seed {})",
             run.scenario,
-            scenario.spec.suite.as_str(),
+            ctx.suite.as_str(),
             run.seed
         ),
         ground_truth_xy: gt_all,
@@ -715,10 +603,10 @@ pub fn plot_data(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> Plo
         error_m: errors,
         duration_s: run.duration_s,
         tracking_from_s,
-        faults: scenario
-            .fault_intervals()
-            .into_iter()
-            .map(|(k, a, b)| (k, a, b.min(run.duration_s)))
+        faults: ctx
+            .faults
+            .iter()
+            .map(|(k, a, b)| (k.clone(), *a, b.min(run.duration_s)))
             .collect(),
         ate_rmse_m: eval.ate_rmse_m(),
         alignment: eval.alignment_name(),
@@ -730,6 +618,19 @@ pub fn plot_data(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> Plo
 pub fn write_outputs(
     dir: &Path,
     scenario: &Scenario,
+    run: &RunOutput,
+    eval: &Evaluation,
+    report: &Report,
+) -> Result<(), String> {
+    write_outputs_in(dir, &RunContext::of(scenario), run, eval, report)
+}
+
+/// [`write_outputs`] for a run described by `ctx`; without ground truth
+/// ([`RunContext::ground_truth`] false) only `estimate.tum`, `estimate_source_time.tum` and
+/// `report.json`.
+pub fn write_outputs_in(
+    dir: &Path,
+    ctx: &RunContext,
     run: &RunOutput,
     eval: &Evaluation,
     report: &Report,
@@ -747,12 +648,9 @@ pub fn write_outputs(
         .map(|f| StampedPose::new(f.estimate.t_ns, f.truth.pose))
         .collect();
     dataset::write_tum(dir.join("estimate.tum"), &est).map_err(|e| e.to_string())?;
-    // A replay without a static start runs on the recording's clock shifted to start at 0:
-    // the same estimates on the source's clock, so `vio eval --gt SOURCE.tum` associates.
-    if let Some(t0) = scenario.recording_start_s()
-        && scenario.spec.trajectory.static_start.is_none()
-    {
-        let shift_ns = (t0 * 1e9).round() as i64;
+    // A recording's run starts its clock at 0: the same estimates on the source's clock, so
+    // `vio eval --gt SOURCE.tum` associates.
+    if let Some(shift_ns) = ctx.source_time_offset_ns {
         let source: Vec<StampedPose> = est
             .iter()
             .map(|s| StampedPose::new(s.t_ns + shift_ns, s.pose))
@@ -760,15 +658,19 @@ pub fn write_outputs(
         dataset::write_tum(dir.join("estimate_source_time.tum"), &source)
             .map_err(|e| e.to_string())?;
     }
-    dataset::write_tum(dir.join("groundtruth.tum"), &gt).map_err(|e| e.to_string())?;
+    if ctx.ground_truth {
+        dataset::write_tum(dir.join("groundtruth.tum"), &gt).map_err(|e| e.to_string())?;
+    }
     let write = |name: &str, text: &str| {
         let p = dir.join(name);
         std::fs::write(&p, text).map_err(|e| io(&p.display().to_string(), e))
     };
     let json = serde_json::to_string_pretty(report).map_err(|e| e.to_string())?;
     write("report.json", &(json + "\n"))?;
-    let png = plot::trajectory_png(&plot_data(scenario, run, eval))?;
-    let p = dir.join("trajectory.png");
-    std::fs::write(&p, png).map_err(|e| io(&p.display().to_string(), e))?;
+    if ctx.ground_truth {
+        let png = plot::trajectory_png(&plot_data(ctx, run, eval))?;
+        let p = dir.join("trajectory.png");
+        std::fs::write(&p, png).map_err(|e| io(&p.display().to_string(), e))?;
+    }
     Ok(())
 }

@@ -1,0 +1,474 @@
+//! `vio euroc`: the image front end and the estimator on a recorded EuRoC ASL folder.
+//!
+//! The folder is read as the dataset ships it (`mav0/imu0/data.csv` with nanosecond stamps
+//! around 1.4e18, `cam<i>/data.csv` + `data/<t_ns>.png`, every `sensor.yaml` with its `T_BS`,
+//! optional `state_groundtruth_estimate0/data.csv`). The rig comes from the `sensor.yaml` files:
+//! the body frame is the IMU's, so a camera's `T_b_c = T_BS(imu)⁻¹ · T_BS(cam)`; the estimator
+//! assumes the IMU noise densities of `imu0/sensor.yaml`. Every stamp is shifted so that the
+//! first measurement is at 0 (the run's clock; `estimate_source_time.tum` has the dataset's
+//! own). Measurements go to the estimator in time order, IMU first at equal stamps, as in a
+//! simulated run. With ground truth the run is evaluated exactly like `vio run` (the truth of an
+//! estimate is the ground truth interpolated at its time; estimates outside the ground truth's
+//! span are left out); without it the report has no error metrics.
+//!
+//! Instead of the images, `features.csv` (`vio export`'s feature tracks) can feed the estimator
+//! directly: the feature-track path of the same run.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+use estimator::camera::{Camera, CameraModel, KannalaBrandt, PinholeRadtan};
+use estimator::estimator::{CameraConfig, Estimate, Estimator, EstimatorConfig};
+use estimator::frontend::{
+    CameraImageView, FeatureFrame, FeatureTracker, ImageView, TrackerCamera, TrackerConfig,
+};
+use estimator::geometry::Pose;
+use estimator::imu::ImuSample;
+use nalgebra::Vector3;
+use sim::stream::GroundTruth;
+
+use crate::dataset::{
+    CameraSensor, DatasetError, EurocDataset, GroundTruthState, read_euroc, read_features_csv,
+};
+use crate::frontend::GyroIntegrator;
+use crate::report::RunContext;
+use crate::run::{Recorder, RunError, RunOutput};
+use crate::spec::{SpecError, SuiteSpec};
+
+/// How to run a dataset.
+#[derive(Clone, Debug)]
+pub struct EurocOptions {
+    /// The sensors the estimator fuses (`stereo_imu`, `stereo`: `cam0` and `cam1`; `mono_imu`:
+    /// `cam0`).
+    pub suite: SuiteSpec,
+    /// Feed this `features.csv` instead of tracking the images.
+    pub features: Option<PathBuf>,
+    /// A TOML file whose `[estimator]` and `[camera.tracker]` tables (a scenario file works)
+    /// are laid over the defaults.
+    pub settings: Option<PathBuf>,
+    /// Pixel noise σ (px) of every camera (`estimator.pixel_sigma_px` in the settings wins).
+    pub pixel_sigma_px: f64,
+    /// Seed of the front end's RANSAC.
+    pub seed: u64,
+    /// Only the first seconds of the dataset.
+    pub duration_s: Option<f64>,
+}
+
+/// Errors of [`run_euroc`]: each names the file concerned.
+#[derive(Debug, thiserror::Error)]
+pub enum EurocError {
+    /// A dataset file is missing or malformed.
+    #[error(transparent)]
+    Dataset(#[from] DatasetError),
+    /// The dataset cannot feed the asked-for suite, or an image is unreadable.
+    #[error("{}: {message}", path.display())]
+    Input {
+        /// The file or folder concerned.
+        path: PathBuf,
+        /// What was wrong.
+        message: String,
+    },
+    /// The settings file is malformed.
+    #[error(transparent)]
+    Settings(#[from] SpecError),
+    /// The estimator or the front end refused the configuration.
+    #[error(transparent)]
+    Run(#[from] RunError),
+}
+
+fn input(path: impl Into<PathBuf>, message: impl Into<String>) -> EurocError {
+    EurocError::Input {
+        path: path.into(),
+        message: message.into(),
+    }
+}
+
+/// A finished dataset run.
+#[derive(Debug)]
+pub struct EurocRun {
+    /// The run, on the shifted clock.
+    pub output: RunOutput,
+    /// Its report context (no expectations; ground truth when the dataset has it).
+    pub context: RunContext,
+    /// Estimates left out of the evaluation: outside the ground truth's span.
+    pub without_truth: usize,
+}
+
+/// The estimator's camera `i` from its `sensor.yaml` (`pinhole` with `radial-tangential` or
+/// `equidistant` distortion).
+fn camera_model(sensor: &CameraSensor, path: &Path) -> Result<Arc<dyn CameraModel>, EurocError> {
+    let [w, h] = sensor.resolution;
+    let i = &sensor.intrinsics;
+    let d = &sensor.distortion_coefficients;
+    if sensor.camera_model != "pinhole" || i.len() != 4 {
+        return Err(input(
+            path,
+            format!(
+                "camera_model `{}` with {} intrinsics: expected `pinhole` [fu, fv, cu, cv]",
+                sensor.camera_model,
+                i.len()
+            ),
+        ));
+    }
+    if d.len() != 4 {
+        return Err(input(
+            path,
+            format!("distortion_coefficients: expected 4, got {}", d.len()),
+        ));
+    }
+    let bad = |e: estimator::camera::CameraError| input(path, format!("intrinsics: {e}"));
+    let cam = match sensor.distortion_model.as_str() {
+        "radial-tangential" | "radtan" => Camera::PinholeRadtan(
+            PinholeRadtan::new(w, h, i[0], i[1], i[2], i[3], d[0], d[1], d[2], d[3])
+                .map_err(bad)?,
+        ),
+        "equidistant" => Camera::KannalaBrandt(
+            KannalaBrandt::new(w, h, i[0], i[1], i[2], i[3], d[0], d[1], d[2], d[3])
+                .map_err(bad)?,
+        ),
+        other => {
+            return Err(input(
+                path,
+                format!(
+                    "distortion_model `{other}`: expected `radial-tangential` or `equidistant`"
+                ),
+            ));
+        }
+    };
+    Ok(Arc::new(cam))
+}
+
+/// The settings file's `[estimator]` and `[camera.tracker]` tables over the defaults.
+fn settings(options: &EurocOptions) -> Result<(EstimatorConfig, TrackerConfig), EurocError> {
+    let defaults = (
+        EstimatorConfig::settings_default(),
+        TrackerConfig::default(),
+    );
+    let Some(path) = &options.settings else {
+        return Ok(defaults);
+    };
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| input(path, format!("cannot read the settings: {e}")))?;
+    let root: toml::Table = crate::spec::error::deserialize_toml(&text, &file)?;
+    let table = |v: Option<&toml::Value>| match v {
+        Some(toml::Value::Table(t)) => t.clone(),
+        _ => toml::Table::new(),
+    };
+    let est_table = table(root.get("estimator"));
+    let tracker_table = table(
+        root.get("camera")
+            .and_then(|c| c.as_table())
+            .and_then(|c| c.get("tracker")),
+    );
+    use crate::spec::overlay::overlay;
+    let est = overlay(&defaults.0, &est_table, "estimator", &text, &file)?;
+    let tracker = overlay(&defaults.1, &tracker_table, "camera.tracker", &text, &file)?;
+    est.validate_settings().map_err(|e| SpecError {
+        file: file.clone(),
+        key: format!("estimator.{}", e.field),
+        line: crate::spec::error::line_of_key(&text, &format!("estimator.{}", e.field)),
+        message: e.message,
+    })?;
+    Ok((est, tracker))
+}
+
+/// Ground truth at `t_ns` (dataset clock), interpolated between the two rows around it
+/// (positions, velocities and biases linearly, the attitude by slerp); `None` outside.
+fn truth_at(gt: &[GroundTruthState], t_ns: i64) -> Option<GroundTruth> {
+    let k = gt.partition_point(|g| g.t_ns < t_ns);
+    let b = gt.get(k)?;
+    let a = if b.t_ns == t_ns {
+        b
+    } else {
+        gt.get(k.checked_sub(1)?)?
+    };
+    let span = (b.t_ns - a.t_ns) as f64;
+    let s = if span > 0.0 {
+        (t_ns - a.t_ns) as f64 / span
+    } else {
+        0.0
+    };
+    let lerp = |x: &Vector3<f64>, y: &Vector3<f64>| x + (y - x) * s;
+    Some(GroundTruth {
+        t_ns,
+        pose: Pose::new(a.pose.q.slerp(&b.pose.q, s), lerp(&a.pose.p, &b.pose.p)),
+        v_w: lerp(&a.velocity, &b.velocity),
+        a_w: Vector3::zeros(),
+        omega_b: Vector3::zeros(),
+        gyro_bias: lerp(&a.gyro_bias, &b.gyro_bias),
+        accel_bias: lerp(&a.accel_bias, &b.accel_bias),
+    })
+}
+
+/// Where a frame's features come from.
+enum Frames {
+    /// Images to track: per capture, its stamp and each camera's PNG.
+    Images(Vec<(i64, Vec<PathBuf>)>),
+    /// Feature tracks as exported.
+    Features(Vec<FeatureFrame>),
+}
+
+impl Frames {
+    fn stamps(&self) -> Vec<i64> {
+        match self {
+            Frames::Images(v) => v.iter().map(|f| f.0).collect(),
+            Frames::Features(v) => v.iter().map(|f| f.t_ns).collect(),
+        }
+    }
+}
+
+/// The captures every used camera has (stereo: the stamps of `cam0` also in `cam1`).
+fn image_frames(data: &EurocDataset, mav0: &Path, cameras: usize) -> Vec<(i64, Vec<PathBuf>)> {
+    let mut out = Vec::new();
+    for f in &data.cameras[0].frames {
+        let mut paths = vec![mav0.join("cam0/data").join(&f.filename)];
+        for c in 1..cameras {
+            let other = &data.cameras[c].frames;
+            match other.binary_search_by_key(&f.t_ns, |g| g.t_ns) {
+                Ok(j) => paths.push(mav0.join(format!("cam{c}/data")).join(&other[j].filename)),
+                Err(_) => break,
+            }
+        }
+        if paths.len() == cameras {
+            out.push((f.t_ns, paths));
+        }
+    }
+    out
+}
+
+/// Reads one 8-bit grey image (a colour PNG is converted).
+fn load_image(path: &Path) -> Result<image::GrayImage, EurocError> {
+    image::open(path)
+        .map(|i| i.to_luma8())
+        .map_err(|e| input(path, format!("cannot read the image: {e}")))
+}
+
+/// Runs the image front end (or the given feature tracks) and the estimator over the `mav0`
+/// folder; `progress` gets the fraction of the dataset's time done.
+pub fn run_euroc(
+    mav0: &Path,
+    options: &EurocOptions,
+    progress: &mut dyn FnMut(f64),
+) -> Result<EurocRun, EurocError> {
+    let data = read_euroc(mav0)?;
+    let suite = options.suite.suite();
+    let n_cams = suite.cameras();
+    let imu_yaml = mav0.join("imu0/sensor.yaml");
+    let imu_sensor = data.imu_sensor.as_ref().ok_or_else(|| {
+        input(
+            &imu_yaml,
+            "missing: the IMU's noise densities and T_BS come from it",
+        )
+    })?;
+    if data.imu.is_empty() {
+        return Err(input(mav0.join("imu0/data.csv"), "no IMU samples"));
+    }
+    if data.cameras.len() < n_cams {
+        return Err(input(
+            mav0,
+            format!(
+                "the {} suite needs {n_cams} camera folder(s) (cam0…), found {}",
+                options.suite.as_str(),
+                data.cameras.len()
+            ),
+        ));
+    }
+    let (mut settings, tracker_settings) = settings(options)?;
+    let mut cameras = Vec::new();
+    for (i, cam) in data.cameras.iter().take(n_cams).enumerate() {
+        let yaml = mav0.join(format!("cam{i}/sensor.yaml"));
+        let sensor = cam
+            .sensor
+            .as_ref()
+            .ok_or_else(|| input(&yaml, "missing: the camera's calibration comes from it"))?;
+        cameras.push(CameraConfig {
+            model: camera_model(sensor, &yaml)?,
+            T_b_c: imu_sensor.t_bs.inverse().compose(&sensor.t_bs),
+            pixel_sigma: options.pixel_sigma_px,
+        });
+    }
+    settings.suite = suite;
+    settings.cameras = cameras;
+    settings.imu_noise = imu_sensor.noise;
+    let label = mav0.display().to_string();
+    let est_err = |e: String| RunError::Estimator {
+        file: label.clone(),
+        message: e,
+    };
+    let mut tracker = match &options.features {
+        Some(_) => None,
+        None => {
+            let cams = settings
+                .cameras
+                .iter()
+                .map(|c| TrackerCamera {
+                    model: c.model.clone(),
+                    T_b_c: c.T_b_c,
+                })
+                .collect();
+            let cfg = TrackerConfig {
+                seed: options.seed,
+                ..tracker_settings
+            };
+            Some(
+                FeatureTracker::new(cfg, cams).map_err(|e| RunError::Frontend {
+                    file: label.clone(),
+                    message: e.to_string(),
+                })?,
+            )
+        }
+    };
+    let mut estimator = Estimator::new(settings).map_err(|e| est_err(e.to_string()))?;
+
+    let frames = match &options.features {
+        Some(p) => {
+            let mut f = read_features_csv(p)?;
+            for frame in &mut f {
+                frame.cameras.retain(|c| c.cam_id < n_cams);
+            }
+            Frames::Features(f)
+        }
+        None => Frames::Images(image_frames(&data, mav0, n_cams)),
+    };
+    let stamps = frames.stamps();
+    if stamps.is_empty() {
+        return Err(input(mav0, "no camera frames to run on"));
+    }
+    // The run's clock starts at the first measurement.
+    let t0 = data.imu[0].t_ns.min(stamps[0]);
+    let end = match options.duration_s {
+        Some(d) => t0 + (d * 1e9).round() as i64,
+        None => data
+            .imu
+            .last()
+            .map_or(t0, |s| s.t_ns)
+            .max(*stamps.last().unwrap_or(&t0)),
+    };
+    let has_truth = !data.groundtruth.is_empty();
+    let out = RunOutput {
+        scenario: mav0
+            .parent()
+            .and_then(|p| p.file_name())
+            .or(mav0.file_name())
+            .map_or("euroc".into(), |n| n.to_string_lossy().into_owned()),
+        seed: options.seed,
+        duration_s: (end - t0) as f64 * 1e-9,
+        imu_samples: 0,
+        frames_in: 0,
+        frames: Vec::new(),
+        events: Vec::new(),
+        resets: 0,
+        suite_switches: 0,
+        imu_samples_excluded: 0,
+        imu_samples_saturated: 0,
+        renderer: None,
+        frontend: None,
+        batch_reference: None,
+        interrupted_at_s: None,
+    };
+    let mut recorder = Recorder::new(out, estimator.status());
+    recorder.skip_without_truth = true;
+    let mut gyro = GyroIntegrator::default();
+    // Ground truth on the run's clock (dataset clock − t0); without any, the estimate stands in
+    // (the context then drops every error metric).
+    let truth = |e: &Estimate| -> Option<GroundTruth> {
+        if !has_truth {
+            return Some(GroundTruth {
+                t_ns: e.t_ns,
+                pose: e.T_w_b,
+                v_w: e.v_w,
+                a_w: Vector3::zeros(),
+                omega_b: Vector3::zeros(),
+                gyro_bias: e.bg,
+                accel_bias: e.ba,
+            });
+        }
+        truth_at(&data.groundtruth, e.t_ns + t0).map(|g| GroundTruth { t_ns: e.t_ns, ..g })
+    };
+    let (mut imu_i, mut frame_i) = (0usize, 0usize);
+    let uses_imu = suite.uses_imu();
+    let mut last_progress = -1.0;
+    loop {
+        let imu_t = data.imu.get(imu_i).map(|s| s.t_ns).filter(|&t| t <= end);
+        let frame_t = stamps.get(frame_i).copied().filter(|&t| t <= end);
+        let (result, t_ns, start) = match (imu_t, frame_t) {
+            (None, None) => break,
+            (Some(a), b) if b.is_none_or(|b| a <= b) => {
+                let s = ImuSample {
+                    t_ns: a - t0,
+                    ..data.imu[imu_i]
+                };
+                imu_i += 1;
+                recorder.out.imu_samples += 1;
+                if uses_imu {
+                    gyro.push(&s);
+                }
+                let start = Instant::now();
+                (estimator.push_imu(s), s.t_ns, start)
+            }
+            _ => {
+                let frame = match &frames {
+                    Frames::Features(f) => {
+                        let mut frame = f[frame_i].clone();
+                        frame.t_ns -= t0;
+                        frame
+                    }
+                    Frames::Images(list) => {
+                        let (t, paths) = &list[frame_i];
+                        let images = paths
+                            .iter()
+                            .map(|p| load_image(p))
+                            .collect::<Result<Vec<_>, _>>()?;
+                        let views = images
+                            .iter()
+                            .enumerate()
+                            .map(|(cam_id, im)| {
+                                ImageView::packed(im.width(), im.height(), im.as_raw())
+                                    .map(|image| CameraImageView { cam_id, image })
+                                    .map_err(|e| input(&paths[cam_id], e.to_string()))
+                            })
+                            .collect::<Result<Vec<_>, _>>()?;
+                        let tracker = tracker.as_mut().expect("images need the tracker");
+                        tracker
+                            .track(&views, t - t0, gyro.take())
+                            .map_err(|e| input(&paths[0], format!("front end: {e}")))?
+                    }
+                };
+                frame_i += 1;
+                let frontend_s = tracker.as_ref().map_or(0.0, |t| t.report().times.total_s);
+                recorder.frame_pushed(frame.t_ns, frontend_s, 0.0);
+                let t = frame.t_ns;
+                let start = Instant::now();
+                (estimator.push_frame(frame), t, start)
+            }
+        };
+        let call_s = start.elapsed().as_secs_f64();
+        recorder.absorb(&mut estimator, result, t_ns, call_s, 0.0, truth)?;
+        let frac = ((t_ns) as f64 / (end - t0).max(1) as f64).clamp(0.0, 1.0);
+        if frac - last_progress >= 0.001 {
+            progress(frac);
+            last_progress = frac;
+        }
+    }
+    let start = Instant::now();
+    let result = estimator.finish();
+    let call_s = start.elapsed().as_secs_f64();
+    recorder.absorb(&mut estimator, result, end - t0, call_s, 0.0, truth)?;
+    progress(1.0);
+    let context = RunContext {
+        description: format!("EuRoC dataset {}", mav0.display()),
+        suite: options.suite,
+        faults: Vec::new(),
+        expectations: Vec::new(),
+        replay: None,
+        source_time_offset_ns: Some(t0),
+        ground_truth: has_truth,
+    };
+    Ok(EurocRun {
+        without_truth: recorder.without_truth,
+        output: recorder.out,
+        context,
+    })
+}

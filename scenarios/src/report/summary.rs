@@ -1,0 +1,176 @@
+//! The short human summary `vio run` prints.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use super::Report;
+use crate::batch;
+
+fn opt(v: Option<f64>, digits: usize, unit: &str) -> String {
+    match v {
+        Some(v) => format!("{v:.digits$}{unit}"),
+        None => "n/a".into(),
+    }
+}
+
+/// The short human summary `vio run` prints.
+pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
+    let mut s = String::new();
+    let r = report;
+    let _ = writeln!(
+        s,
+        "scenario      {} ({}, seed {})",
+        r.scenario, r.suite, r.seed
+    );
+    let _ = writeln!(
+        s,
+        "frames        {} processed, {} tracking ({:.1} %), {} degraded, {:.1} s simulated",
+        r.frames,
+        r.tracking_frames,
+        100.0 * r.tracking_fraction,
+        r.degraded_frames,
+        r.duration_s
+    );
+    let _ = writeln!(
+        s,
+        "ATE           {} RMSE, rotation {} RMSE ({} alignment)",
+        opt(r.ate_rmse_m, 4, " m"),
+        opt(r.ate_rot_rmse_deg, 3, "°"),
+        r.alignment.replace('_', "+")
+    );
+    let _ = writeln!(
+        s,
+        "RPE ({} m)     {} translation RMSE, pose pairs {} m of ground-truth path apart",
+        r.rpe_delta_m,
+        opt(r.rpe_trans_rmse_m, 4, " m"),
+        r.rpe_delta_m
+    );
+    if r.gyro_bias_error_rad_s.is_some() {
+        let _ = writeln!(
+            s,
+            "final biases  gyro error {}, accel error {}",
+            opt(r.gyro_bias_error_rad_s, 5, " rad/s"),
+            opt(r.accel_bias_error_m_s2, 4, " m/s²")
+        );
+    }
+    if let Some(p) = &r.replay {
+        let _ = writeln!(
+            s,
+            "replay        {} samples, stamps in {}{}; {} glitches dropped (largest {:.3} m / {:.1}°), {} gaps bridged (longest {:.2} s); spline within {:.4} m / {:.3}° of the file",
+            p.samples,
+            p.time_unit,
+            if p.time_unit_detected {
+                " (detected)"
+            } else {
+                ""
+            },
+            p.glitches_dropped,
+            p.largest_glitch_m,
+            p.largest_glitch_deg,
+            p.gaps_bridged,
+            p.longest_gap_s,
+            p.fit_max_m,
+            p.fit_max_deg
+        );
+    }
+    let t = &r.timing_ms;
+    let _ = writeln!(
+        s,
+        "timing        per frame median / p99 / max: backend {:.2} / {:.2} / {:.2} ms, total {:.2} / {:.2} / {:.2} ms, frontend {:.3} ms",
+        t.backend.median,
+        t.backend.p99,
+        t.backend.max,
+        t.total.median,
+        t.total.p99,
+        t.total.max,
+        t.frontend.median
+    );
+    if let (Some(rt), Some(adapter)) = (&t.render, &r.renderer) {
+        let _ = writeln!(
+            s,
+            "rendering     per frame median / p99 / max: {:.2} / {:.2} / {:.2} ms on {adapter}",
+            rt.median, rt.p99, rt.max
+        );
+    }
+    if let Some(f) = &r.frontend {
+        let _ = writeln!(
+            s,
+            "front end     {:.0} features/frame (min {}), tracks {:.1} frames, stereo {:.0} %, track error median / p95 {:.3} / {:.3} px, wrong {:.2} % → {:.2} % after RANSAC, stereo error median {:.3} px",
+            f.features_mean,
+            f.features_min,
+            f.mean_track_length,
+            100.0 * f.stereo_match_ratio,
+            f.track_error_median_px,
+            f.track_error_p95_px,
+            100.0 * f.wrong_before_ransac,
+            100.0 * f.wrong_after_ransac,
+            f.stereo_error_median_px
+        );
+    }
+    let _ = writeln!(s, "resets        {}", r.resets);
+    let _ = writeln!(
+        s,
+        "sensors       {} suite switches, {} IMU samples excluded as spikes, {} saturated",
+        r.suite_switches, r.imu_samples_excluded, r.imu_samples_saturated
+    );
+    if let Some(b) = &r.batch_reference {
+        let _ = writeln!(s, "batch ref     {}", batch::summary_line(b));
+    }
+    for e in r
+        .events
+        .iter()
+        .filter(|e| e.kind == "suite_switch" || e.kind == "reset")
+    {
+        let _ = writeln!(s, "  {:>8.2} s   {} {}", e.t_s, e.kind, e.detail);
+    }
+    for f in &r.faults {
+        let end = f.end_s.map_or("on".to_string(), |e| format!("{e:.2} s"));
+        let back = f
+            .back_s
+            .map_or("never".to_string(), |b| format!("after {b:.2} s"));
+        let _ = writeln!(
+            s,
+            "fault         {} {:.2} s – {end}: suite back {back}, error {} at the end, {} 10 s later, {} resets",
+            f.kind,
+            f.start_s,
+            opt(f.error_at_end_m, 4, " m"),
+            opt(f.error_10s_after_m, 4, " m"),
+            f.resets
+        );
+    }
+    if r.expectations.is_empty() {
+        let _ = writeln!(s, "expectations  none");
+    } else {
+        let _ = writeln!(s, "expectations");
+        for e in &r.expectations {
+            let bound = match (e.min, e.max) {
+                (Some(a), Some(b)) => format!("in [{a}, {b}]"),
+                (Some(a), None) => format!("≥ {a}"),
+                (None, Some(b)) => format!("≤ {b}"),
+                (None, None) => String::new(),
+            };
+            let _ = writeln!(
+                s,
+                "  {:<24} {:<14} {:>12}  {}",
+                e.metric,
+                bound,
+                opt(e.value, 4, ""),
+                if e.passed { "pass" } else { "FAIL" }
+            );
+        }
+    }
+    let _ = write!(
+        s,
+        "result        {}",
+        match (r.passed, r.interrupted_at_s) {
+            (true, _) => "PASS".to_string(),
+            (false, Some(t)) => format!("FAIL (interrupted at t = {t:.2} s: partial run)"),
+            (false, None) => "FAIL (an expectation is not met)".to_string(),
+        }
+    );
+    if let Some(d) = out_dir {
+        let _ = write!(s, "; files in {}", d.display());
+    }
+    s.push('\n');
+    s
+}

@@ -1,0 +1,209 @@
+//! `vio euroc` round trips: a scenario exported in the EuRoC ASL layout, its stamps moved to a
+//! real recording's clock (~1.4e18 ns), run through `scenarios::euroc::run_euroc` gives the
+//! ATE `vio run` gives on the scenario, from the rendered images (image front end) and from
+//! the exported feature tracks; and bad datasets name their file.
+//!
+//! The rendered case needs Mesa's llvmpipe (`bash .ci/install-deps`).
+
+use std::path::{Path, PathBuf};
+
+use scenarios::dataset::{read_euroc, read_features_csv, write_euroc, write_features_csv};
+use scenarios::euroc::{EurocError, EurocOptions, run_euroc};
+use scenarios::export::export;
+use scenarios::report::{self, Report};
+use scenarios::run::{RunOptions, run};
+use scenarios::spec::{Scenario, SuiteSpec};
+
+/// The first IMU stamp of EuRoC V1_01_easy (ns).
+const EUROC_T0_NS: i64 = 1_403_715_273_262_142_976;
+
+/// Both runs last this long (s).
+const SECONDS: f64 = 4.0;
+
+fn scratch(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("vio-euroc-{}-{tag}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+/// `vio run`'s report on `name` for [`SECONDS`].
+fn run_report(scenario: &Scenario) -> Report {
+    let options = RunOptions {
+        duration_s: Some(SECONDS),
+        ..Default::default()
+    };
+    let out = run(scenario, &options, &mut |_| {}).unwrap();
+    let eval = report::evaluate(&out, scenario.spec.suite);
+    report::build_report(scenario, &out, &eval)
+}
+
+/// Exports `scenario` for [`SECONDS`] into `dir` and moves every stamp (IMU, cameras, ground
+/// truth, feature tracks) by `EUROC_T0_NS`; image file names stay as written (`data.csv` names
+/// them, as in the real datasets).
+fn export_on_euroc_clock(scenario: &Scenario, dir: &Path) {
+    let options = RunOptions {
+        duration_s: Some(SECONDS),
+        ..Default::default()
+    };
+    export(scenario, &options, dir).unwrap();
+    let mav0 = dir.join("mav0");
+    let mut data = read_euroc(&mav0).unwrap();
+    for s in &mut data.imu {
+        s.t_ns += EUROC_T0_NS;
+    }
+    for g in &mut data.groundtruth {
+        g.t_ns += EUROC_T0_NS;
+    }
+    for c in &mut data.cameras {
+        for f in &mut c.frames {
+            f.t_ns += EUROC_T0_NS;
+        }
+    }
+    write_euroc(&mav0, &data).unwrap();
+    let mut features = read_features_csv(dir.join("features.csv")).unwrap();
+    for f in &mut features {
+        f.t_ns += EUROC_T0_NS;
+    }
+    write_features_csv(dir.join("features.csv"), &features).unwrap();
+}
+
+fn options(scenario: &Scenario, features: Option<PathBuf>) -> EurocOptions {
+    EurocOptions {
+        suite: scenario.spec.suite,
+        features,
+        settings: Some(
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("scenarios/catalog")
+                .join(format!("{}.toml", scenario.name)),
+        ),
+        pixel_sigma_px: 1.0,
+        seed: scenario.spec.world.seed,
+        duration_s: None,
+    }
+}
+
+fn euroc_report(mav0: &Path, options: &EurocOptions) -> Report {
+    let r = run_euroc(mav0, options, &mut |_| {}).unwrap();
+    assert_eq!(r.without_truth, 0);
+    assert_eq!(r.context.source_time_offset_ns, Some(EUROC_T0_NS));
+    let eval = report::evaluate(&r.output, options.suite);
+    report::build_report_in(&r.context, &r.output, &eval)
+}
+
+/// Same measurements, same estimate: the ATEs agree to round-off (measured: 1e-10 m relative
+/// differences from the calibration's trip through `sensor.yaml`; bound 1e-6 m).
+fn assert_same_accuracy(a: &Report, b: &Report) {
+    assert_eq!(a.frames, b.frames);
+    assert_eq!(a.tracking_frames, b.tracking_frames);
+    let (x, y) = (a.ate_rmse_m.unwrap(), b.ate_rmse_m.unwrap());
+    assert!((x - y).abs() < 1e-6, "ATE vio run {x} vs vio euroc {y}");
+    let (x, y) = (a.ate_rot_rmse_deg.unwrap(), b.ate_rot_rmse_deg.unwrap());
+    assert!((x - y).abs() < 1e-4, "rotation ATE {x} vs {y}");
+}
+
+#[test]
+fn rendered_export_through_vio_euroc_matches_vio_run() {
+    let scenario = Scenario::load("room_figure8_rendered_stereo_imu").unwrap();
+    let dir = scratch("rendered");
+    export_on_euroc_clock(&scenario, &dir);
+    let expected = run_report(&scenario);
+    let got = euroc_report(&dir.join("mav0"), &options(&scenario, None));
+    assert_same_accuracy(&expected, &got);
+    // It did track images: the ATE is the image front end's, not the ideal tracks'.
+    assert!(got.timing_ms.frontend.median > 0.0);
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn exported_feature_tracks_reproduce_the_run() {
+    let scenario = Scenario::load("room_figure8_stereo_imu").unwrap();
+    let dir = scratch("features");
+    export_on_euroc_clock(&scenario, &dir);
+    let expected = run_report(&scenario);
+    let opts = options(&scenario, Some(dir.join("features.csv")));
+    let got = euroc_report(&dir.join("mav0"), &opts);
+    assert_same_accuracy(&expected, &got);
+
+    // The written files: the estimate on the run's clock and on the dataset's.
+    let r = run_euroc(&dir.join("mav0"), &opts, &mut |_| {}).unwrap();
+    let eval = report::evaluate(&r.output, opts.suite);
+    let rep = report::build_report_in(&r.context, &r.output, &eval);
+    let out = dir.join("out");
+    report::write_outputs_in(&out, &r.context, &r.output, &eval, &rep).unwrap();
+    let source = std::fs::read_to_string(out.join("estimate_source_time.tum")).unwrap();
+    let first: f64 = source
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(
+        (first - EUROC_T0_NS as f64 * 1e-9).abs() < SECONDS,
+        "{first}"
+    );
+    assert!(out.join("groundtruth.tum").exists() && out.join("trajectory.png").exists());
+
+    // Without ground truth it runs unevaluated: no error metrics, no ground-truth file.
+    std::fs::remove_dir_all(dir.join("mav0/state_groundtruth_estimate0")).unwrap();
+    let r = run_euroc(&dir.join("mav0"), &opts, &mut |_| {}).unwrap();
+    assert!(!r.context.ground_truth);
+    let eval = report::evaluate(&r.output, opts.suite);
+    let rep = report::build_report_in(&r.context, &r.output, &eval);
+    assert_eq!(rep.frames, expected.frames);
+    assert!(rep.ate_rmse_m.is_none() && rep.expectations.is_empty());
+    let out = dir.join("out-no-gt");
+    report::write_outputs_in(&out, &r.context, &r.output, &eval, &rep).unwrap();
+    assert!(out.join("estimate.tum").exists() && !out.join("groundtruth.tum").exists());
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn bad_datasets_name_the_file() {
+    let scenario = Scenario::load("room_figure8_stereo_imu").unwrap();
+    let dir = scratch("bad");
+    export_on_euroc_clock(&scenario, &dir);
+    let mav0 = dir.join("mav0");
+    let features = Some(dir.join("features.csv"));
+    let message = |opts: &EurocOptions| match run_euroc(&mav0, opts, &mut |_| {}) {
+        Err(e) => e.to_string(),
+        Ok(_) => panic!("accepted"),
+    };
+
+    // A settings file with a misspelt key: file, line and key.
+    let bad = dir.join("settings.toml");
+    std::fs::write(&bad, "[estimator]\nwindow_sise = 8\n").unwrap();
+    let opts = EurocOptions {
+        settings: Some(bad.clone()),
+        ..options(&scenario, features.clone())
+    };
+    let m = message(&opts);
+    assert!(
+        m.contains("settings.toml:2") && m.contains("window_sise"),
+        "{m}"
+    );
+
+    // No `imu0/sensor.yaml`: the noise densities are missing.
+    std::fs::rename(mav0.join("imu0/sensor.yaml"), dir.join("imu.yaml")).unwrap();
+    let m = message(&options(&scenario, features.clone()));
+    assert!(
+        m.contains("imu0/sensor.yaml") && m.contains("missing"),
+        "{m}"
+    );
+    std::fs::rename(dir.join("imu.yaml"), mav0.join("imu0/sensor.yaml")).unwrap();
+
+    // A stereo suite on a one-camera dataset.
+    std::fs::remove_dir_all(mav0.join("cam1")).unwrap();
+    let e = run_euroc(&mav0, &options(&scenario, features.clone()), &mut |_| {}).unwrap_err();
+    assert!(matches!(e, EurocError::Input { .. }), "{e}");
+    assert!(e.to_string().contains("needs 2 camera"), "{e}");
+    // … which mono+IMU runs.
+    let opts = EurocOptions {
+        suite: SuiteSpec::MonoImu,
+        ..options(&scenario, features)
+    };
+    assert!(run_euroc(&mav0, &opts, &mut |_| {}).is_ok());
+    let _ = std::fs::remove_dir_all(dir);
+}
