@@ -90,6 +90,32 @@ fn two_and_ten_second_blackouts_are_bridged_by_the_imu() {
     );
 }
 
+/// A camera that repeats its last image is recognized at its first repeated frame (its tracks
+/// stand still while the gyroscope turns), dropped, and taken back when its features move.
+#[test]
+fn frozen_cameras_are_dropped_at_once_and_taken_back() {
+    assert_fault_scenario(
+        "room_figure8_left_camera_freeze_stereo_imu",
+        &[
+            (20.0, "stereo_imu -> mono_imu(cam1) (camera 0 frozen)"),
+            (23.0, "mono_imu(cam1) -> stereo_imu (camera 0 back)"),
+        ],
+    );
+    assert_fault_scenario(
+        "room_figure8_freeze_2s_stereo_imu",
+        &[
+            (
+                20.0,
+                "stereo_imu -> imu_only (camera 0 frozen, camera 1 frozen)",
+            ),
+            (
+                22.0,
+                "imu_only -> stereo_imu (camera 0 back, camera 1 back)",
+            ),
+        ],
+    );
+}
+
 #[test]
 fn imu_dropouts_run_stereo_only_and_the_imu_rejoins() {
     // 0.5 s is within the sensor timeout: no switch, and nothing interpolated over the gap.

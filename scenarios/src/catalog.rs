@@ -35,6 +35,8 @@ const ENTRIES: &[Entry] = &[
     entry!("room_figure8_right_camera_death_stereo_imu"),
     entry!("room_figure8_imu_spikes_stereo_imu"),
     entry!("room_figure8_blackout_2s_stereo_imu"),
+    entry!("room_figure8_freeze_2s_stereo_imu"),
+    entry!("room_figure8_left_camera_freeze_stereo_imu"),
     entry!("room_figure8_blackout_10s_stereo_imu"),
     entry!("room_figure8_imu_dropout_short_stereo_imu"),
     entry!("room_figure8_imu_dropout_stereo_imu"),

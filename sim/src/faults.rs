@@ -5,8 +5,9 @@
 //! `faults/imu_spikes`, `faults/jitter/imu`, `faults/jitter/camera`), so adding a fault never
 //! changes sensor noise.
 
+use crate::render::{CameraImage, ImageFrame};
 use crate::rng::sensor_rng;
-use estimator::frontend::FeatureFrame;
+use estimator::frontend::{FeatureFrame, FeatureObservation};
 use estimator::imu::ImuSample;
 use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
@@ -24,6 +25,17 @@ pub enum Fault {
         end_ns: i64,
         /// Emit empty frames instead of none.
         black_frames: bool,
+    },
+    /// Camera `cam_id` (every camera when `None`) freezes on `[start_ns, end_ns)`: it keeps
+    /// delivering, on time, the image (and the features) of its last capture before the
+    /// freeze, as a stuck driver does; from the first capture when frozen from the start.
+    CameraFreeze {
+        /// The camera; `None`: all.
+        cam_id: Option<usize>,
+        /// Start (ns).
+        start_ns: i64,
+        /// End (ns).
+        end_ns: i64,
     },
     /// Camera `cam_id` dies permanently at `at_ns`: its entry disappears from every later frame.
     CameraDeath {
@@ -98,6 +110,10 @@ pub enum Fault {
 #[derive(Debug)]
 pub struct FaultTimeline {
     faults: Vec<Fault>,
+    /// Per camera, its last features and image before a freeze (kept only when the timeline
+    /// has a freeze).
+    frozen_features: Vec<Option<Vec<FeatureObservation>>>,
+    frozen_images: Vec<Option<CameraImage>>,
     drops: ChaCha8Rng,
     spikes: ChaCha8Rng,
     jitter_imu: ChaCha8Rng,
@@ -106,6 +122,22 @@ pub struct FaultTimeline {
 
 fn active(t: i64, start: i64, end: i64) -> bool {
     t >= start && t < end
+}
+
+/// True if a freeze covers camera `cam` at capture time `t`.
+fn frozen_at(faults: &[Fault], cam: usize, t: i64) -> bool {
+    faults.iter().any(|f| {
+        matches!(*f, Fault::CameraFreeze { cam_id, start_ns, end_ns }
+            if cam_id.is_none_or(|c| c == cam) && active(t, start_ns, end_ns))
+    })
+}
+
+/// Camera `cam`'s entry of a per-camera store, grown as needed.
+fn slot<T>(store: &mut Vec<Option<T>>, cam: usize) -> &mut Option<T> {
+    if store.len() <= cam {
+        store.resize_with(cam + 1, || None);
+    }
+    &mut store[cam]
 }
 
 fn jitter(rng: &mut ChaCha8Rng, sigma: f64, period_ns: i64) -> i64 {
@@ -119,6 +151,8 @@ impl FaultTimeline {
     pub fn new(faults: Vec<Fault>, seed: u64) -> Self {
         Self {
             faults,
+            frozen_features: Vec::new(),
+            frozen_images: Vec::new(),
             drops: sensor_rng(seed, "faults/frame_drops"),
             spikes: sensor_rng(seed, "faults/imu_spikes"),
             jitter_imu: sensor_rng(seed, "faults/jitter/imu"),
@@ -234,7 +268,40 @@ impl FaultTimeline {
                 _ => {}
             }
         }
+        if self.has_freeze() {
+            for c in &mut frame.cameras {
+                let slot = slot(&mut self.frozen_features, c.cam_id);
+                match slot {
+                    Some(last) if frozen_at(&self.faults, c.cam_id, t) => {
+                        c.features.clone_from(last);
+                    }
+                    _ => *slot = Some(c.features.clone()),
+                }
+            }
+        }
         Some(frame)
+    }
+
+    fn has_freeze(&self) -> bool {
+        self.faults
+            .iter()
+            .any(|f| matches!(f, Fault::CameraFreeze { .. }))
+    }
+
+    /// Applies camera freezes to the images of a capture (frozen cameras repeat their last
+    /// image before the freeze).
+    pub fn apply_images(&mut self, images: &mut ImageFrame) {
+        if !self.has_freeze() {
+            return;
+        }
+        let t = images.t_capture_ns;
+        for c in &mut images.cameras {
+            let slot = slot(&mut self.frozen_images, c.cam_id);
+            match slot {
+                Some(last) if frozen_at(&self.faults, c.cam_id, t) => c.clone_from(last),
+                _ => *slot = Some(c.clone()),
+            }
+        }
     }
 
     /// True if a blackout with black frames covers the capture time `t` (its frames carry black

@@ -378,7 +378,9 @@ impl Iterator for Stream {
         let out = if !frame_first {
             Measurement::Imu(self.imu_queue.pop_front()?)
         } else if let Some(slot) = self.pending.front_mut()?.images.take() {
-            Measurement::Images(self.take_images(slot)?)
+            let mut images = self.take_images(slot)?;
+            self.faults.apply_images(&mut images);
+            Measurement::Images(images)
         } else {
             Measurement::Frame(self.pending.pop_front()?.frame)
         };

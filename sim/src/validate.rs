@@ -126,7 +126,10 @@ impl Fault {
             Fault::CameraBlackout {
                 start_ns, end_ns, ..
             }
-            | Fault::ImuDropout { start_ns, end_ns } => interval(start_ns, end_ns),
+            | Fault::ImuDropout { start_ns, end_ns }
+            | Fault::CameraFreeze {
+                start_ns, end_ns, ..
+            } => interval(start_ns, end_ns),
             Fault::CameraDeath { .. } => Ok(()),
             Fault::FrameDrops {
                 start_ns,

@@ -58,6 +58,38 @@ fn camera_blackout_drops_or_blanks_frames() {
 }
 
 #[test]
+fn camera_freeze_repeats_the_last_features_on_time() {
+    let (_, clean) = run(vec![]);
+    let (_, frozen) = run(vec![Fault::CameraFreeze {
+        cam_id: Some(0),
+        start_ns: 2 * S,
+        end_ns: 3 * S,
+    }]);
+    assert_eq!(frozen.len(), clean.len());
+    let last_before = frozen.iter().rfind(|f| f.t_ns < 2 * S).unwrap().cameras[0].clone();
+    for (f, c) in frozen.iter().zip(&clean) {
+        assert_eq!(f.t_ns, c.t_ns, "frames stay on time");
+        assert_eq!(f.cameras[1], c.cameras[1], "the other camera is untouched");
+        if (2 * S..3 * S).contains(&f.t_ns) {
+            assert_eq!(f.cameras[0].features, last_before.features);
+        } else {
+            assert_eq!(f.cameras[0], c.cameras[0]);
+        }
+    }
+    // Without a camera index every camera freezes.
+    let (_, all) = run(vec![Fault::CameraFreeze {
+        cam_id: None,
+        start_ns: 2 * S,
+        end_ns: 3 * S,
+    }]);
+    let inside: Vec<_> = all
+        .iter()
+        .filter(|f| (2 * S..3 * S).contains(&f.t_ns))
+        .collect();
+    assert!(inside.windows(2).all(|w| w[0].cameras == w[1].cameras));
+}
+
+#[test]
 fn camera_death_is_permanent() {
     let (_, frames) = run(vec![Fault::CameraDeath {
         cam_id: 1,

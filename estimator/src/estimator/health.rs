@@ -125,19 +125,28 @@ impl Estimator {
         let first = *self.first_t.get_or_insert(now_ns);
         let fresh = |t: Option<i64>| now_ns - t.unwrap_or(first) <= timeout;
         let n_cameras = self.config.cameras.len();
-        let cameras = [0, 1].map(|c| c < n_cameras && fresh(self.last_features_t[c]));
+        let frozen = self.frozen.frozen;
+        let cameras = [0, 1].map(|c| c < n_cameras && fresh(self.last_features_t[c]) && !frozen[c]);
         let imu = self.config.suite.uses_imu() && fresh(self.last_imu_t);
         if (cameras, imu) == (self.live_cameras, self.live_imu) {
             return;
         }
-        let change = |was: bool, now: bool, name: String| match (was, now) {
-            (true, false) => Some(format!("{name} silent")),
+        let change = |was: bool, now: bool, name: String, lost: &str| match (was, now) {
+            (true, false) => Some(format!("{name} {lost}")),
             (false, true) => Some(format!("{name} back")),
             _ => None,
         };
         let why: Vec<String> = (0..2)
-            .filter_map(|c| change(self.live_cameras[c], cameras[c], format!("camera {c}")))
-            .chain(change(self.live_imu, imu, "IMU".to_string()))
+            .filter_map(|c| {
+                let lost = if frozen[c] { "frozen" } else { "silent" };
+                change(
+                    self.live_cameras[c],
+                    cameras[c],
+                    format!("camera {c}"),
+                    lost,
+                )
+            })
+            .chain(change(self.live_imu, imu, "IMU".to_string(), "silent"))
             .collect();
         let from = self.live_suite();
         (self.live_cameras, self.live_imu) = (cameras, imu);

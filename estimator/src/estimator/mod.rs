@@ -17,6 +17,7 @@ pub mod config;
 mod covariance;
 pub mod events;
 mod features;
+mod frozen;
 pub mod health;
 mod imu_buffer;
 mod init;
@@ -159,6 +160,8 @@ pub struct Estimator {
     /// Which sensors deliver now (cameras 0 and 1, IMU); the live suite is made of them.
     live_cameras: [bool; 2],
     live_imu: bool,
+    /// Cameras repeating their last image.
+    frozen: frozen::FrozenMonitor,
     /// Events not yet taken.
     events: Vec<Event>,
 }
@@ -231,6 +234,7 @@ impl Estimator {
             first_t: None,
             live_cameras: [true, n_cameras > 1],
             live_imu,
+            frozen: frozen::FrozenMonitor::default(),
             events: Vec::new(),
         })
     }
@@ -303,7 +307,7 @@ impl Estimator {
 
     /// Adds a camera frame; returns estimates of frames that became processable (with an IMU,
     /// a frame waits until IMU samples cover its time).
-    pub fn push_frame(&mut self, frame: FeatureFrame) -> Result<Vec<Estimate>, EstimatorError> {
+    pub fn push_frame(&mut self, mut frame: FeatureFrame) -> Result<Vec<Estimate>, EstimatorError> {
         let prev = self
             .pending
             .back()
@@ -318,6 +322,7 @@ impl Estimator {
             });
         }
         let t_imu = frame.t_ns + self.td_ns();
+        self.drop_frozen(&mut frame, t_imu);
         for cf in frame.cameras.iter().filter(|c| !c.features.is_empty()) {
             if let Some(t) = self.last_features_t.get_mut(cf.cam_id) {
                 *t = Some(t_imu);

@@ -163,6 +163,7 @@ impl Scenario {
         let (required, optional): (&[&str], &[&str]) = match f.kind {
             FaultKind::CameraBlackout => (&["start_s", "end_s"], &["black_frames"]),
             FaultKind::CameraDeath => (&["cam_id", "at_s"], &[]),
+            FaultKind::CameraFreeze => (&["start_s", "end_s"], &["cam_id"]),
             FaultKind::FrameDrops => (&["start_s", "end_s", "probability"], &[]),
             FaultKind::ImuDropout => (&["start_s", "end_s"], &[]),
             FaultKind::ImuSpikes => (
@@ -274,6 +275,11 @@ impl Scenario {
             FaultKind::CameraDeath => Fault::CameraDeath {
                 cam_id: f.cam_id.unwrap_or(0),
                 at_ns: ns(f.at_s.unwrap_or(0.0)),
+            },
+            FaultKind::CameraFreeze => Fault::CameraFreeze {
+                cam_id: f.cam_id,
+                start_ns,
+                end_ns,
             },
             FaultKind::FrameDrops => Fault::FrameDrops {
                 start_ns,

@@ -514,6 +514,9 @@ pub enum FaultKind {
     CameraBlackout,
     /// Camera `cam_id` dies at `at_s`.
     CameraDeath,
+    /// Camera `cam_id` (every camera without it) repeats its last image and features on
+    /// `[start_s, end_s)`.
+    CameraFreeze,
     /// Frames dropped with `probability` on `[start_s, end_s)`.
     FrameDrops,
     /// No IMU samples on `[start_s, end_s)`.
@@ -540,7 +543,7 @@ pub struct FaultSpec {
     pub end_s: Option<f64>,
     /// Instant (s) for permanent faults.
     pub at_s: Option<f64>,
-    /// Camera index (`camera_death`).
+    /// Camera index (`camera_death`, `camera_freeze`).
     pub cam_id: Option<usize>,
     /// Emit empty frames instead of none (`camera_blackout`).
     pub black_frames: Option<bool>,
