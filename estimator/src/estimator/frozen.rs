@@ -27,10 +27,13 @@ pub const MIN_PREDICTED_PX: f64 = 1.0;
 /// Fewest shared features for a decision.
 pub const MIN_SHARED: usize = 10;
 
+/// A camera's features by id (px).
+type Features = BTreeMap<u64, Vector2<f64>>;
+
 /// Per camera: the previous frame's features and stamp, and whether the camera is frozen.
 #[derive(Clone, Debug, Default)]
 pub(super) struct FrozenMonitor {
-    last: [Option<(i64, BTreeMap<u64, Vector2<f64>>)>; 2],
+    last: [Option<(i64, Features)>; 2],
     /// Camera frozen now.
     pub frozen: [bool; 2],
 }
@@ -43,7 +46,7 @@ impl FrozenMonitor {
         &mut self,
         cam: usize,
         t_ns: i64,
-        features: BTreeMap<u64, Vector2<f64>>,
+        features: Features,
         predicted_px: impl FnOnce(i64) -> Option<f64>,
     ) -> bool {
         let previous = self.last[cam].replace((t_ns, features));
@@ -111,7 +114,7 @@ mod tests {
     use super::*;
 
     /// `n` features on a grid, shifted by `dx` px.
-    fn features(n: u64, dx: f64) -> BTreeMap<u64, Vector2<f64>> {
+    fn features(n: u64, dx: f64) -> Features {
         (0..n)
             .map(|i| (i, Vector2::new(50.0 + 30.0 * i as f64 + dx, 200.0)))
             .collect()
