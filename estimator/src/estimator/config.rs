@@ -447,6 +447,22 @@ impl EstimatorConfig {
         positive("health.max_gyro_bias_rad_s", h.max_gyro_bias_rad_s)?;
         positive("health.max_jump_m", h.max_jump_m)?;
         positive("health.max_rotation_jump_deg", h.max_rotation_jump_deg)?;
+        if !(1..=1000).contains(&h.imu_chi2_solves) {
+            return Err(ConfigError::new(
+                "health.imu_chi2_solves",
+                format!("expected 1 to 1000 solves, got {}", h.imu_chi2_solves),
+            ));
+        }
+        // Infinite: the IMU χ² test is off.
+        if h.imu_chi2_z.is_nan() || h.imu_chi2_z <= 0.0 {
+            return Err(ConfigError::new(
+                "health.imu_chi2_z",
+                format!(
+                    "expected a number of σ > 0 (infinite: off), got {}",
+                    h.imu_chi2_z
+                ),
+            ));
+        }
         Ok(())
     }
 }

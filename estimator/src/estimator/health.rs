@@ -28,6 +28,32 @@ pub struct HealthLimits {
     /// Largest angle between the newest frame's predicted and solved attitudes (deg;
     /// VINS-Fusion: 50°).
     pub max_rotation_jump_deg: f64,
+    /// χ² test of the window's IMU factors: the window fails when the sum of their squared
+    /// whitened residuals at the solution exceeds the χ² quantile of their degrees of freedom
+    /// at this many standard normal deviations (Wilson–Hilferty); 4.75 ≈ one false alarm in a
+    /// million consistent windows; infinite: off. Visual and inertial measurements that no
+    /// state explains together (a diverged scale, a wrong stereo depth) show here first.
+    pub imu_chi2_z: f64,
+    /// Consecutive solves that must fail the IMU χ² test before the window is reset.
+    pub imu_chi2_solves: usize,
+}
+
+/// The window's IMU factors at the solution: `Σ ‖r‖²` and their degrees of freedom.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuChi2 {
+    /// Sum of the squared whitened residuals.
+    pub chi2: f64,
+    /// Total residual dimension.
+    pub dof: usize,
+}
+
+/// The `z`-sigma upper quantile of a χ² variable with `dof` degrees of freedom
+/// (Wilson–Hilferty: `(χ²/k)^(1/3)` is nearly normal with mean `1 − 2/(9k)` and variance
+/// `2/(9k)`; within 1 % of the exact quantile from 10 degrees of freedom on).
+pub fn chi2_quantile(dof: usize, z: f64) -> f64 {
+    let k = dof.max(1) as f64;
+    let v = 2.0 / (9.0 * k);
+    k * (1.0 - v + z * v.sqrt()).powi(3)
 }
 
 impl HealthLimits {
@@ -51,6 +77,8 @@ impl Default for HealthLimits {
             max_gyro_bias_rad_s: 1.0,
             max_jump_m: 5.0,
             max_rotation_jump_deg: 50.0,
+            imu_chi2_z: 4.75,
+            imu_chi2_solves: 3,
         }
     }
 }
@@ -68,6 +96,13 @@ pub enum FailureReason {
     Jump(f64),
     /// The solved attitude turned this far (deg) from the prediction.
     RotationJump(f64),
+    /// The window's IMU factors fail their χ² test.
+    ImuInconsistent {
+        /// `Σ ‖r‖²`.
+        chi2: f64,
+        /// The test's threshold.
+        threshold: f64,
+    },
 }
 
 impl fmt::Display for FailureReason {
@@ -78,17 +113,22 @@ impl fmt::Display for FailureReason {
             Self::GyroBias(n) => write!(f, "gyroscope bias {n:.2} rad/s"),
             Self::Jump(d) => write!(f, "position jump {d:.2} m against the prediction"),
             Self::RotationJump(a) => write!(f, "rotation jump {a:.1}° against the prediction"),
+            Self::ImuInconsistent { chi2, threshold } => write!(
+                f,
+                "IMU factors inconsistent: χ² {chi2:.0} above {threshold:.0}"
+            ),
         }
     }
 }
 
-/// Checks a solved window: every state finite, then the newest frame's biases (when `imu`)
-/// and its distance and angle from `predicted`, its pose before the solve.
+/// Checks a solved window: every state finite, then the newest frame's biases and the IMU
+/// factors' χ² (when `imu` is given), and the newest frame's distance and angle from
+/// `predicted`, its pose before the solve.
 pub(super) fn check_window(
     window: &Window,
     summary: &SolverSummary,
     predicted: &Pose,
-    imu: bool,
+    imu: Option<ImuChi2>,
     limits: &HealthLimits,
 ) -> Option<FailureReason> {
     let finite = |f: &WindowFrame| {
@@ -104,8 +144,18 @@ pub(super) fn check_window(
         return Some(FailureReason::NonFinite);
     }
     let newest = window.frames.back()?;
-    if imu && let Some(failure) = limits.bias_failure(&newest.ba, &newest.bg) {
-        return Some(failure);
+    if let Some(chi) = imu {
+        if let Some(failure) = limits.bias_failure(&newest.ba, &newest.bg) {
+            return Some(failure);
+        }
+        let threshold = chi2_quantile(chi.dof, limits.imu_chi2_z);
+        // A NaN χ² fails too.
+        if chi.dof > 0 && (chi.chi2.is_nan() || chi.chi2 > threshold) {
+            return Some(FailureReason::ImuInconsistent {
+                chi2: chi.chi2,
+                threshold,
+            });
+        }
     }
     let jump = (newest.pose.p - predicted.p).norm();
     if jump > limits.max_jump_m {
@@ -259,8 +309,12 @@ mod tests {
     fn detectors_fire_past_their_limits_only() {
         let limits = HealthLimits::default();
         let at = Pose::identity();
+        let quiet = Some(ImuChi2 {
+            chi2: 100.0,
+            dof: 150,
+        });
         let check = |f: WindowFrame, cost: f64| {
-            check_window(&window_with(f), &summary(cost), &at, true, &limits)
+            check_window(&window_with(f), &summary(cost), &at, quiet, &limits)
         };
         let z = Vector3::zeros();
         assert_eq!(check(frame(z, 0.0, 2.4, 0.9), 1.0), None);
@@ -293,8 +347,35 @@ mod tests {
         // Vision only: the biases are not judged.
         let f = frame(z, 0.0, 9.0, 9.0);
         assert_eq!(
-            check_window(&window_with(f), &summary(1.0), &at, false, &limits),
+            check_window(&window_with(f), &summary(1.0), &at, None, &limits),
             None
         );
+        // The IMU χ² test: 150 degrees of freedom at 4.75 σ → 247.3.
+        let threshold = chi2_quantile(150, 4.75);
+        assert!((threshold - 247.3).abs() < 0.1, "{threshold}");
+        let chi = |chi2| Some(ImuChi2 { chi2, dof: 150 });
+        let f = frame(z, 0.0, 0.0, 0.0);
+        assert_eq!(
+            check_window(
+                &window_with(f.clone()),
+                &summary(1.0),
+                &at,
+                chi(246.0),
+                &limits
+            ),
+            None
+        );
+        assert!(matches!(
+            check_window(&window_with(f), &summary(1.0), &at, chi(248.0), &limits),
+            Some(FailureReason::ImuInconsistent { .. })
+        ));
+    }
+
+    /// Wilson–Hilferty against exact χ² quantiles (R's `qchisq`): 99.9 % (z = 3.0902) at 15
+    /// and 150 degrees of freedom, 37.697 and 208.98.
+    #[test]
+    fn chi2_quantiles_match_the_exact_ones() {
+        assert!((chi2_quantile(15, 3.0902) - 37.697).abs() / 37.697 < 0.01);
+        assert!((chi2_quantile(150, 3.0902) - 208.98).abs() / 208.98 < 0.002);
     }
 }

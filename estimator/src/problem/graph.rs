@@ -460,6 +460,16 @@ impl Problem {
         self.evaluate_residual_with(values, None, id, r, jacobians)
     }
 
+    /// The squared norm `‖r‖²` of residual `id` (whitened, before its loss) at the current
+    /// values: a χ² variable with `residual_dim` degrees of freedom for a consistent factor;
+    /// `None` if the factor fails to evaluate.
+    pub fn residual_squared_norm(&self, id: ResidualId) -> Option<f64> {
+        let m = self.residuals.get(id.0)?.factor.residual_dim();
+        let mut r = vec![0.0; m];
+        self.evaluate_factor(&self.values, None, id.0, &mut r, None)
+            .then(|| r.iter().map(|v| v * v).sum())
+    }
+
     /// Total cost `½ Σ ρ(‖r‖²)` at the current values; `None` if a factor fails to evaluate.
     pub fn cost(&self) -> Option<f64> {
         self.cost_at(&self.values)
