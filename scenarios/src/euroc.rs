@@ -464,6 +464,7 @@ pub fn run_euroc(
         expectations: Vec::new(),
         replay: None,
         source_time_offset_ns: Some(t0),
+        calibration_truth: None,
         ground_truth: has_truth,
     };
     Ok(EurocRun {

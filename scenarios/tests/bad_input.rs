@@ -275,3 +275,31 @@ fn a_huge_duration_override_is_refused() {
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(err.contains("--duration"), "{err}");
 }
+
+#[test]
+fn calibration_errors_out_of_range_are_refused() {
+    for (tag, value, key) in [
+        (
+            "calib-rot",
+            "{ rotation_deg = [40.0, 0.0, 0.0] }",
+            "rig.cameras[0].calibration_error.rotation_deg",
+        ),
+        (
+            "calib-nan",
+            "{ translation_m = [nan, 0.0, 0.0] }",
+            "rig.cameras[0].calibration_error.translation_m",
+        ),
+        (
+            "calib-len",
+            "{ translation_m = [0.0, 0.0] }",
+            "rig.cameras[0].calibration_error.translation_m",
+        ),
+    ] {
+        let text = default_text(2.0).replacen(
+            "pixel_sigma_px = 1.0",
+            &format!("pixel_sigma_px = 1.0\ncalibration_error = {value}"),
+            1,
+        );
+        assert_bad(tag, &text, key, &[]);
+    }
+}

@@ -86,6 +86,9 @@ pub struct Estimate {
     pub bg: Vector3<f64>,
     /// Camera-IMU time offset estimate (s).
     pub td_s: f64,
+    /// Camera extrinsics `T_b_c` as estimated (the configured ones unless
+    /// `estimate_extrinsics`), camera by camera.
+    pub T_b_c: Vec<Pose>,
     /// Life-cycle status.
     pub status: Status,
     /// The sensors in use at this frame.
@@ -684,6 +687,7 @@ impl Estimator {
             ba: newest.ba,
             bg: newest.bg,
             td_s: self.window.td,
+            T_b_c: self.window.extrinsics.clone(),
             status: match self.status {
                 Status::Tracking if newest_observations < self.config.min_tracking_observations => {
                     Status::Degraded

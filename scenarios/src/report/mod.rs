@@ -53,7 +53,9 @@ use crate::recovery;
 use crate::run::{EventKind, RunOutput};
 use crate::spec::{Bound, Scenario, SuiteSpec};
 
+mod calibration;
 mod summary;
+pub use calibration::{CalibrationReport, CalibrationSample, ExtrinsicError};
 pub use summary::summary;
 
 /// Where a run came from, as far as its report, plot and files are concerned: a scenario
@@ -73,6 +75,9 @@ pub struct RunContext {
     /// The recording's own clock: added to the estimate stamps (ns) for
     /// `estimate_source_time.tum`; `None`: that file is not written.
     pub source_time_offset_ns: Option<i64>,
+    /// The true calibration `(td_s, T_b_c per camera)` when the run studies it (the report
+    /// then has a `calibration` block).
+    pub calibration_truth: Option<(f64, Vec<Pose>)>,
     /// Whether the run's frames carry ground truth. Without it the report's error metrics are
     /// `null`, no expectation is checked, and neither `groundtruth.tum` nor the plot is written.
     pub ground_truth: bool,
@@ -94,6 +99,7 @@ impl RunContext {
                 .recording_start_s()
                 .filter(|_| spec.trajectory.static_start.is_none())
                 .map(|t0| (t0 * 1e9).round() as i64),
+            calibration_truth: scenario.calibration_truth(),
             ground_truth: true,
         }
     }
@@ -377,6 +383,9 @@ pub struct Report {
     pub batch_reference: Option<BatchReport>,
     /// What the checks of a replayed recording found and did (`null` for generated motions).
     pub replay: Option<ReplayReport>,
+    /// The estimated time offset and extrinsics against the truth (`null` unless the scenario
+    /// studies calibration: a calibration error, a camera time offset or online estimation).
+    pub calibration: Option<CalibrationReport>,
     /// Simulated time (s) at which the run was interrupted (Ctrl-C); `null` when complete. An
     /// interrupted run does not pass.
     pub interrupted_at_s: Option<f64>,
@@ -521,6 +530,10 @@ pub fn build_report_in(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> 
         faults,
         batch_reference: batch::batch_report(run, eval.alignment),
         replay: ctx.replay.clone(),
+        calibration: ctx
+            .calibration_truth
+            .as_ref()
+            .and_then(|t| calibration::calibration_report(t, run)),
         interrupted_at_s: run.interrupted_at_s,
         expectations: Vec::new(),
         passed: true,

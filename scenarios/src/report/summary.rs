@@ -53,6 +53,19 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
             opt(r.accel_bias_error_m_s2, 4, " m/s²")
         );
     }
+    if let Some(c) = &r.calibration {
+        let worst = |f: fn(&crate::report::ExtrinsicError) -> f64| {
+            c.cameras.iter().map(f).fold(0.0, f64::max)
+        };
+        let _ = writeln!(
+            s,
+            "calibration   final td error {:.3} ms (true {:.1} ms), extrinsics {:.3}° / {:.1} mm (worst camera)",
+            c.td_error_ms,
+            c.td_true_ms,
+            worst(|e| e.rotation_error_deg),
+            worst(|e| e.translation_error_mm)
+        );
+    }
     if let Some(p) = &r.replay {
         let _ = writeln!(
             s,

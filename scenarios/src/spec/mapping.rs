@@ -549,6 +549,42 @@ impl Scenario {
         }
     }
 
+    /// The extrinsic the estimator starts from for camera `i`: the true one with the camera's
+    /// `calibration_error` applied.
+    pub(super) fn estimator_extrinsic(&self, i: usize) -> Result<Pose, SpecError> {
+        let t = self.extrinsic(i)?;
+        Ok(match &self.spec.rig.cameras[i].calibration_error {
+            None => t,
+            Some(e) => {
+                let phi = nalgebra::Vector3::from(e.rotation_deg).map(f64::to_radians);
+                Pose::new(
+                    estimator::geometry::so3_exp(&phi) * t.q,
+                    t.p + nalgebra::Vector3::from(e.translation_m),
+                )
+            }
+        })
+    }
+
+    /// The true calibration the estimator may estimate, when the scenario studies it (a
+    /// calibration error, a camera time offset, or online estimation switched on): the
+    /// camera-IMU time offset (s) and each used camera's `T_b_c`.
+    pub fn calibration_truth(&self) -> Option<(f64, Vec<Pose>)> {
+        let s = &self.spec;
+        let studied = self.settings.estimate_td
+            || self.settings.estimate_extrinsics
+            || s.rig.time_offset_s != 0.0
+            || s.rig.cameras.iter().any(|c| c.calibration_error.is_some());
+        if !studied {
+            return None;
+        }
+        let used = s.suite.suite().cameras().min(s.rig.cameras.len());
+        let t_b_c = (0..used)
+            .map(|i| self.extrinsic(i))
+            .collect::<Result<_, _>>()
+            .ok()?;
+        Some((s.rig.time_offset_s, t_b_c))
+    }
+
     /// The estimator configuration: the `[estimator]` settings with the same camera models and
     /// extrinsics the simulator uses, and the rig's IMU noise and ranges.
     pub fn estimator_config(&self) -> Result<EstimatorConfig, SpecError> {
@@ -558,7 +594,7 @@ impl Scenario {
         for (i, c) in s.rig.cameras.iter().enumerate().take(used) {
             cameras.push(EstCamera {
                 model: self.models[i].clone(),
-                T_b_c: self.extrinsic(i)?,
+                T_b_c: self.estimator_extrinsic(i)?,
                 // Below half a pixel the noise model would trust the simulated corner more
                 // than any real one; `estimator.pixel_sigma_px` overrides it.
                 pixel_sigma: c.pixel_sigma_px.max(0.5),

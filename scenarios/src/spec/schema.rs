@@ -457,6 +457,23 @@ pub struct CameraSpec {
     /// Longest track (frames; the landmark then rests as many frames in this camera); default
     /// unlimited, as the image front end's tracks (lost only when the feature is).
     pub max_track_length: Option<u32>,
+    /// The estimator starts from a wrong extrinsic for this camera (the simulator keeps
+    /// `T_b_c`): for online calibration studies (`estimator.estimate_extrinsics`).
+    pub calibration_error: Option<CalibrationErrorSpec>,
+}
+
+/// `calibration_error = { rotation_deg = [x, y, z], translation_m = [x, y, z] }`: the
+/// estimator's `T_b_c` is the true one rotated by the rotation vector (degrees, body frame:
+/// `R = Exp(δθ)·R_true`) and shifted by the translation (m, body frame).
+#[derive(Clone, Copy, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CalibrationErrorSpec {
+    /// Rotation vector (deg, body frame).
+    #[serde(default, deserialize_with = "exact::array")]
+    pub rotation_deg: [f64; 3],
+    /// Translation (m, body frame).
+    #[serde(default, deserialize_with = "exact::array")]
+    pub translation_m: [f64; 3],
 }
 
 /// A rigid transform: translation plus exactly one of a rotation matrix (rows) or a Hamilton

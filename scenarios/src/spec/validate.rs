@@ -290,6 +290,28 @@ impl Scenario {
                 0.1 * side,
                 "at most a tenth of the smaller image side",
             )?;
+            if let Some(e) = &cam.calibration_error {
+                c.finite_all(&k("calibration_error.rotation_deg"), &e.rotation_deg)?;
+                c.finite_all(&k("calibration_error.translation_m"), &e.translation_m)?;
+                let (deg, m) = (
+                    nalgebra::Vector3::from(e.rotation_deg).norm(),
+                    nalgebra::Vector3::from(e.translation_m).norm(),
+                );
+                c.within(
+                    &k("calibration_error.rotation_deg"),
+                    deg,
+                    0.0,
+                    30.0,
+                    "a rotation of at most 30° (a calibration error, not a remount)",
+                )?;
+                c.within(
+                    &k("calibration_error.translation_m"),
+                    m,
+                    0.0,
+                    0.5,
+                    "a shift of at most 0.5 m",
+                )?;
+            }
             if let Some(d) = cam.min_depth_m {
                 c.positive(&k("min_depth_m"), d)?;
             }
