@@ -92,9 +92,9 @@ pub struct EstimatorConfig {
     pub max_depth_m: f64,
     /// Camera-IMU time offset `td` (s): a frame stamped `t` was taken at IMU time `t + td`.
     pub td_s: f64,
-    /// Estimate `td` online. Not usable yet: on the default figure-eight (seed 1, 60 s) the
-    /// estimate drifts away even from the true value (0 → 72 ms; from a 10 ms error to a
-    /// 62 ms one), with no excitation gating and no prior on it.
+    /// Estimate `td` online. Slow: on the default figure-eight (seed 1, 60 s) a −10 ms error
+    /// shrinks to −7.6 ms, and from the true value it drifts by 2.5 ms; no excitation gating
+    /// and no prior on it yet.
     pub estimate_td: bool,
     /// Estimate the camera extrinsics online. Not usable yet: from a 2° / 2 cm error on the
     /// default figure-eight they diverge to metres (26 resets), with no excitation gating and

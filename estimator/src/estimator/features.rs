@@ -131,13 +131,18 @@ impl FeatureManager {
         continued
     }
 
-    /// The previous measurement of `id` by camera `cam` (frame seq, point), if any.
-    pub fn last_in(&self, id: u64, cam: usize) -> Option<(u64, Vector2<f64>)> {
-        let t = self.tracks.get(&id)?;
-        t.obs
-            .iter()
-            .rev()
-            .find_map(|o| o.meas[cam].map(|m| (o.seq, m.point)))
+    /// The two latest measurements of `id` by camera `cam`, newest first (frame seq, point).
+    pub fn last_two_in(&self, id: u64, cam: usize) -> [Option<(u64, Vector2<f64>)>; 2] {
+        let mut out = [None, None];
+        if let Some(t) = self.tracks.get(&id) {
+            let mut it = t
+                .obs
+                .iter()
+                .rev()
+                .filter_map(|o| o.meas[cam].map(|m| (o.seq, m.point)));
+            out = [it.next(), it.next()];
+        }
+        out
     }
 
     /// Average parallax (normalized units) of camera `cam` between frames `a` and `b` over

@@ -458,7 +458,7 @@ impl Estimator {
         };
 
         // 2. Observations.
-        let observations = self.observations(&frame, seq, t_ns);
+        let observations = self.observations(&frame, seq);
         if let Some(h) = &mut self.history {
             h.observations.push((seq, observations.clone()));
         }
@@ -729,7 +729,7 @@ impl Estimator {
     }
 
     /// Undistorts a frame's features and computes their image velocities.
-    fn observations(&self, frame: &FeatureFrame, seq: u64, t_ns: i64) -> Vec<(u64, Observation)> {
+    fn observations(&self, frame: &FeatureFrame, seq: u64) -> Vec<(u64, Observation)> {
         let mut by_id: std::collections::BTreeMap<u64, Observation> =
             std::collections::BTreeMap::new();
         for cf in &frame.cameras {
@@ -756,14 +756,26 @@ impl Estimator {
                     .filter(|m| m.is_finite() && *m > 0.0)
                     .unwrap_or(self.focal[cf.cam_id]);
                 o.weight[cf.cam_id] = magnification / self.config.cameras[cf.cam_id].pixel_sigma;
+                // The image velocity the time-offset model shifts the point along: the track's
+                // previous displacement, `(z_{k−1} − z_{k−2}) / Δt`, not `(z_k − z_{k−1}) / Δt`,
+                // which shares this measurement's noise with its residual and biases `td`
+                // (by about σ²/Δt / (v² + σ²/Δt²) per solve; a drift of tens of milliseconds
+                // at 1 px). Zero before the track has two earlier measurements.
                 let mut velocity = Vector2::zeros();
-                if let Some((prev_seq, prev_pt)) =
-                    self.window.features.last_in(f.feature_id, cf.cam_id)
-                    && let Some(pf) = self.window.frames.iter().find(|w| w.seq == prev_seq)
+                let time_of = |seq: u64| {
+                    self.window
+                        .frames
+                        .iter()
+                        .find(|w| w.seq == seq)
+                        .map(|w| w.t_ns)
+                };
+                if let [Some((s1, p1)), Some((s0, p0))] =
+                    self.window.features.last_two_in(f.feature_id, cf.cam_id)
+                    && let (Some(t1), Some(t0)) = (time_of(s1), time_of(s0))
                 {
-                    let dt = (t_ns - pf.t_ns) as f64 * 1e-9;
+                    let dt = (t1 - t0) as f64 * 1e-9;
                     if dt > 0.0 {
-                        velocity = (point - prev_pt) / dt;
+                        velocity = (p1 - p0) / dt;
                     }
                 }
                 o.meas[cf.cam_id] = Some(FeatureMeasurement {
