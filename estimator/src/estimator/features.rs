@@ -183,8 +183,12 @@ mod tests {
         fm.add_frame(vec![(1, obs(0, false, true)), (2, obs(0, true, true))]);
         assert_eq!(fm.tracks[&1].anchor_cam, 1);
         assert_eq!(fm.tracks[&2].anchor_cam, 0);
-        assert_eq!(fm.last_in(1, 1).map(|(s, _)| s), Some(0));
-        assert_eq!(fm.last_in(1, 0), None);
+        assert_eq!(fm.last_two_in(1, 1)[0].map(|(s, _)| s), Some(0));
+        assert_eq!(fm.last_two_in(1, 0), [None, None]);
+        // The two latest measurements, newest first.
+        fm.add_frame(vec![(1, obs(1, false, true))]);
+        let seqs = fm.last_two_in(1, 1).map(|m| m.map(|(s, _)| s));
+        assert_eq!(seqs, [Some(1), Some(0)]);
     }
 
     /// Re-anchoring keeps the anchor camera while it has a view left, and moves to the other
