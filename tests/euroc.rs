@@ -109,6 +109,8 @@ fn rendered_export_through_vio_euroc_matches_vio_run() {
     let expected = run_report(&scenario);
     let got = euroc_report(&dir.join("mav0"), &options(&scenario, None));
     assert_same_accuracy(&expected, &got);
+    assert_eq!(got.camera_mode, "recorded");
+    assert!(report::summary(&got, None).contains("s recorded"));
     // It did track images: the ATE is the image front end's, not the ideal tracks'.
     assert!(got.timing_ms.frontend.median > 0.0);
     let _ = std::fs::remove_dir_all(dir);

@@ -465,6 +465,7 @@ pub fn run_euroc(
         replay: None,
         source_time_offset_ns: Some(t0),
         calibration_truth: None,
+        recorded: true,
         ground_truth: has_truth,
     };
     Ok(EurocRun {

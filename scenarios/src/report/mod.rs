@@ -78,6 +78,8 @@ pub struct RunContext {
     /// The true calibration `(td_s, T_b_c per camera)` when the run studies it (the report
     /// then has a `calibration` block).
     pub calibration_truth: Option<(f64, Vec<Pose>)>,
+    /// A recorded dataset (`vio euroc`) rather than a simulation.
+    pub recorded: bool,
     /// Whether the run's frames carry ground truth. Without it the report's error metrics are
     /// `null`, no expectation is checked, and neither `groundtruth.tum` nor the plot is written.
     pub ground_truth: bool,
@@ -100,6 +102,7 @@ impl RunContext {
                 .filter(|_| spec.trajectory.static_start.is_none())
                 .map(|t0| (t0 * 1e9).round() as i64),
             calibration_truth: scenario.calibration_truth(),
+            recorded: false,
             ground_truth: true,
         }
     }
@@ -367,7 +370,7 @@ pub struct Report {
     pub accel_bias_error_m_s2: Option<f64>,
     /// Per-frame timing statistics (ms).
     pub timing_ms: TimingReport,
-    /// Camera mode: `features` or `rendered`.
+    /// Camera mode: `features` or `rendered` (simulated), `recorded` (`vio euroc`).
     pub camera_mode: &'static str,
     /// The graphics adapter that rendered the images (`null` for feature-level scenarios).
     pub renderer: Option<String>,
@@ -519,7 +522,9 @@ pub fn build_report_in(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> 
         gyro_bias_error_rad_s: eval.gyro_bias_error_rad_s,
         accel_bias_error_m_s2: eval.accel_bias_error_m_s2,
         timing_ms,
-        camera_mode: if run.renderer.is_some() {
+        camera_mode: if ctx.recorded {
+            "recorded"
+        } else if run.renderer.is_some() {
             "rendered"
         } else {
             "features"

@@ -17,19 +17,28 @@ fn opt(v: Option<f64>, digits: usize, unit: &str) -> String {
 pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
     let mut s = String::new();
     let r = report;
+    let recorded = r.camera_mode == "recorded";
     let _ = writeln!(
         s,
-        "scenario      {} ({}, seed {})",
-        r.scenario, r.suite, r.seed
+        "{}{} ({}, seed {})",
+        if recorded {
+            "dataset       "
+        } else {
+            "scenario      "
+        },
+        r.scenario,
+        r.suite,
+        r.seed
     );
     let _ = writeln!(
         s,
-        "frames        {} processed, {} tracking ({:.1} %), {} degraded, {:.1} s simulated",
+        "frames        {} processed, {} tracking ({:.1} %), {} degraded, {:.1} s {}",
         r.frames,
         r.tracking_frames,
         100.0 * r.tracking_fraction,
         r.degraded_frames,
-        r.duration_s
+        r.duration_s,
+        if recorded { "recorded" } else { "simulated" }
     );
     let _ = writeln!(
         s,
