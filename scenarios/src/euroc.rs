@@ -21,7 +21,7 @@ use std::time::Instant;
 use estimator::camera::{Camera, CameraModel, KannalaBrandt, PinholeRadtan};
 use estimator::estimator::{CameraConfig, Estimate, Estimator, EstimatorConfig};
 use estimator::frontend::{
-    CameraImageView, FeatureFrame, FeatureTracker, ImageView, TrackerCamera, TrackerConfig,
+    CameraImageView, FeatureFrame, FeatureTracker, ImageView, TrackerConfig,
 };
 use estimator::geometry::Pose;
 use estimator::imu::ImuSample;
@@ -141,12 +141,11 @@ fn camera_model(sensor: &CameraSensor, path: &Path) -> Result<Arc<dyn CameraMode
 
 /// The settings file's `[estimator]` and `[camera.tracker]` tables over the defaults.
 fn settings(options: &EurocOptions) -> Result<(EstimatorConfig, TrackerConfig), EurocError> {
-    let defaults = (
-        EstimatorConfig::settings_default(),
-        TrackerConfig::default(),
-    );
     let Some(path) = &options.settings else {
-        return Ok(defaults);
+        return Ok((
+            EstimatorConfig::settings_default(),
+            TrackerConfig::default(),
+        ));
     };
     let file = path.display().to_string();
     let text = std::fs::read_to_string(path)
@@ -162,15 +161,10 @@ fn settings(options: &EurocOptions) -> Result<(EstimatorConfig, TrackerConfig), 
             .and_then(|c| c.as_table())
             .and_then(|c| c.get("tracker")),
     );
-    use crate::spec::overlay::overlay;
-    let est = overlay(&defaults.0, &est_table, "estimator", &text, &file)?;
-    let tracker = overlay(&defaults.1, &tracker_table, "camera.tracker", &text, &file)?;
-    est.validate_settings().map_err(|e| SpecError {
-        file: file.clone(),
-        key: format!("estimator.{}", e.field),
-        line: crate::spec::error::line_of_key(&text, &format!("estimator.{}", e.field)),
-        message: e.message,
-    })?;
+    let (est, tracker) =
+        crate::spec::overlay::estimator_and_tracker(&est_table, &tracker_table, &text, &file)?;
+    est.validate_settings()
+        .map_err(|e| SpecError::at(&file, &text, &format!("estimator.{}", e.field), e.message))?;
     Ok((est, tracker))
 }
 
@@ -300,14 +294,7 @@ pub fn run_euroc(
     let mut tracker = match &options.features {
         Some(_) => None,
         None => {
-            let cams = settings
-                .cameras
-                .iter()
-                .map(|c| TrackerCamera {
-                    model: c.model.clone(),
-                    T_b_c: c.T_b_c,
-                })
-                .collect();
+            let cams = crate::frontend::tracker_cameras(&settings);
             let cfg = TrackerConfig {
                 seed: options.seed,
                 ..tracker_settings
@@ -347,27 +334,12 @@ pub fn run_euroc(
             .max(*stamps.last().unwrap_or(&t0)),
     };
     let has_truth = !data.groundtruth.is_empty();
-    let out = RunOutput {
-        scenario: mav0
-            .parent()
-            .and_then(|p| p.file_name())
-            .or(mav0.file_name())
-            .map_or("euroc".into(), |n| n.to_string_lossy().into_owned()),
-        seed: options.seed,
-        duration_s: (end - t0) as f64 * 1e-9,
-        imu_samples: 0,
-        frames_in: 0,
-        frames: Vec::new(),
-        events: Vec::new(),
-        resets: 0,
-        suite_switches: 0,
-        imu_samples_excluded: 0,
-        imu_samples_saturated: 0,
-        renderer: None,
-        frontend: None,
-        batch_reference: None,
-        interrupted_at_s: None,
-    };
+    let name = mav0
+        .parent()
+        .and_then(|p| p.file_name())
+        .or(mav0.file_name())
+        .map_or("euroc".into(), |n| n.to_string_lossy().into_owned());
+    let out = RunOutput::new(name, options.seed, (end - t0) as f64 * 1e-9, None);
     let mut recorder = Recorder::new(out, estimator.status());
     recorder.skip_without_truth = true;
     let mut gyro = GyroIntegrator::default();

@@ -147,6 +147,30 @@ pub struct RunOutput {
     pub interrupted_at_s: Option<f64>,
 }
 
+impl RunOutput {
+    /// An output with nothing recorded yet: run `name` with `seed` over `duration_s`, images
+    /// from `renderer` (`None`: feature level or recorded).
+    pub fn new(name: String, seed: u64, duration_s: f64, renderer: Option<String>) -> Self {
+        Self {
+            scenario: name,
+            seed,
+            duration_s,
+            imu_samples: 0,
+            frames_in: 0,
+            frames: Vec::new(),
+            events: Vec::new(),
+            resets: 0,
+            suite_switches: 0,
+            imu_samples_excluded: 0,
+            imu_samples_saturated: 0,
+            renderer,
+            frontend: None,
+            batch_reference: None,
+            interrupted_at_s: None,
+        }
+    }
+}
+
 /// Errors that stop a run.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
@@ -257,23 +281,7 @@ pub fn run_interruptible(
     })?;
     let end_ns = world.end_ns();
     let (mut stream, renderer) = measurement_stream(scenario, &world)?;
-    let out = RunOutput {
-        scenario: scenario.name.clone(),
-        seed,
-        duration_s: end_ns as f64 * 1e-9,
-        imu_samples: 0,
-        frames_in: 0,
-        frames: Vec::new(),
-        events: Vec::new(),
-        resets: 0,
-        suite_switches: 0,
-        imu_samples_excluded: 0,
-        imu_samples_saturated: 0,
-        renderer,
-        frontend: None,
-        batch_reference: None,
-        interrupted_at_s: None,
-    };
+    let out = RunOutput::new(scenario.name.clone(), seed, end_ns as f64 * 1e-9, renderer);
     let mut render_s = 0.0;
     let mut recorder = Recorder::new(out, estimator.status());
     let mut last_progress = -1.0;

@@ -9,7 +9,7 @@ use std::fmt;
 use nalgebra::Vector3;
 
 use super::events::{Event, EventKind};
-use super::window::{Window, WindowFrame};
+use super::window::{Built, Window, WindowFrame};
 use super::{Estimator, KnownStart, Status};
 use crate::geometry::{Pose, so3_log};
 use crate::problem::SolverSummary;
@@ -167,7 +167,45 @@ pub(super) fn check_window(
     (angle > limits.max_rotation_jump_deg).then_some(FailureReason::RotationJump(angle))
 }
 
+/// The χ² of `built`'s IMU factors at its current values.
+fn imu_chi2(built: &Built) -> ImuChi2 {
+    let factors = || built.imu.iter().map(|(r, _)| *r);
+    ImuChi2 {
+        chi2: factors()
+            .filter_map(|r| built.problem.residual_squared_norm(r))
+            .sum(),
+        dof: factors()
+            .map(|r| built.problem.factor(r).residual_dim())
+            .sum(),
+    }
+}
+
 impl Estimator {
+    /// Judges the solved window `built` (written back) with [`check_window`], its IMU factors
+    /// included when `imu_active`. The IMU χ² test must fail in `imu_chi2_solves` consecutive
+    /// solves before it counts: a window whose states were carried by vision alone (an IMU
+    /// gap) fails it once or twice while they converge.
+    pub(super) fn window_failure(
+        &mut self,
+        built: &Built,
+        summary: &SolverSummary,
+        predicted: &Pose,
+        imu_active: bool,
+    ) -> Option<FailureReason> {
+        let chi2 = imu_active.then(|| imu_chi2(built));
+        let failure = check_window(&self.window, summary, predicted, chi2, &self.config.health);
+        match failure {
+            Some(FailureReason::ImuInconsistent { .. }) => {
+                self.imu_chi2_failures += 1;
+                failure.filter(|_| self.imu_chi2_failures >= self.config.health.imu_chi2_solves)
+            }
+            other => {
+                self.imu_chi2_failures = 0;
+                other
+            }
+        }
+    }
+
     /// Re-evaluates which sensors deliver at time `now_ns` (a sensor silent for longer than
     /// `sensor_timeout_s` is out) and reports a switch when that changed.
     pub(super) fn monitor_sensors(&mut self, now_ns: i64) {
@@ -234,6 +272,7 @@ impl Estimator {
     /// Without a good state the estimator initializes again from the data. Records a
     /// [`EventKind::Reset`] at `t_ns`.
     pub(super) fn reset(&mut self, t_ns: i64, reason: FailureReason) {
+        self.imu_chi2_failures = 0;
         self.events.push(Event {
             t_ns,
             kind: EventKind::Reset {

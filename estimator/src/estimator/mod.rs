@@ -553,40 +553,9 @@ impl Estimator {
         }
         let mut built = self.window.build(&self.problem_settings(), imu_active);
         let summary = solve(&mut built.problem, &self.config.solver);
-        let imu_chi2 = imu_active.then(|| health::ImuChi2 {
-            chi2: built
-                .imu
-                .iter()
-                .filter_map(|(r, _)| built.problem.residual_squared_norm(*r))
-                .sum(),
-            dof: built
-                .imu
-                .iter()
-                .map(|(r, _)| built.problem.factor(*r).residual_dim())
-                .sum(),
-        });
         self.window.write_back(&built, &self.config);
-        let failure = health::check_window(
-            &self.window,
-            &summary,
-            &predicted.pose,
-            imu_chi2,
-            &self.config.health,
-        );
-        // The IMU χ² test must fail in consecutive solves: a window whose states were carried
-        // by vision alone (an IMU gap) fails it once or twice while they converge.
-        let failure = match failure {
-            Some(FailureReason::ImuInconsistent { .. }) => {
-                self.imu_chi2_failures += 1;
-                failure.filter(|_| self.imu_chi2_failures >= self.config.health.imu_chi2_solves)
-            }
-            other => {
-                self.imu_chi2_failures = 0;
-                other
-            }
-        };
+        let failure = self.window_failure(&built, &summary, &predicted.pose, imu_active);
         if was_tracking && let Some(reason) = failure {
-            self.imu_chi2_failures = 0;
             self.reset(t_ns, reason);
             return self.estimate(&predicted, keyframe, start, None);
         }

@@ -25,6 +25,16 @@ pub struct KalibrError {
     pub message: String,
 }
 
+/// Errors of `file`: `(key, line, message)` → [`KalibrError`].
+fn located(file: &str) -> impl Fn(&str, Option<usize>, String) -> KalibrError + '_ {
+    move |key, line, message| KalibrError {
+        file: file.into(),
+        key: key.into(),
+        line,
+        message,
+    }
+}
+
 fn numbers(v: &str) -> Result<Vec<f64>, String> {
     list(v)?
         .iter()
@@ -40,12 +50,7 @@ fn numbers(v: &str) -> Result<Vec<f64>, String> {
 /// `[[rig.cameras]]` tables (TOML text) for the cameras of a Kalibr camchain, each with
 /// `pixel_sigma_px`.
 pub fn cameras_toml(text: &str, file: &str, pixel_sigma_px: f64) -> Result<String, KalibrError> {
-    let err = |key: &str, line: Option<usize>, m: String| KalibrError {
-        file: file.into(),
-        key: key.into(),
-        line,
-        message: m,
-    };
+    let err = located(file);
     let doc = Doc::parse(text).map_err(|(l, m)| err("", Some(l), m))?;
     let mut names: Vec<&str> = doc
         .entries
@@ -177,12 +182,7 @@ pub fn cameras_toml(text: &str, file: &str, pixel_sigma_px: f64) -> Result<Strin
 /// The `[rig.imu]` table (TOML text) of a Kalibr `imu.yaml` (keys at the top level or under
 /// `imu0:`).
 pub fn imu_toml(text: &str, file: &str) -> Result<String, KalibrError> {
-    let err = |key: &str, line: Option<usize>, m: String| KalibrError {
-        file: file.into(),
-        key: key.into(),
-        line,
-        message: m,
-    };
+    let err = located(file);
     let doc = Doc::parse(text).map_err(|(l, m)| err("", Some(l), m))?;
     let prefix = if doc.get("imu0").is_some() {
         "imu0."

@@ -30,6 +30,18 @@ impl fmt::Display for SpecError {
 
 impl std::error::Error for SpecError {}
 
+impl SpecError {
+    /// An error at `key` of `file`, with the key's line in `text` when it is there.
+    pub fn at(file: &str, text: &str, key: &str, message: impl Into<String>) -> Self {
+        Self {
+            file: file.into(),
+            key: key.into(),
+            line: line_of_key(text, key),
+            message: message.into(),
+        }
+    }
+}
+
 /// The serde (snake_case) name of a fault kind.
 pub(crate) fn serde_name(k: impl fmt::Debug) -> String {
     let dbg = format!("{k:?}");

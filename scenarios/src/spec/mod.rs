@@ -78,7 +78,6 @@ pub mod schema;
 mod validate;
 
 pub use error::SpecError;
-use error::line_of_key;
 pub use schema::*;
 
 /// Where a scenario came from.
@@ -159,20 +158,8 @@ impl Scenario {
         let expanded = kalibr_expansion(&file, &origin, text)?;
         let text = expanded.as_deref().unwrap_or(text);
         let spec: ScenarioSpec = error::deserialize_toml(text, &file)?;
-        let settings = overlay::overlay(
-            &EstimatorConfig::settings_default(),
-            &spec.estimator,
-            "estimator",
-            text,
-            &file,
-        )?;
-        let tracker = overlay::overlay(
-            &TrackerConfig::default(),
-            &spec.camera.tracker,
-            "camera.tracker",
-            text,
-            &file,
-        )?;
+        let (settings, tracker) =
+            overlay::estimator_and_tracker(&spec.estimator, &spec.camera.tracker, text, &file)?;
         let mut render = overlay::overlay(
             &RenderConfig::default(),
             &spec.camera.render,
@@ -303,12 +290,7 @@ impl Scenario {
 
     /// An error at `key`, with the key's line.
     pub fn error(&self, key: &str, message: impl Into<String>) -> SpecError {
-        SpecError {
-            file: self.file_label(),
-            key: key.into(),
-            line: line_of_key(&self.text, key),
-            message: message.into(),
-        }
+        SpecError::at(&self.file_label(), &self.text, key, message)
     }
 }
 
@@ -324,12 +306,7 @@ fn kalibr_expansion(file: &str, origin: &Origin, text: &str) -> Result<Option<St
     let Some(k) = rig.get("kalibr").and_then(|k| k.as_table()) else {
         return Ok(None);
     };
-    let err = |key: &str, m: String| SpecError {
-        file: file.into(),
-        key: key.into(),
-        line: line_of_key(text, key),
-        message: m,
-    };
+    let err = |key: &str, m: String| SpecError::at(file, text, key, m);
     let path_of = |key: &str| -> Result<Option<String>, SpecError> {
         match k.get(key) {
             None => Ok(None),
@@ -407,6 +384,7 @@ fn kalibr_expansion(file: &str, origin: &Origin, text: &str) -> Result<Option<St
 
 #[cfg(test)]
 mod tests {
+    use super::error::line_of_key;
     use super::*;
 
     fn default_text() -> &'static str {

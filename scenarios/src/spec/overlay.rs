@@ -7,11 +7,13 @@
 //! table, keeps every unset key at the configuration's default at any depth, and the type's
 //! `deny_unknown_fields` still rejects a misspelt key.
 
+use estimator::estimator::EstimatorConfig;
+use estimator::frontend::TrackerConfig;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 
 use super::SpecError;
-use super::error::{line_of_key, path_string};
+use super::error::path_string;
 
 /// `defaults` with the keys of `table` laid over them; `key` is the table's path in the
 /// scenario (`estimator`), `text` and `file` locate an error.
@@ -36,13 +38,34 @@ pub(crate) fn overlay<T: Serialize + DeserializeOwned>(
         } else {
             format!("{key}.{path}")
         };
-        SpecError {
-            file: file.into(),
-            line: line_of_key(text, &full),
-            key: full,
-            message: e.into_inner().message().trim().to_string(),
-        }
+        SpecError::at(file, text, &full, e.into_inner().message().trim())
     })
+}
+
+/// The estimator's and the image front end's settings: the `[estimator]` and
+/// `[camera.tracker]` tables laid over their defaults (a scenario's, or `vio euroc --settings`).
+pub(crate) fn estimator_and_tracker(
+    estimator: &toml::Table,
+    tracker: &toml::Table,
+    text: &str,
+    file: &str,
+) -> Result<(EstimatorConfig, TrackerConfig), SpecError> {
+    Ok((
+        overlay(
+            &EstimatorConfig::settings_default(),
+            estimator,
+            "estimator",
+            text,
+            file,
+        )?,
+        overlay(
+            &TrackerConfig::default(),
+            tracker,
+            "camera.tracker",
+            text,
+            file,
+        )?,
+    ))
 }
 
 /// Replaces the values of `base` by those of `top`, descending into tables present in both.
