@@ -73,10 +73,10 @@ fn nees_study_is_deterministic_and_consistent() {
     }
     assert_eq!(one.ate_rmse_m, two.ate_rmse_m);
     // Every time average inside its two-sided 95 % band for 3 runs ([0.89, 6.34] for 3 dof,
-    // [0.40, 4.81] for 2): the band itself is what fewer seeds widen, nothing else.
-    // Measured (seeds 1-3, 8 s): velocity 3.21, accel bias 2.23, gyro bias 3.85, roll/pitch
-    // 1.46 (before 3-dof landmarks, no double counting and per-observation weights: 11.16,
-    // 6.44, 17.93, 4.34).
+    // [0.40, 4.81] for 2, [2.74, 10.51] for 6): the band itself is what fewer seeds widen,
+    // nothing else. Measured (seeds 1-3, 8 s): velocity 2.98, accel bias 1.74, gyro bias 3.55,
+    // roll/pitch 1.01, relative pose over 0.5 s 6.26 (before 3-dof landmarks, no double
+    // counting and per-observation weights: 11.16, 6.44, 17.93, 4.34; no relative pose).
     for m in &one.metrics {
         assert!(
             m.series.len() >= 140,

@@ -1,5 +1,6 @@
 //! One full window update (solve + marginalization) of the stereo+IMU estimator with ~150
-//! tracked features, on the synthetic room of the window tests.
+//! tracked features, on the synthetic room of the window tests; and the same update with the
+//! newest state's marginal covariance (`compute_covariance`, what `vio nees` runs with).
 //!
 //! `cargo bench -p estimator --bench window`
 
@@ -14,8 +15,15 @@ mod common;
 use common::world::{FRAME_NS, IMU_NS, World};
 
 fn window_update(c: &mut Criterion) {
+    bench_update(c, "stereo_imu_window_update", false);
+    bench_update(c, "stereo_imu_window_update_with_covariance", true);
+}
+
+fn bench_update(c: &mut Criterion, name: &str, covariance: bool) {
     let mut world = World::new(1, 3000, 1.0);
-    let mut est = Estimator::new(world.config(Suite::StereoImu)).unwrap();
+    let mut config = world.config(Suite::StereoImu);
+    config.compute_covariance = covariance;
+    let mut est = Estimator::new(config).unwrap();
     let (mut t_imu, mut t_frame) = (0, 0);
     // Estimates come out of either call (a frame waits for the IMU samples that cover it).
     let feed = |est: &mut Estimator, world: &mut World, t_frame: i64, t_imu: &mut i64| {
@@ -56,7 +64,7 @@ fn window_update(c: &mut Criterion) {
         v[v.len() / 2] * 1e3
     };
     eprintln!(
-        "window breakdown over 100 frames (median ms): total {:.3}, solve {:.3}, marginalization {:.3}; landmarks {:.0}",
+        "{name}: breakdown over 100 frames (median ms): total {:.3}, solve {:.3}, marginalization {:.3}; landmarks {:.0}",
         median(&|e| e.backend_s),
         median(&|e| e.solve_s),
         median(&|e| e.marginalization_s),
@@ -71,7 +79,7 @@ fn window_update(c: &mut Criterion) {
     }
     let frame = world.frame(t_frame);
     let after: Vec<_> = (0..3).map(|k| world.imu(t_imu + k * IMU_NS)).collect();
-    c.bench_function("stereo_imu_window_update", |b| {
+    c.bench_function(name, |b| {
         b.iter_batched(
             || (est.clone(), frame.clone()),
             |(mut e, f)| {

@@ -6,7 +6,10 @@
 //!   unobservable yaw);
 //! - `accel_bias`, `gyro_bias` (3 dof each);
 //! - `roll_pitch`: the tilt, the world x and y components of the rotation error (2 dof), after
-//!   the run's position+yaw alignment (the ATE's).
+//!   the run's position+yaw alignment (the ATE's);
+//! - `relative_pose`: the newest pose relative to the window frame about
+//!   `relative_pose_interval_s` (0.5 s) earlier, `[δp in the earlier frame, δθ]` (6 dof). It
+//!   needs no alignment: the relative motion is observable, yaw and position included.
 //!
 //! For N runs, `N · ε̄ₖ` of a consistent estimator is χ²(N·dof) at each time k, so ε̄ₖ lies in
 //! `[χ²₀.₀₂₅(N·dof), χ²₀.₉₇₅(N·dof)] / N` with 95 % probability. A metric passes when its
@@ -18,8 +21,8 @@ use std::collections::BTreeMap;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use estimator::geometry::{skew, so3_log};
-use nalgebra::{DMatrix, Matrix3, SMatrix, Vector3};
+use estimator::geometry::{Pose, skew, so3_log};
+use nalgebra::{DMatrix, Matrix3, SMatrix, Vector3, Vector6};
 use serde::Serialize;
 
 use crate::metrics::{self, Alignment};
@@ -27,11 +30,12 @@ use crate::run::{RunError, RunOptions, RunOutput, run};
 use crate::spec::{Scenario, SuiteSpec};
 
 /// The metrics, in report order: name and degrees of freedom.
-pub const METRICS: [(&str, usize); 4] = [
+pub const METRICS: [(&str, usize); 5] = [
     ("velocity", 3),
     ("accel_bias", 3),
     ("gyro_bias", 3),
     ("roll_pitch", 2),
+    ("relative_pose", 6),
 ];
 
 /// Settings of a NEES study.
@@ -138,7 +142,7 @@ pub fn run_nees(scenario: &Scenario, options: &NeesOptions) -> Result<NeesReport
 }
 
 /// NEES of every metric at one frame of one run, `None` where it cannot be computed.
-type FrameNees = [Option<f64>; 4];
+type FrameNees = [Option<f64>; METRICS.len()];
 
 fn quadratic<const D: usize>(e: &SMatrix<f64, D, 1>, p: &SMatrix<f64, D, D>) -> Option<f64> {
     p.cholesky().map(|c| e.dot(&c.solve(e)))
@@ -156,6 +160,12 @@ fn run_nees_series(out: &RunOutput) -> Vec<(i64, FrameNees)> {
     let Ok(align) = metrics::estimate_alignment(&gt, &est, Alignment::PosYaw) else {
         return Vec::new();
     };
+    // True pose at every processed frame time (IMU clock), for the relative poses.
+    let truth_at: BTreeMap<i64, Pose> = out
+        .frames
+        .iter()
+        .map(|f| (f.estimate.t_ns, f.truth.pose))
+        .collect();
     frames
         .iter()
         .filter_map(|f| {
@@ -181,7 +191,16 @@ fn run_nees_series(out: &RunOutput) -> Vec<(i64, FrameNees)> {
             let jt = r_aligned.fixed_rows::<2>(0).into_owned();
             let p_tilt = jt * block(3) * jt.transpose();
             let tilt = quadratic(&dtheta_w.fixed_rows::<2>(0).into_owned(), &p_tilt);
-            Some((e.t_ns, [velocity, accel, gyro, tilt]))
+            let relative = e.relative_pose.as_ref().and_then(|r| {
+                let t_a = truth_at.get(&r.from_t_ns)?;
+                let truth = t_a.inverse().compose(&t.pose);
+                let mut err = Vector6::zeros();
+                err.fixed_rows_mut::<3>(0).copy_from(&(truth.p - r.T_a_b.p));
+                err.fixed_rows_mut::<3>(3)
+                    .copy_from(&so3_log(&(r.T_a_b.q.inverse() * truth.q)));
+                quadratic(&err, &r.covariance)
+            });
+            Some((e.t_ns, [velocity, accel, gyro, tilt, relative]))
         })
         .collect()
 }
@@ -258,7 +277,7 @@ pub fn summary(r: &NeesReport) -> String {
     );
     for m in &r.metrics {
         s += &format!(
-            "  {:<11} dof {}  NEES {:>8.3}  band [{:.3}, {:.3}]  {}  ({:.0} % of {} frame times in band)\n",
+            "  {:<13} dof {}  NEES {:>8.3}  band [{:.3}, {:.3}]  {}  ({:.0} % of {} frame times in band)\n",
             m.name,
             m.dof,
             m.time_average,

@@ -35,7 +35,7 @@ use batch::History;
 pub use config::{
     CameraConfig, ConfigError, EstimatorConfig, MAX_PERSISTENT_POINTS, MAX_WINDOW_SIZE, Suite,
 };
-pub use covariance::WindowSystem;
+pub use covariance::{RelativePose, WindowSystem};
 pub use events::{Event, EventKind, LiveSuite};
 use features::Observation;
 pub use health::{FailureReason, HealthLimits};
@@ -46,7 +46,7 @@ use crate::factors::FeatureMeasurement;
 use crate::frontend::FeatureFrame;
 use crate::geometry::Pose;
 use crate::imu::{ImuError, ImuSample};
-use crate::problem::{HuberLoss, LossFunction, SolverSummary, solve};
+use crate::problem::{HuberLoss, LossFunction, SolverSummary, solve_keeping_linearization};
 
 /// Where the estimator is in its life cycle, and what carries the newest estimate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -112,6 +112,9 @@ pub struct Estimate {
     /// definite: 15×15 over `[δp (world), δθ (body, right perturbation), δv, δba, δbg]` for
     /// IMU suites, 6×6 over `[δp, δθ]` for stereo-only.
     pub covariance: Option<DMatrix<f64>>,
+    /// With `EstimatorConfig::compute_covariance`: the newest pose relative to the window frame
+    /// closest to `relative_pose_interval_s` before it, with its marginal covariance.
+    pub relative_pose: Option<RelativePose>,
 }
 
 /// Errors from the estimator's inputs.
@@ -178,6 +181,7 @@ struct Solved {
     summary: SolverSummary,
     marginalization_s: f64,
     covariance: Option<DMatrix<f64>>,
+    relative_pose: Option<RelativePose>,
 }
 
 /// A known state for the first frame (see [`Estimator::start_from`]).
@@ -552,18 +556,22 @@ impl Estimator {
             self.window.promote_to_points(&self.config);
         }
         let mut built = self.window.build(&self.problem_settings(), imu_active);
-        let summary = solve(&mut built.problem, &self.config.solver);
+        let (summary, linearization) =
+            solve_keeping_linearization(&mut built.problem, &self.config.solver);
         self.window.write_back(&built, &self.config);
         let failure = self.window_failure(&built, &summary, &predicted.pose, imu_active);
         if was_tracking && let Some(reason) = failure {
             self.reset(t_ns, reason);
             return self.estimate(&predicted, keyframe, start, None);
         }
-        let covariance = if self.config.compute_covariance {
-            let seq = self.window.frames.back().expect("just pushed").seq;
-            covariance::newest_covariance(&built, seq)
-        } else {
-            None
+        let (covariance, relative_pose) = match &linearization {
+            Some(lin) if self.config.compute_covariance => {
+                let frames: Vec<&WindowFrame> = self.window.frames.iter().collect();
+                let interval_s = self.config.relative_pose_interval_s;
+                covariance::newest_covariance(&built, lin, &frames, interval_s)
+                    .map_or((None, None), |(c, r)| (Some(c), r))
+            }
+            _ => (None, None),
         };
         let landmarks = built.landmarks.len() + built.points.len();
         let newest_observations = self.window.newest_observations(&built);
@@ -621,6 +629,7 @@ impl Estimator {
             summary,
             marginalization_s,
             covariance,
+            relative_pose,
         };
         self.estimate(&newest, keyframe, start, Some(solved))
     }
@@ -673,6 +682,7 @@ impl Estimator {
                 .as_ref()
                 .map_or(0.0, |s| s.summary.time.as_secs_f64()),
             marginalization_s: solved.as_ref().map_or(0.0, |s| s.marginalization_s),
+            relative_pose: solved.as_ref().and_then(|s| s.relative_pose.clone()),
             covariance: solved.and_then(|s| s.covariance),
         }
     }

@@ -1,20 +1,41 @@
-//! Marginal covariances from the Gauss-Newton information of a whole problem.
+//! Marginal covariances from the Gauss-Newton information of a whole problem, computed on the
+//! Schur-complement (reduced) system the solver works with: landmark blocks are eliminated
+//! first, so the cost is one linearization, one elimination and one Cholesky factorization of
+//! the state-sized system, never a dense inverse over the landmarks.
 
 use nalgebra::DMatrix;
 
-use super::graph::{BlockId, Problem};
-use super::solver::dense_normal_equations;
+use super::graph::{BlockId, BlockKind, Problem, ResidualId};
+use super::solver::{Layout, NONE, dense_cholesky_solve, schur_complement_system};
 
 /// The joint covariance of the tangent coordinates `coords` (each `(block, index in its
-/// tangent)`): the matching part of the inverse of the problem's Gauss-Newton information,
-/// every variable block (landmarks included) in one dense system. Coordinates of blocks that
-/// are not variables (constant ones) get zero rows and columns. `None` if the information is not
-/// positive definite.
+/// tangent)`): the matching part of the inverse of the problem's Gauss-Newton information over
+/// every variable block at the current values (first-estimate points honoured). Landmark blocks
+/// that no coordinate asks for are eliminated by the undamped Schur complement (a landmark
+/// without information folds nothing in); the reduced system is factored by Cholesky and solved
+/// for the requested columns only. Coordinates of blocks that are not variables (constant or
+/// untouched) get zero rows and columns. `None` if the reduced information is not positive
+/// definite or a residual cannot be evaluated.
 pub fn marginal_covariance(problem: &Problem, coords: &[(BlockId, usize)]) -> Option<DMatrix<f64>> {
-    let (h, _, blocks) = dense_normal_equations(problem)?;
-    let mut offsets = Vec::with_capacity(blocks.len());
+    let layout = Layout::new(problem);
+    let asked = |i: usize| coords.iter().any(|(b, _)| b.0 == i);
+    let (mut states, mut eliminated) = (Vec::new(), Vec::new());
+    for i in 0..problem.num_blocks() {
+        let variable = layout.state_offset[i] != NONE || layout.landmark_slot[i] != NONE;
+        if !variable {
+            continue;
+        }
+        if problem.kind(BlockId(i)) == BlockKind::Landmark && !asked(i) {
+            eliminated.push(BlockId(i));
+        } else {
+            states.push(BlockId(i));
+        }
+    }
+    let residuals: Vec<ResidualId> = (0..problem.num_residuals()).map(ResidualId).collect();
+    let (mut h, _) = schur_complement_system(problem, &residuals, &states, &eliminated)?;
+    let mut offsets = Vec::with_capacity(states.len());
     let mut at = 0;
-    for b in &blocks {
+    for b in &states {
         offsets.push(at);
         at += problem.manifold(*b).tangent_size();
     }
@@ -22,20 +43,148 @@ pub fn marginal_covariance(problem: &Problem, coords: &[(BlockId, usize)]) -> Op
     let picks: Vec<(usize, usize)> = coords
         .iter()
         .enumerate()
-        .filter_map(|(r, (id, i))| Some((r, offsets[blocks.iter().position(|b| b == id)?] + i)))
+        .filter_map(|(r, (id, i))| Some((r, offsets[states.iter().position(|b| b == id)?] + i)))
         .collect();
-    let chol = h.cholesky()?;
-    let mut e = DMatrix::zeros(at, picks.len());
+    // H is symmetric: its column-major buffer is also the row-major one the solve expects.
+    covariance_of_picks(h.as_mut_slice(), at, &picks, coords.len())
+}
+
+/// The `m × m` covariance whose entries `(r, r')` are `H⁻¹[c, c']` for each `(r, c)` of
+/// `picks` (output row, column of the symmetric `n × n` information `h`, overwritten by its
+/// Cholesky factor) and zero for output rows without a pick. `None` if `h` is not positive
+/// definite.
+pub(crate) fn covariance_of_picks(
+    h: &mut [f64],
+    n: usize,
+    picks: &[(usize, usize)],
+    m: usize,
+) -> Option<DMatrix<f64>> {
+    // Unit columns of the picked coordinates, solved in place (column-major, n × picks).
+    let k = picks.len();
+    let mut x = vec![0.0; n * k];
     for (j, &(_, c)) in picks.iter().enumerate() {
-        e[(c, j)] = 1.0;
+        x[j * n + c] = 1.0;
     }
-    let x = chol.solve(&e);
+    if !dense_cholesky_solve(h, n, &mut x, k, &mut None) {
+        return None;
+    }
     // Symmetric by construction up to rounding.
-    let mut cov = DMatrix::zeros(coords.len(), coords.len());
+    let mut cov = DMatrix::zeros(m, m);
     for (i, &(ri, ci)) in picks.iter().enumerate() {
         for (j, &(rj, cj)) in picks.iter().enumerate() {
-            cov[(ri, rj)] = 0.5 * (x[(ci, j)] + x[(cj, i)]);
+            cov[(ri, rj)] = 0.5 * (x[j * n + ci] + x[i * n + cj]);
         }
     }
     Some(cov)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use super::*;
+    use crate::problem::solver::dense_normal_equations;
+    use crate::problem::{Euclidean, LinearFactor};
+
+    fn lcg(state: &mut u64) -> f64 {
+        *state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((*state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+    }
+
+    /// States and 3-dof landmarks coupled by random linear factors, one state constant.
+    fn random_problem() -> (Problem, Vec<BlockId>, Vec<BlockId>) {
+        let mut seed = 11u64;
+        let mut p = Problem::new();
+        let states: Vec<_> = (0..5)
+            .map(|_| {
+                p.add_block(&[0.0; 6], Arc::new(Euclidean::new(6)), BlockKind::State)
+                    .unwrap()
+            })
+            .collect();
+        let lms: Vec<_> = (0..20)
+            .map(|_| {
+                p.add_block(&[0.1; 3], Arc::new(Euclidean::new(3)), BlockKind::Landmark)
+                    .unwrap()
+            })
+            .collect();
+        for (li, l) in lms.iter().enumerate() {
+            for s in states.iter().skip(li % 3) {
+                let a = vec![
+                    (0..18).map(|_| lcg(&mut seed)).collect(),
+                    (0..9).map(|_| lcg(&mut seed)).collect(),
+                ];
+                let b = (0..3).map(|_| lcg(&mut seed)).collect();
+                p.add_factor(
+                    Arc::new(LinearFactor::new(a, b, vec![6, 3]).unwrap()),
+                    None,
+                    &[*s, *l],
+                )
+                .unwrap();
+            }
+        }
+        let prior: Vec<f64> = (0..36)
+            .map(|i| if i % 7 == 0 { 2.0 } else { 0.0 })
+            .collect();
+        let f = LinearFactor::new(vec![prior], vec![0.0; 6], vec![6]).unwrap();
+        p.add_factor(Arc::new(f), None, &[states[1]]).unwrap();
+        p.set_constant(states[0], true);
+        (p, states, lms)
+    }
+
+    #[test]
+    fn schur_covariance_equals_the_dense_inverse() {
+        let (p, states, lms) = random_problem();
+        let (h, _, blocks) = dense_normal_equations(&p).unwrap();
+        let hinv = h.cholesky().unwrap().inverse();
+        let offset = |id: BlockId| -> usize {
+            let k = blocks.iter().position(|b| *b == id).unwrap();
+            blocks[..k]
+                .iter()
+                .map(|b| p.manifold(*b).tangent_size())
+                .sum()
+        };
+        // Two states, a landmark (kept as a state for the request) and a constant block.
+        let mut coords: Vec<(BlockId, usize)> = (0..6).map(|i| (states[4], i)).collect();
+        coords.extend((0..6).map(|i| (states[2], i)));
+        coords.extend((0..3).map(|i| (lms[7], i)));
+        coords.push((states[0], 2));
+        let cov = marginal_covariance(&p, &coords).unwrap();
+        for (r, (br, ir)) in coords.iter().enumerate() {
+            for (c, (bc, ic)) in coords.iter().enumerate() {
+                let want = if *br == states[0] || *bc == states[0] {
+                    0.0
+                } else {
+                    hinv[(offset(*br) + ir, offset(*bc) + ic)]
+                };
+                let got = cov[(r, c)];
+                assert!(
+                    (got - want).abs() <= 1e-9 * hinv.amax(),
+                    "({r}, {c}): {got} against {want}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn the_solves_linearization_gives_the_same_covariance_on_a_linear_problem() {
+        // Linear factors: the information does not depend on the point, so the covariance of
+        // the solve's last linearization equals the one at the solution.
+        let (mut p, states, lms) = random_problem();
+        let options = crate::problem::SolverOptions::default();
+        let (summary, lin) = crate::problem::solve_keeping_linearization(&mut p, &options);
+        assert!(summary.iterations >= 1);
+        let lin = lin.expect("linearized");
+        let mut coords: Vec<(BlockId, usize)> = (0..6).map(|i| (states[3], i)).collect();
+        coords.extend((0..6).map(|i| (states[1], i)));
+        coords.push((states[0], 4));
+        let kept = lin.marginal_covariance(&coords).unwrap();
+        let fresh = marginal_covariance(&p, &coords).unwrap();
+        let err = (&kept - &fresh).amax();
+        assert!(err <= 1e-9 * fresh.amax(), "{err:e}");
+        assert!(fresh.amax() > 0.0);
+        // Landmarks are eliminated in the kept system: their coordinates are refused.
+        assert!(lin.marginal_covariance(&[(lms[0], 0)]).is_none());
+    }
 }

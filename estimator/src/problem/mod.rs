@@ -1,7 +1,7 @@
 //! The nonlinear least-squares problem: parameter-block manifolds, factors, robust losses, the
 //! shared Jacobian checker, the solver, marginalization and marginal covariances.
 
-mod covariance;
+pub(crate) mod covariance;
 mod factor;
 pub mod gradient_check;
 mod graph;
@@ -21,5 +21,6 @@ pub use loss::{CauchyLoss, HuberLoss, LossFunction, apply_loss};
 pub use manifold::{Euclidean, Manifold, PoseManifold, QuaternionManifold};
 pub use prior::{PriorError, PriorFactor};
 pub use solver::{
-    Method, SolverOptions, SolverSummary, Termination, schur_complement_system, solve,
+    Linearization, Method, SolverOptions, SolverSummary, Termination, schur_complement_system,
+    solve, solve_keeping_linearization,
 };

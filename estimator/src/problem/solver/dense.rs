@@ -11,23 +11,25 @@ use super::normal_equations::linearize;
 use super::plan::{Layout, NONE};
 use crate::problem::graph::{BlockId, Problem};
 
-/// Solves `A x = b` in place for a symmetric positive-definite row-major `n × n` matrix by
-/// faer's blocked Cholesky factorization (single-threaded: `Par::Seq`), overwriting `a` with
-/// the factor. The row-major buffer of a symmetric matrix is also its column-major buffer.
-/// `false` if `A` is not positive definite.
+/// Solves `A X = B` in place for a symmetric positive-definite row-major `n × n` matrix and
+/// `cols` right-hand sides (`b` column-major, `n × cols`) by faer's blocked Cholesky
+/// factorization (single-threaded: `Par::Seq`), overwriting `a` with the factor and `b` with
+/// `X`. The row-major buffer of a symmetric matrix is also its column-major buffer. `false` if
+/// `A` is not positive definite.
 pub(crate) fn dense_cholesky_solve(
     a: &mut [f64],
     n: usize,
     b: &mut [f64],
-    scratch: &mut Option<(usize, MemBuffer)>,
+    cols: usize,
+    scratch: &mut Option<((usize, usize), MemBuffer)>,
 ) -> bool {
     if n == 0 {
         return true;
     }
-    if scratch.as_ref().is_none_or(|(m, _)| *m != n) {
+    if scratch.as_ref().is_none_or(|(m, _)| *m != (n, cols)) {
         let req = llt::factor::cholesky_in_place_scratch::<f64>(n, Par::Seq, Default::default())
-            .or(llt::solve::solve_in_place_scratch::<f64>(n, 1, Par::Seq));
-        *scratch = Some((n, MemBuffer::new(req)));
+            .or(llt::solve::solve_in_place_scratch::<f64>(n, cols, Par::Seq));
+        *scratch = Some(((n, cols), MemBuffer::new(req)));
     }
     let buf = &mut scratch.as_mut().expect("allocated above").1;
     let stack = MemStack::new(buf);
@@ -43,7 +45,7 @@ pub(crate) fn dense_cholesky_solve(
     {
         return false;
     }
-    let rhs = MatMut::from_column_major_slice_mut(b, n, 1);
+    let rhs = MatMut::from_column_major_slice_mut(b, n, cols);
     llt::solve::solve_in_place(l.rb(), rhs, Par::Seq, MemStack::new(buf));
     true
 }

@@ -11,13 +11,16 @@
 //! — never by wall-clock time. Timing is measured for reports only.
 
 mod dense;
+mod linearization;
 mod normal_equations;
 mod plan;
 mod schur;
 
 use std::time::{Duration, Instant};
 
+pub(crate) use dense::dense_cholesky_solve;
 pub use dense::dense_normal_equations;
+pub use linearization::Linearization;
 use normal_equations::NormalEquations;
 pub(crate) use plan::{Layout, NONE};
 pub use schur::schur_complement_system;
@@ -137,6 +140,17 @@ pub(crate) fn apply_step(problem: &Problem, layout: &Layout, step: &Step, out: &
 
 /// Minimizes the problem's cost in place.
 pub fn solve(problem: &mut Problem, options: &SolverOptions) -> SolverSummary {
+    solve_keeping_linearization(problem, options).0
+}
+
+/// Minimizes the problem's cost in place, like [`solve`], and also returns the normal
+/// equations of the solve's last linearization (the system its last step was computed from;
+/// `None` if nothing was linearized or the last linearization failed), for marginal
+/// covariances without another linearization.
+pub fn solve_keeping_linearization(
+    problem: &mut Problem,
+    options: &SolverOptions,
+) -> (SolverSummary, Option<Linearization>) {
     let start = Instant::now();
     let layout = Layout::new(problem);
     let mut summary = SolverSummary {
@@ -161,7 +175,7 @@ pub fn solve(problem: &mut Problem, options: &SolverOptions) -> SolverSummary {
             None => summary.termination = Termination::InvalidInitialPoint,
         }
         summary.time = start.elapsed();
-        return summary;
+        return (summary, None);
     }
     // The plan and every buffer of the linear system are built once and reused by each
     // linearization and step. The first linearization also gives the initial cost.
@@ -169,7 +183,7 @@ pub fn solve(problem: &mut Problem, options: &SolverOptions) -> SolverSummary {
     if !e.linearize(problem) {
         summary.termination = Termination::InvalidInitialPoint;
         summary.time = start.elapsed();
-        return summary;
+        return (summary, None);
     }
     summary.iterations = 1;
     let mut cost = e.cost;
@@ -184,7 +198,7 @@ pub fn solve(problem: &mut Problem, options: &SolverOptions) -> SolverSummary {
     if e.gradient_max_norm() <= options.gradient_tolerance {
         summary.termination = Termination::Converged;
         summary.time = start.elapsed();
-        return summary;
+        return (summary, Some(Linearization::new(e, layout)));
     }
     // Every pass but the first (whose linearization happened above) checks the cap first.
     let mut first = true;
@@ -197,7 +211,9 @@ pub fn solve(problem: &mut Problem, options: &SolverOptions) -> SolverSummary {
             summary.iterations += 1;
             if !e.linearize(problem) {
                 summary.termination = Termination::InvalidInitialPoint;
-                break;
+                summary.final_cost = cost;
+                summary.time = start.elapsed();
+                return (summary, None);
             }
             linearized = true;
             if e.gradient_max_norm() <= options.gradient_tolerance {
@@ -271,7 +287,7 @@ pub fn solve(problem: &mut Problem, options: &SolverOptions) -> SolverSummary {
     }
     summary.final_cost = cost;
     summary.time = start.elapsed();
-    summary
+    (summary, Some(Linearization::new(e, layout)))
 }
 
 /// Powell's dogleg step within `radius` (full-space Euclidean norm of the tangent step).

@@ -325,7 +325,7 @@ pub(crate) struct ReducedSystem {
     rhs: Vec<f64>,
     cinv: Vec<f64>,
     valid: Vec<bool>,
-    scratch: Option<(usize, MemBuffer)>,
+    scratch: Option<((usize, usize), MemBuffer)>,
     schur: SchurScratch,
 }
 
@@ -364,7 +364,7 @@ impl NormalEquations {
         // The Cholesky reads the lower triangle: copy the upper (written above) onto it.
         mirror_upper(&mut sys.a, n);
         let mut dx = std::mem::take(&mut sys.rhs);
-        if !dense_cholesky_solve(&mut sys.a, n, &mut dx, &mut sys.scratch) {
+        if !dense_cholesky_solve(&mut sys.a, n, &mut dx, 1, &mut sys.scratch) {
             return None;
         }
         // Back-substitution: δl = C⁻¹ (−g_l − Wᵀ δx).
