@@ -33,6 +33,7 @@ fn every_estimator_setting_is_reachable_and_unset_keys_keep_the_defaults() {
         + &full
             .replace("[solver]", "[estimator.solver]")
             .replace("[health]", "[estimator.health]")
+            .replace("[zero_velocity]", "[estimator.zero_velocity]")
             .replacen("", "[estimator]\n", 1);
     let mut cfg = parse(&text).unwrap().estimator_config().unwrap();
     // The rig's IMU has datasheet ranges; `imu_range` takes them where the file leaves it unset.

@@ -35,7 +35,7 @@ use crate::faults::{Fault, FaultTimeline};
 use crate::imu::{ImuConfig, ImuSim};
 use crate::motion::{
     BodyParams, ControllerGains, Lissajous, MotionSim, RandomWaypoints, Reference, Replay,
-    StaticStart, TrajectoryError, TruthBuffer,
+    StaticStart, Stop, Stops, TrajectoryError, TruthBuffer,
 };
 use crate::render::{RenderConfig, RenderError, Renderer};
 use crate::scene::{Scene, SceneConfig};
@@ -83,6 +83,8 @@ pub struct WorldConfig {
     pub trajectory: TrajectoryConfig,
     /// Optional rest before the motion.
     pub static_start: Option<StaticStartConfig>,
+    /// Stops inserted into the motion (run time, sorted, not overlapping; see [`Stops`]).
+    pub stops: Vec<Stop>,
     /// Body mass properties.
     pub body: BodyParams,
     /// Controller gains.
@@ -113,6 +115,7 @@ impl Default for WorldConfig {
                 20.0,
             )),
             static_start: None,
+            stops: Vec::new(),
             body: BodyParams::default(),
             gains: ControllerGains::default(),
             physics_steps_per_imu: 5,
@@ -189,6 +192,12 @@ impl World {
                 inner: Box::new(SharedReference(reference)),
                 hold_s: s.hold_s,
                 ramp_s: s.ramp_s.max(1e-3),
+            });
+        }
+        if !config.stops.is_empty() {
+            reference = Arc::new(Stops {
+                inner: Box::new(SharedReference(reference)),
+                stops: config.stops.clone(),
             });
         }
         let mut duration = config.duration_s;

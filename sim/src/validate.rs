@@ -345,6 +345,19 @@ impl WorldConfig {
             finite_non_negative("static start hold (s)", s.hold_s)?;
             finite_non_negative("static start ramp (s)", s.ramp_s)?;
         }
+        let mut previous_end = f64::NEG_INFINITY;
+        for s in &self.stops {
+            finite_non_negative("stop start (s)", s.at_s)?;
+            finite_non_negative("stop duration (s)", s.duration_s)?;
+            finite_positive("stop ramp (s)", s.ramp_s)?;
+            if s.at_s < previous_end {
+                return Err(SimError::Config(format!(
+                    "the stop at {} s starts before the previous one ends ({previous_end} s)",
+                    s.at_s
+                )));
+            }
+            previous_end = s.end_s();
+        }
         finite_non_negative("ground-truth retention (s)", self.truth_retention_s)?;
         for f in &self.faults {
             f.validate()?;

@@ -3,8 +3,8 @@
 
 use nalgebra::Vector3;
 use sim::motion::{
-    BodyParams, ControllerGains, Lissajous, MotionSim, Reference, StaticStart, ideal_imu,
-    integrate_step,
+    BodyParams, ControllerGains, Lissajous, MotionSim, Reference, StaticStart, Stop, Stops,
+    ideal_imu, integrate_step,
 };
 use std::sync::Arc;
 
@@ -71,4 +71,63 @@ fn static_start_rests_then_moves() {
         sim.step();
     }
     assert!(sim.state().v.norm() > 0.1);
+}
+
+#[test]
+fn stops_rest_then_resume_where_they_stopped_with_continuous_rates() {
+    let inner = Lissajous::figure_eight(Vector3::new(0.0, 0.0, 1.5), 2.0, 1.0, 20.0);
+    let stop = Stop {
+        at_s: 4.0,
+        duration_s: 3.0,
+        ramp_s: 1.0,
+    };
+    let later = Stop {
+        at_s: 12.0,
+        duration_s: 2.0,
+        ramp_s: 0.5,
+    };
+    let r = Stops {
+        inner: Box::new(inner.clone()),
+        stops: vec![stop, later],
+    };
+    // At rest for the whole rest interval, at the place the inner motion reached.
+    let (a, b) = stop.rest_s();
+    let at_rest = inner.state(4.5).p; // τ = at_s + ramp/2
+    for k in 0..=30 {
+        let s = r.state(a + (b - a) * k as f64 / 30.0);
+        assert!(s.v.norm() < 1e-12 && s.omega_w.norm() < 1e-12 && s.a.norm() < 1e-12);
+        assert!((s.p - at_rest).norm() < 1e-12);
+    }
+    // After both stops the motion runs 3 + 1 + 2 + 0.5 s behind the inner one.
+    let lag = stop.duration_s + stop.ramp_s + later.duration_s + later.ramp_s;
+    assert!((r.state(20.0).p - inner.state(20.0 - lag).p).norm() < 1e-12);
+    assert_eq!(r.duration(), None);
+    // Velocity and acceleration are the derivatives of position and velocity (central
+    // differences), through the ramps as well.
+    let h = 1e-5;
+    for k in 0..1600 {
+        let t = 3.5 + k as f64 * 0.01;
+        let (sm, s, sp) = (r.state(t - h), r.state(t), r.state(t + h));
+        let v = (sp.p - sm.p) / (2.0 * h);
+        let acc = (sp.v - sm.v) / (2.0 * h);
+        assert!((v - s.v).norm() < 1e-6, "t {t}: v {v} against {}", s.v);
+        assert!((acc - s.a).norm() < 1e-4, "t {t}: a {acc} against {}", s.a);
+    }
+    // The body tracks it.
+    let mut sim = MotionSim::new(
+        Arc::new(r),
+        BodyParams::default(),
+        ControllerGains::default(),
+        1_000_000,
+        0,
+    );
+    let mut max_rest_speed: f64 = 0.0;
+    for _ in 0..8000 {
+        let s = sim.step();
+        let t = s.t_ns as f64 * 1e-9;
+        if t > a + 0.1 && t < b {
+            max_rest_speed = max_rest_speed.max(s.v.norm());
+        }
+    }
+    assert!(max_rest_speed < 1e-6, "{max_rest_speed}");
 }

@@ -3,6 +3,7 @@
 use std::sync::Arc;
 
 use super::health::HealthLimits;
+use super::stationary::ZeroVelocityConfig;
 use crate::camera::CameraModel;
 use crate::geometry::Pose;
 use crate::imu::ImuNoise;
@@ -207,6 +208,8 @@ pub struct EstimatorConfig {
     pub imu_range: Option<(f64, f64)>,
     /// Failure detection: the limits of a plausible solved state; past one the window is reset.
     pub health: HealthLimits,
+    /// Zero-velocity detection at rest and its factor.
+    pub zero_velocity: ZeroVelocityConfig,
     /// Fewest landmark observations in the newest frame's solve for the estimate to count as
     /// tracking ([`super::Status::Tracking`]); below it the frame is reported
     /// [`super::Status::Degraded`]. Ten: well above the three points a pose needs, so a
@@ -266,6 +269,7 @@ impl EstimatorConfig {
             imu_max_gap_s: 0.05,
             imu_range: None,
             health: HealthLimits::default(),
+            zero_velocity: ZeroVelocityConfig::default(),
             min_tracking_observations: 10,
         }
     }
@@ -463,6 +467,18 @@ impl EstimatorConfig {
                 ));
             }
         }
+        let z = &self.zero_velocity;
+        positive("zero_velocity.window_s", z.window_s)?;
+        if z.window_s > 10.0 {
+            return Err(ConfigError::new(
+                "zero_velocity.window_s",
+                format!("expected at most 10 s, got {}", z.window_s),
+            ));
+        }
+        positive("zero_velocity.max_rate_rad_s", z.max_rate_rad_s)?;
+        positive("zero_velocity.chi2_z", z.chi2_z)?;
+        positive("zero_velocity.image_motion_sigmas", z.image_motion_sigmas)?;
+        positive("zero_velocity.velocity_sigma_m_s", z.velocity_sigma_m_s)?;
         let h = &self.health;
         positive("health.max_accel_bias_m_s2", h.max_accel_bias_m_s2)?;
         positive("health.max_gyro_bias_rad_s", h.max_gyro_bias_rad_s)?;

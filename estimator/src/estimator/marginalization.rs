@@ -10,7 +10,7 @@ use crate::problem::{BlockId, ResidualId};
 
 /// The new prior when the oldest frame leaves with the IMU active: its pose and speed-bias, the
 /// landmarks anchored in it, and every factor touching them (the IMU factor to the next frame,
-/// the old prior, those landmarks' reprojections) are marginalized. Without the IMU there is no
+/// its zero-velocity factor, the old prior, those landmarks' reprojections) are marginalized. Without the IMU there is no
 /// prior (vision only: the oldest remaining pose fixes the gauge).
 pub(super) fn prior_without_oldest(
     window: &Window,
@@ -30,6 +30,13 @@ pub(super) fn prior_without_oldest(
         .filter(|(_, k)| *k == 1)
         .map(|(r, _)| *r)
         .collect();
+    residuals.extend(
+        built
+            .zero_velocity
+            .iter()
+            .filter(|(_, seq)| *seq == oldest)
+            .map(|(r, _)| *r),
+    );
     // Landmarks anchored in the oldest frame (sorted ids: membership by binary search).
     let mut anchored: Vec<u64> = Vec::new();
     for (id, lm) in &built.landmarks {

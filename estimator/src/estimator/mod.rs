@@ -22,6 +22,7 @@ pub mod health;
 mod imu_buffer;
 mod init;
 mod marginalization;
+mod stationary;
 mod triangulation;
 mod window;
 
@@ -40,6 +41,7 @@ pub use events::{Event, EventKind, LiveSuite};
 use features::Observation;
 pub use health::{FailureReason, HealthLimits};
 use imu_buffer::ImuBuffer;
+pub use stationary::{ZeroVelocityConfig, ZeroVelocityFactor};
 use window::{ProblemSettings, Window, WindowFrame};
 
 use crate::factors::FeatureMeasurement;
@@ -112,6 +114,9 @@ pub struct Estimate {
     /// definite: 15×15 over `[δp (world), δθ (body, right perturbation), δv, δba, δbg]` for
     /// IMU suites, 6×6 over `[δp, δθ]` for stereo-only.
     pub covariance: Option<DMatrix<f64>>,
+    /// Whether the frame was detected at rest (its velocity constrained to zero; see
+    /// `EstimatorConfig::zero_velocity`).
+    pub at_rest: bool,
     /// With `EstimatorConfig::compute_covariance`: the newest pose relative to the window frame
     /// closest to `relative_pose_interval_s` before it, with its marginal covariance.
     pub relative_pose: Option<RelativePose>,
@@ -168,6 +173,7 @@ pub struct Estimator {
     live_imu: bool,
     /// Cameras repeating their last image.
     frozen: frozen::FrozenMonitor,
+    rest_monitor: stationary::RestMonitor,
     /// Consecutive solves whose IMU factors failed the χ² test.
     imu_chi2_failures: usize,
     /// Events not yet taken.
@@ -244,6 +250,7 @@ impl Estimator {
             live_cameras: [true, n_cameras > 1],
             live_imu,
             frozen: frozen::FrozenMonitor::default(),
+            rest_monitor: stationary::RestMonitor::default(),
             imu_chi2_failures: 0,
             events: Vec::new(),
         })
@@ -448,6 +455,7 @@ impl Estimator {
                 wf.v = (wf.pose.p - last.pose.p) / dt;
             }
         }
+        let rest = self.detect_rest(&frame, &wf);
         self.last_frame_t = Some(t_ns);
         // The predicted state, without its IMU interval (for the health check and the estimate
         // of a frame whose solve fails it).
@@ -468,6 +476,9 @@ impl Estimator {
         }
         let continued = self.window.features.add_frame(observations);
         self.window.frames.push_back(wf);
+        if let Some(rest) = rest {
+            self.window.rest.insert(seq, rest);
+        }
 
         // 3. Keyframe decision about the second-newest frame.
         let n = self.window.frames.len();
@@ -682,6 +693,7 @@ impl Estimator {
                 .as_ref()
                 .map_or(0.0, |s| s.summary.time.as_secs_f64()),
             marginalization_s: solved.as_ref().map_or(0.0, |s| s.marginalization_s),
+            at_rest: self.window.rest.contains_key(&newest.seq),
             relative_pose: solved.as_ref().and_then(|s| s.relative_pose.clone()),
             covariance: solved.and_then(|s| s.covariance),
         }

@@ -12,6 +12,7 @@ use nalgebra::Vector3;
 
 use super::config::EstimatorConfig;
 use super::features::{FeatureManager, Track};
+use super::stationary::{Rest, ZeroVelocityFactor};
 use crate::factors::{
     AnchorBearing, ImuFactor, LANDMARK_SIZE, ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam,
     ProjectionTwoFrameTwoCam, WorldPointProjection,
@@ -64,6 +65,8 @@ pub(super) struct Built {
     pub points: Vec<(u64, BlockId)>,
     /// (residual, point key, frame seq) of every observation of a persistent world point.
     pub point_obs: Vec<(ResidualId, u64, u64)>,
+    /// (zero-velocity factor, frame seq).
+    pub zero_velocity: Vec<(ResidualId, u64)>,
     pub prior: Option<ResidualId>,
 }
 
@@ -117,6 +120,9 @@ pub(super) struct Window {
     /// counted twice; a point leaves (into the prior) with its last observing keyframe.
     pub points: BTreeMap<u64, Vector3<f64>>,
     next_point: u64,
+    /// Frames detected at rest (by seq) and what the IMU read there: each gets a
+    /// [`ZeroVelocityFactor`].
+    pub rest: BTreeMap<u64, Rest>,
 }
 
 impl Window {
@@ -130,6 +136,7 @@ impl Window {
             td,
             points: BTreeMap::new(),
             next_point: 0,
+            rest: BTreeMap::new(),
         }
     }
 
@@ -216,6 +223,7 @@ impl Window {
             visual: Vec::new(),
             points,
             point_obs: Vec::new(),
+            zero_velocity: Vec::new(),
             prior: None,
         };
         if !imu_active {
@@ -277,8 +285,30 @@ impl Window {
                 built.imu.push((r, k));
             }
         }
+        if imu_active {
+            self.add_zero_velocity_factors(&mut built, config);
+        }
         self.add_visual_factors(&mut built, settings, td_block);
         built
+    }
+
+    /// A [`ZeroVelocityFactor`] on the speed-bias of every window frame detected at rest.
+    fn add_zero_velocity_factors(&self, built: &mut Built, config: &EstimatorConfig) {
+        for (seq, rest) in &self.rest {
+            let Some(sb) = built.block(BlockRef::SpeedBias(*seq)) else {
+                continue;
+            };
+            let f = ZeroVelocityFactor::new(
+                rest,
+                &config.imu_noise,
+                config.zero_velocity.velocity_sigma_m_s,
+            );
+            let r = built
+                .problem
+                .add_factor(Arc::new(f), None, &[sb])
+                .expect("sizes match");
+            built.zero_velocity.push((r, *seq));
+        }
     }
 
     /// The reprojection factors of every triangulated track seen long enough.
@@ -552,6 +582,7 @@ impl Window {
     /// point when its depth there is in range.
     pub fn remove_oldest(&mut self, in_prior: bool, config: &EstimatorConfig) -> WindowFrame {
         let removed_seq = self.frames[0].seq;
+        self.rest.remove(&removed_seq);
         let ids: Vec<u64> = self.features.tracks.keys().copied().collect();
         for id in ids {
             if self.features.tracks[&id].obs[0].seq != removed_seq {
@@ -600,6 +631,7 @@ impl Window {
         let n = self.frames.len();
         let mut dropped = self.frames.remove(n - 2).expect("exists");
         let drop = dropped.seq;
+        self.rest.remove(&drop);
         let newest = self.frames.back_mut().expect("exists");
         if let (Some(mut a), Some(b)) = (dropped.preint.take(), newest.preint.take()) {
             newest.preint = a.merge(&b).is_ok().then_some(a);

@@ -81,7 +81,7 @@ enum Command {
     /// List the built-in scenarios.
     List,
     /// Print the scenario's effective estimator and front-end settings as the TOML tables
-    /// `[estimator]`, `[estimator.solver]`, `[estimator.health]` and `[camera.tracker]`: every
+    /// `[estimator]`, `[estimator.solver]`, `[estimator.health]`, `[estimator.zero_velocity]` and `[camera.tracker]`: every
     /// key a scenario file may set, with the value this scenario runs with.
     Settings {
         /// A catalog scenario name or a path to a scenario .toml file; default: the default

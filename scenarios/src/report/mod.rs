@@ -54,8 +54,10 @@ use crate::run::{EventKind, RunOutput};
 use crate::spec::{Bound, Scenario, SuiteSpec};
 
 mod calibration;
+mod rest;
 mod summary;
 pub use calibration::{CalibrationReport, CalibrationSample, ExtrinsicError};
+pub use rest::{RestInterval, RestReport, rest_report};
 pub use summary::summary;
 
 /// Where a run came from, as far as its report, plot and files are concerned: a scenario
@@ -389,6 +391,9 @@ pub struct Report {
     /// The estimated time offset and extrinsics against the truth (`null` unless the scenario
     /// studies calibration: a calibration error, a camera time offset or online estimation).
     pub calibration: Option<CalibrationReport>,
+    /// Zero-velocity detection against the truth and the drift during rests (`null` when the
+    /// body never rests and nothing was detected, or without ground truth).
+    pub rest: Option<RestReport>,
     /// Simulated time (s) at which the run was interrupted (Ctrl-C); `null` when complete. An
     /// interrupted run does not pass.
     pub interrupted_at_s: Option<f64>,
@@ -539,6 +544,7 @@ pub fn build_report_in(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> 
             .calibration_truth
             .as_ref()
             .and_then(|t| calibration::calibration_report(t, run)),
+        rest: rest::rest_report(run).filter(|_| ctx.ground_truth),
         interrupted_at_s: run.interrupted_at_s,
         expectations: Vec::new(),
         passed: true,

@@ -75,6 +75,17 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
             worst(|e| e.translation_error_mm)
         );
     }
+    if let Some(z) = &r.rest {
+        let _ = writeln!(
+            s,
+            "rest          {} frames detected at rest ({} false while moving) of {} at rest; largest drift during a rest {}",
+            z.frames_detected,
+            z.false_detections,
+            z.frames_at_rest,
+            z.max_drift_m
+                .map_or("-".to_string(), |d| format!("{:.1} mm", d * 1e3))
+        );
+    }
     if let Some(p) = &r.replay {
         let _ = writeln!(
             s,

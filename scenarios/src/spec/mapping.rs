@@ -514,6 +514,16 @@ impl Scenario {
                 hold_s: ss.hold_s,
                 ramp_s: ss.ramp_s,
             }),
+            stops: s
+                .trajectory
+                .stops
+                .iter()
+                .map(|st| sim::motion::Stop {
+                    at_s: st.at_s,
+                    duration_s: st.duration_s,
+                    ramp_s: st.ramp_s,
+                })
+                .collect(),
             physics_steps_per_imu: steps,
             imu: imu_cfg,
             scene,

@@ -179,6 +179,10 @@ pub struct TrajectorySpec {
     pub duration_s: f64,
     /// Rest before the motion starts.
     pub static_start: Option<StaticStartSpec>,
+    /// Stops inserted into the motion: `[{ at_s, duration_s, ramp_s }]`, sorted, not
+    /// overlapping.
+    #[serde(default)]
+    pub stops: Vec<StopSpec>,
     /// Figure-eight generator.
     pub figure_eight: Option<FigureEightSpec>,
     /// Horizontal circle generator.
@@ -216,6 +220,26 @@ pub struct StaticStartSpec {
     pub hold_s: f64,
     /// Smooth ramp into the motion (s).
     pub ramp_s: f64,
+}
+
+/// One entry of `trajectory.stops`: the motion slows to rest from `at_s` (run time) over
+/// `ramp_s`, rests for `duration_s`, speeds up over `ramp_s` and continues where it stopped.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StopSpec {
+    /// Run time (s) at which the slow-down starts.
+    pub at_s: f64,
+    /// Time at rest (s).
+    pub duration_s: f64,
+    /// Slow-down and speed-up time (s); default 1.
+    #[serde(default = "StopSpec::default_ramp_s")]
+    pub ramp_s: f64,
+}
+
+impl StopSpec {
+    fn default_ramp_s() -> f64 {
+        1.0
+    }
 }
 
 /// `trajectory.figure_eight`.

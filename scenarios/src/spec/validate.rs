@@ -128,6 +128,29 @@ impl Scenario {
             c.non_negative("trajectory.static_start.hold_s", ss.hold_s)?;
             c.non_negative("trajectory.static_start.ramp_s", ss.ramp_s)?;
         }
+        let mut previous_end = f64::NEG_INFINITY;
+        for (i, stop) in t.stops.iter().enumerate() {
+            let key = |k: &str| format!("trajectory.stops[{i}].{k}");
+            c.non_negative(&key("at_s"), stop.at_s)?;
+            c.non_negative(&key("duration_s"), stop.duration_s)?;
+            c.within(
+                &key("ramp_s"),
+                stop.ramp_s,
+                1e-3,
+                60.0,
+                "a ramp of 1 ms to 60 s",
+            )?;
+            if stop.at_s < previous_end {
+                return Err(self.error(
+                    &key("at_s"),
+                    format!(
+                        "expected the stops sorted and apart: this one starts at {} s, before the previous one is back to speed at {previous_end} s",
+                        stop.at_s
+                    ),
+                ));
+            }
+            previous_end = stop.at_s + stop.duration_s + 2.0 * stop.ramp_s;
+        }
         let given = t.motions_given();
         if given.len() != 1 {
             return Err(self.error(

@@ -23,7 +23,7 @@ pub mod recording;
 pub mod reference;
 pub mod spline;
 
-pub use reference::{Lissajous, RefState, Reference, StaticStart};
+pub use reference::{Lissajous, RefState, Reference, StaticStart, Stop, Stops};
 pub use spline::{PoseSample, PoseSpline, RandomWaypoints, Replay, TrajectoryError};
 
 use estimator::geometry::Pose;

@@ -246,3 +246,100 @@ impl Reference for StaticStart {
             .map(|d| d + self.hold_s + 0.5 * self.ramp_s)
     }
 }
+
+/// One stop of [`Stops`]: the motion slows to rest from `at_s` over `ramp_s`, rests for
+/// `duration_s` and speeds up again over `ramp_s`, then continues where it stopped.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stop {
+    /// Run time (s) at which the slow-down starts.
+    pub at_s: f64,
+    /// Time at rest (s).
+    pub duration_s: f64,
+    /// Slow-down and speed-up time (s), > 0.
+    pub ramp_s: f64,
+}
+
+impl Stop {
+    /// Run time (s) at which the motion is back to full speed.
+    pub fn end_s(&self) -> f64 {
+        self.at_s + self.duration_s + 2.0 * self.ramp_s
+    }
+
+    /// The interval `[start, end]` (s) during which the body is at rest.
+    pub fn rest_s(&self) -> (f64, f64) {
+        let start = self.at_s + self.ramp_s;
+        (start, start + self.duration_s)
+    }
+
+    /// `(time lost so far, warp rate τ', τ'')` at run time `t`: the rate falls along the
+    /// quintic smoothstep `1 − s(x)`, stays 0, and rises along `s(x)`.
+    fn warp(&self, t: f64) -> (f64, f64, f64) {
+        let (r, d) = (self.ramp_s, self.duration_s);
+        let smooth = |x: f64| x * x * x * (10.0 + x * (-15.0 + 6.0 * x));
+        let dsmooth = |x: f64| 30.0 * x * x * (1.0 - x) * (1.0 - x) / r;
+        // ∫₀ˣ s = x⁶ − 3x⁵ + 2.5x⁴.
+        let integral = |x: f64| x.powi(4) * (2.5 + x * (-3.0 + x));
+        let u = t - self.at_s;
+        if u <= 0.0 {
+            (0.0, 1.0, 0.0)
+        } else if u < r {
+            let x = u / r;
+            (r * integral(x), 1.0 - smooth(x), -dsmooth(x))
+        } else if u <= r + d {
+            (0.5 * r + (u - r), 0.0, 0.0)
+        } else if u < 2.0 * r + d {
+            let x = (u - r - d) / r;
+            // Lost while speeding up: ∫ (1 − s) = x − S(x).
+            (0.5 * r + d + r * (x - integral(x)), smooth(x), dsmooth(x))
+        } else {
+            (r + d, 1.0, 0.0)
+        }
+    }
+}
+
+/// Stops inserted into a motion by a smooth time warp `τ(t)`: during each [`Stop`] the body
+/// slows to rest, rests and resumes, with `τ'` and `τ''` continuous (so are velocity and
+/// acceleration). Stops must be sorted and not overlap. The state is the chain rule, as in
+/// [`StaticStart`].
+#[derive(Debug)]
+pub struct Stops {
+    /// The motion being stopped.
+    pub inner: Box<dyn Reference>,
+    /// The stops, sorted by `at_s`, each ending before the next starts.
+    pub stops: Vec<Stop>,
+}
+
+impl Stops {
+    /// `(τ, τ', τ'')` at run time `t`.
+    fn warp(&self, t: f64) -> (f64, f64, f64) {
+        let (mut lost, mut d1, mut d2) = (0.0, 1.0, 0.0);
+        for s in &self.stops {
+            let (l, r1, r2) = s.warp(t);
+            lost += l;
+            if t > s.at_s && t < s.end_s() {
+                (d1, d2) = (r1, r2);
+            }
+        }
+        (t - lost, d1, d2)
+    }
+}
+
+impl Reference for Stops {
+    fn state(&self, t: f64) -> RefState {
+        let (tau, d1, d2) = self.warp(t);
+        let r = self.inner.state(tau);
+        RefState {
+            p: r.p,
+            v: r.v * d1,
+            a: r.a * d1 * d1 + r.v * d2,
+            q: r.q,
+            omega_w: r.omega_w * d1,
+            alpha_w: r.alpha_w * d1 * d1 + r.omega_w * d2,
+        }
+    }
+
+    fn duration(&self) -> Option<f64> {
+        let lost: f64 = self.stops.iter().map(|s| s.duration_s + s.ramp_s).sum();
+        self.inner.duration().map(|d| d + lost)
+    }
+}
