@@ -279,7 +279,14 @@ impl Estimator {
                 reason: reason.to_string(),
             },
         });
-        self.window = Window::new(self.window.extrinsics.clone(), self.window.td);
+        // Estimated extrinsics return to their configured values: a failure may come from them.
+        let extrinsics = if self.config.estimate_extrinsics {
+            self.config.cameras.iter().map(|c| c.T_b_c).collect()
+        } else {
+            self.window.extrinsics.clone()
+        };
+        self.window = Window::new(extrinsics, self.window.td);
+        self.tracking_since = None;
         self.known_start = None;
         self.pending_bias_prior = false;
         self.status = Status::Initializing;

@@ -174,6 +174,8 @@ pub struct Estimator {
     /// Cameras repeating their last image.
     frozen: frozen::FrozenMonitor,
     rest_monitor: stationary::RestMonitor,
+    /// Time of the first solve of the current tracking period (IMU time, ns).
+    tracking_since: Option<i64>,
     /// Consecutive solves whose IMU factors failed the χ² test.
     imu_chi2_failures: usize,
     /// Events not yet taken.
@@ -251,6 +253,7 @@ impl Estimator {
             live_imu,
             frozen: frozen::FrozenMonitor::default(),
             rest_monitor: stationary::RestMonitor::default(),
+            tracking_since: None,
             imu_chi2_failures: 0,
             events: Vec::new(),
         })
@@ -566,6 +569,15 @@ impl Estimator {
             // persistent points instead of ending with it.
             self.window.promote_to_points(&self.config);
         }
+        // Extrinsics are free only after the warm-up (see `calibration_warmup_s`).
+        if self.status == Status::Tracking {
+            self.tracking_since.get_or_insert(t_ns);
+        } else {
+            self.tracking_since = None;
+        }
+        let warmup_ns = (self.config.calibration_warmup_s * 1e9).round() as i64;
+        self.window.estimate_extrinsics = self.config.estimate_extrinsics
+            && self.tracking_since.is_some_and(|t0| t_ns - t0 >= warmup_ns);
         let mut built = self.window.build(&self.problem_settings(), imu_active);
         let (summary, linearization) =
             solve_keeping_linearization(&mut built.problem, &self.config.solver);

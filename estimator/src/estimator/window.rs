@@ -123,6 +123,9 @@ pub(super) struct Window {
     /// Frames detected at rest (by seq) and what the IMU read there: each gets a
     /// [`ZeroVelocityFactor`].
     pub rest: BTreeMap<u64, Rest>,
+    /// Whether the extrinsics are free in the next solves (`EstimatorConfig::
+    /// estimate_extrinsics` once the warm-up is over; the estimator decides).
+    pub estimate_extrinsics: bool,
 }
 
 impl Window {
@@ -137,6 +140,7 @@ impl Window {
             points: BTreeMap::new(),
             next_point: 0,
             rest: BTreeMap::new(),
+            estimate_extrinsics: false,
         }
     }
 
@@ -195,7 +199,7 @@ impl Window {
             let b = problem
                 .add_block(&e.to_array(), pose_m.clone(), BlockKind::State)
                 .expect("finite");
-            problem.set_constant(b, !config.estimate_extrinsics);
+            problem.set_constant(b, !(self.estimate_extrinsics && imu_active));
             refs.push((BlockRef::Extrinsic(i), b));
         }
         let td_block = problem
@@ -226,6 +230,7 @@ impl Window {
             zero_velocity: Vec::new(),
             prior: None,
         };
+        self.add_extrinsic_priors(&mut built, config);
         if !imu_active {
             // Vision only: the oldest pose fixes the gauge.
             let b = built
@@ -290,6 +295,40 @@ impl Window {
         }
         self.add_visual_factors(&mut built, settings, td_block);
         built
+    }
+
+    /// With the extrinsics estimated: a prior on each camera's `T_b_c` at its configured value
+    /// (`extrinsic_prior_sigma_deg` / `_m`). It touches no state that ever leaves the window, so
+    /// marginalization never folds it into the window prior: it counts once.
+    fn add_extrinsic_priors(&self, built: &mut Built, config: &EstimatorConfig) {
+        let (wr, wt) = (
+            1.0 / config.extrinsic_prior_sigma_deg.to_radians(),
+            1.0 / config.extrinsic_prior_sigma_m,
+        );
+        for (i, camera) in config.cameras.iter().enumerate() {
+            let Some(b) = built.block(BlockRef::Extrinsic(i)) else {
+                continue;
+            };
+            if built.problem.is_constant(b) {
+                continue;
+            }
+            let mut jac = vec![0.0; 36];
+            for k in 0..3 {
+                jac[k * 6 + k] = wt;
+                jac[(3 + k) * 6 + 3 + k] = wr;
+            }
+            let prior = PriorFactor::new(
+                vec![Arc::new(PoseManifold)],
+                vec![camera.T_b_c.to_array().to_vec()],
+                jac,
+                vec![0.0; 6],
+            )
+            .expect("a 6x6 prior on a pose");
+            built
+                .problem
+                .add_factor(Arc::new(prior), None, &[b])
+                .expect("sizes match");
+        }
     }
 
     /// A [`ZeroVelocityFactor`] on the speed-bias of every window frame detected at rest.
