@@ -186,6 +186,14 @@ fn bad_datasets_name_the_file() {
         m.contains("settings.toml:2") && m.contains("window_sise"),
         "{m}"
     );
+    // `estimator` given as something other than a table: refused with its line and key (it
+    // used to be read as an empty table, silently running the defaults).
+    std::fs::write(&bad, "# settings\nestimator = 3\n").unwrap();
+    let m = message(&opts);
+    assert!(
+        m.contains("settings.toml:2") && m.contains("estimator") && m.contains("expected a table"),
+        "{m}"
+    );
 
     // No `imu0/sensor.yaml`: the noise densities are missing.
     std::fs::rename(mav0.join("imu0/sensor.yaml"), dir.join("imu.yaml")).unwrap();

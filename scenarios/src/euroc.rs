@@ -151,16 +151,20 @@ fn settings(options: &EurocOptions) -> Result<(EstimatorConfig, TrackerConfig), 
     let text = std::fs::read_to_string(path)
         .map_err(|e| input(path, format!("cannot read the settings: {e}")))?;
     let root: toml::Table = crate::spec::error::deserialize_toml(&text, &file)?;
-    let table = |v: Option<&toml::Value>| match v {
-        Some(toml::Value::Table(t)) => t.clone(),
-        _ => toml::Table::new(),
+    // An absent table keeps the defaults; anything but a table is refused with its key.
+    let table = |v: Option<&toml::Value>, key: &str| match v {
+        None => Ok(toml::Table::new()),
+        Some(toml::Value::Table(t)) => Ok(t.clone()),
+        Some(other) => Err(SpecError::at(
+            &file,
+            &text,
+            key,
+            format!("expected a table, got a {}", other.type_str()),
+        )),
     };
-    let est_table = table(root.get("estimator"));
-    let tracker_table = table(
-        root.get("camera")
-            .and_then(|c| c.as_table())
-            .and_then(|c| c.get("tracker")),
-    );
+    let est_table = table(root.get("estimator"), "estimator")?;
+    let camera = table(root.get("camera"), "camera")?;
+    let tracker_table = table(camera.get("tracker"), "camera.tracker")?;
     let (est, tracker) =
         crate::spec::overlay::estimator_and_tracker(&est_table, &tracker_table, &text, &file)?;
     est.validate_settings()
