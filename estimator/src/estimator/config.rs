@@ -501,6 +501,7 @@ impl EstimatorConfig {
         positive("zero_velocity.chi2_z", z.chi2_z)?;
         positive("zero_velocity.image_motion_sigmas", z.image_motion_sigmas)?;
         positive("zero_velocity.velocity_sigma_m_s", z.velocity_sigma_m_s)?;
+        positive("zero_velocity.max_speed_m_s", z.max_speed_m_s)?;
         let h = &self.health;
         positive("health.max_accel_bias_m_s2", h.max_accel_bias_m_s2)?;
         positive("health.max_gyro_bias_rad_s", h.max_gyro_bias_rad_s)?;
