@@ -26,12 +26,43 @@ fn rest_is_detected_from_the_imu_and_the_images_and_never_while_moving() {
     assert!(done.report.ate_rmse_m.unwrap() < 0.0095); // measured 0.0068
 }
 
+/// The default scenario with zero-velocity detection on and the figure-eight's period set.
+fn default_with_detection(period_s: f64) -> Scenario {
+    let text = scenarios::catalog::get(scenarios::catalog::DEFAULT)
+        .unwrap()
+        .text
+        .replace("period_s = 20.0", &format!("period_s = {period_s:?}"))
+        .replace(
+            "[expectations]",
+            "[estimator.zero_velocity]\nenabled = true\n\n[expectations]",
+        );
+    Scenario::parse("moving", Origin::Catalog, &text).unwrap()
+}
+
+fn run_20s(scenario: &Scenario) -> (scenarios::run::RunOutput, report::Report) {
+    let output = run(
+        scenario,
+        &RunOptions {
+            duration_s: Some(20.0),
+            ..Default::default()
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    let eval = report::evaluate(&output, scenario.spec.suite);
+    let r = report::build_report(scenario, &output, &eval);
+    (output, r)
+}
+
 #[test]
 fn nothing_is_detected_at_rest_on_a_moving_run() {
-    // The default figure-eight never stops: no frame may be called at rest.
-    let done = run_catalog("room_figure8_stereo_imu", Some(20.0));
-    assert!(done.report.rest.is_none(), "{:?}", done.report.rest);
-    assert!(done.output.frames.iter().all(|f| !f.estimate.at_rest));
+    // The default figure-eight never stops: with the detector on, no frame may be called at
+    // rest, and the run is the one without it (ATE 0.0065 m over 20 s).
+    let (output, r) = run_20s(&default_with_detection(20.0));
+    assert!(r.rest.is_none(), "{:?}", r.rest);
+    assert!(output.frames.iter().all(|f| !f.estimate.at_rest));
+    let plain = run_catalog("room_figure8_stereo_imu", Some(20.0));
+    assert_eq!(r.ate_rmse_m, plain.report.ate_rmse_m);
 }
 
 #[test]
@@ -40,23 +71,8 @@ fn a_slow_creep_is_not_called_at_rest() {
     // which the IMU and 0.25 s of 1 px features cannot tell from rest. Before the window's
     // speed was consulted every frame was declared at rest: 7 resets, ATE 0.20 m (0.012 m
     // without the factor). Now none is (seed 1, 20 s).
-    let text = scenarios::catalog::get(scenarios::catalog::DEFAULT)
-        .unwrap()
-        .text
-        .replace("period_s = 20.0", "period_s = 400.0");
-    let scenario = Scenario::parse("creep", Origin::Catalog, &text).unwrap();
-    let output = run(
-        &scenario,
-        &RunOptions {
-            duration_s: Some(20.0),
-            ..Default::default()
-        },
-        &mut |_| {},
-    )
-    .unwrap();
+    let (output, r) = run_20s(&default_with_detection(400.0));
     assert!(output.frames.iter().all(|f| !f.estimate.at_rest));
-    let eval = report::evaluate(&output, scenario.spec.suite);
-    let r = report::build_report(&scenario, &output, &eval);
     assert_eq!(r.resets, 0);
 }
 

@@ -40,7 +40,10 @@ const MIN_SHARED: usize = 10;
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ZeroVelocityConfig {
-    /// Detect rest and add zero-velocity factors (IMU suites).
+    /// Detect rest and add zero-velocity factors (IMU suites). Off by default: on the
+    /// catalog's stops it neither helped nor hurt measurably (ATE within 0.1 mm, seeds 1–3), and
+    /// a detector that is wrong once costs far more than it gains; turn it on for a platform
+    /// known to stop.
     pub enabled: bool,
     /// Time span (s) over which the IMU and the images must show rest.
     pub window_s: f64,
@@ -66,7 +69,7 @@ pub struct ZeroVelocityConfig {
 impl Default for ZeroVelocityConfig {
     fn default() -> Self {
         Self {
-            enabled: true,
+            enabled: false,
             window_s: 0.25,
             max_rate_rad_s: 0.01,
             chi2_z: 3.0,
