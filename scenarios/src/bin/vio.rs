@@ -53,7 +53,7 @@ enum Command {
         batch_reference: bool,
     },
     /// Monte-Carlo consistency: run the scenario with seeds 1..=N and write the NEES of the
-    /// observable states (body velocity, biases, roll/pitch) averaged over the runs, with their
+    /// observable states (body velocity, biases, roll/pitch, relative pose over 0.5 s) averaged over the runs, with their
     /// 95 % χ² bands, as `OUT/nees.json` and `OUT/nees.png`. Exit 1 when a time-averaged NEES
     /// leaves its band.
     Nees {
