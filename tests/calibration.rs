@@ -80,4 +80,10 @@ fn extrinsic_estimation_waits_for_its_warm_up_and_stays_near_the_truth() {
     }
     assert_eq!(r.resets, 0);
     assert!(r.ate_rmse_m.unwrap() < 0.012);
+    // A run that studies calibration draws its errors over time.
+    let dir = std::env::temp_dir().join(format!("vio-calibration-{}", std::process::id()));
+    report::write_outputs(&dir, &scenario, &output, &eval, &r).unwrap();
+    let png = std::fs::read(dir.join("calibration.png")).unwrap();
+    assert!(png.starts_with(b"\x89PNG"), "not a PNG");
+    let _ = std::fs::remove_dir_all(dir);
 }

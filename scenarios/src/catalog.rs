@@ -44,6 +44,7 @@ const ENTRIES: &[Entry] = &[
     entry!("room_figure8_time_offset_stereo_imu"),
     entry!("room_fast_rotation_imu_saturation_stereo_imu"),
     entry!("room_figure8_stops_stereo_imu"),
+    entry!("room_figure8_calibration_stereo_imu"),
     entry!("room_figure8_rendered_stereo_imu"),
     entry!("room_figure8_exposure_jump_rendered"),
     entry!("room_figure8_blur_rendered"),

@@ -301,3 +301,62 @@ fn draw_nees(title: &str, panels: &[NeesPanel], size: (u32, u32), buf: &mut [u8]
     root.present()?;
     Ok(())
 }
+
+/// One panel of a time-series plot: a caption, the y axis label and `(t s, value)` points.
+#[derive(Clone, Debug)]
+pub struct SeriesPanel {
+    /// Panel caption.
+    pub title: String,
+    /// Y axis label.
+    pub y_desc: String,
+    /// `(t s, value)`.
+    pub series: Vec<(f64, f64)>,
+}
+
+/// `calibration.png` and similar: one panel per series over time, with the zero line.
+pub fn series_png(title: &str, panels: &[SeriesPanel]) -> Result<Vec<u8>, String> {
+    let size = (1000u32, 240 * panels.len().max(1) as u32 + 60);
+    render_png(size, |buf| draw_series(title, panels, size, buf))
+}
+
+fn draw_series(
+    title: &str,
+    panels: &[SeriesPanel],
+    size: (u32, u32),
+    buf: &mut [u8],
+) -> DrawResult {
+    let root = BitMapBackend::with_buffer(buf, size).into_drawing_area();
+    root.fill(&WHITE)?;
+    let root = root.titled(title, ("sans-serif", 24).into_font())?;
+    let areas = root.split_evenly((panels.len().max(1), 1));
+    let color = RGBColor(214, 39, 40);
+    for (p, area) in panels.iter().zip(&areas) {
+        let t1 = p.series.last().map_or(1.0, |s| s.0).max(1e-3);
+        let t0 = p.series.first().map_or(0.0, |s| s.0).min(t1 - 1e-3);
+        let finite = p.series.iter().map(|s| s.1).filter(|v| v.is_finite());
+        let (lo, hi) = finite.fold((0.0f64, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
+        let pad = 0.05 * (hi - lo).max(1e-9);
+        let mut chart = ChartBuilder::on(area)
+            .caption(&p.title, ("sans-serif", 18).into_font())
+            .margin(10)
+            .x_label_area_size(30)
+            .y_label_area_size(60)
+            .build_cartesian_2d(t0..t1, (lo - pad)..(hi + pad))?;
+        chart
+            .configure_mesh()
+            .x_desc("t [s]")
+            .y_desc(p.y_desc.as_str())
+            .label_style(("sans-serif", 13))
+            .draw()?;
+        chart.draw_series(LineSeries::new(
+            [(t0, 0.0), (t1, 0.0)],
+            BLACK.stroke_width(1),
+        ))?;
+        chart.draw_series(LineSeries::new(
+            p.series.iter().copied().filter(|s| s.1.is_finite()),
+            color.stroke_width(2),
+        ))?;
+    }
+    root.present()?;
+    Ok(())
+}

@@ -89,3 +89,32 @@ pub fn calibration_report(truth: &(f64, Vec<Pose>), run: &RunOutput) -> Option<C
         history,
     })
 }
+
+/// `calibration.png`: the time-offset error and the worst camera's rotation and translation
+/// errors over the run (once per second, as in the report).
+pub fn calibration_png(scenario: &str, c: &CalibrationReport) -> Result<Vec<u8>, String> {
+    let series = |f: fn(&CalibrationSample) -> f64| -> Vec<(f64, f64)> {
+        c.history.iter().map(|s| (s.t_s, f(s))).collect()
+    };
+    let panels = [
+        crate::plot::SeriesPanel {
+            title: format!(
+                "time offset: estimated minus true (true {:.1} ms)",
+                c.td_true_ms
+            ),
+            y_desc: "td error [ms]".into(),
+            series: series(|s| s.td_error_ms),
+        },
+        crate::plot::SeriesPanel {
+            title: "extrinsic rotation error (worst camera)".into(),
+            y_desc: "[deg]".into(),
+            series: series(|s| s.rotation_error_deg),
+        },
+        crate::plot::SeriesPanel {
+            title: "extrinsic translation error (worst camera)".into(),
+            y_desc: "[mm]".into(),
+            series: series(|s| s.translation_error_mm),
+        },
+    ];
+    crate::plot::series_png(&format!("{scenario}: calibration errors"), &panels)
+}

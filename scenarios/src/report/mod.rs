@@ -696,5 +696,10 @@ pub fn write_outputs_in(
         let p = dir.join("trajectory.png");
         std::fs::write(&p, png).map_err(|e| io(&p.display().to_string(), e))?;
     }
+    if let Some(c) = &report.calibration {
+        let png = calibration::calibration_png(&report.scenario, c)?;
+        let p = dir.join("calibration.png");
+        std::fs::write(&p, png).map_err(|e| io(&p.display().to_string(), e))?;
+    }
     Ok(())
 }
