@@ -1,10 +1,12 @@
-//! Feature tracks in the window: observations per frame and the anchor's inverse depth.
+//! Feature tracks in the window: observations per frame and the anchor's inverse depth, and the
+//! estimator's conversion of a feature frame into observations.
 
 use std::collections::BTreeMap;
 
-use nalgebra::Vector2;
+use nalgebra::{Vector2, Vector3};
 
 use crate::factors::FeatureMeasurement;
+use crate::frontend::FeatureFrame;
 
 /// One frame's view of a track: left (0) and right (1) camera observations.
 #[derive(Clone, Debug)]
@@ -158,6 +160,69 @@ impl FeatureManager {
             }
         }
         (n > 0).then(|| sum / n as f64)
+    }
+}
+
+impl super::Estimator {
+    /// Undistorts a frame's features and computes their image velocities.
+    pub(super) fn observations(&self, frame: &FeatureFrame, seq: u64) -> Vec<(u64, Observation)> {
+        let mut by_id: std::collections::BTreeMap<u64, Observation> =
+            std::collections::BTreeMap::new();
+        for cf in &frame.cameras {
+            if cf.cam_id >= self.config.cameras.len() {
+                continue;
+            }
+            let model = &self.config.cameras[cf.cam_id].model;
+            for f in &cf.features {
+                if !f.uv.iter().all(|v| v.is_finite()) {
+                    continue;
+                }
+                let Some(point) = model.unproject_normalized(&f.uv) else {
+                    continue;
+                };
+                let o = by_id.entry(f.feature_id).or_insert(Observation {
+                    seq,
+                    meas: [None, None],
+                    uv: [None, None],
+                    weight: [0.0; 2],
+                });
+                let magnification = model
+                    .project_with_jacobian(&Vector3::new(point.x, point.y, 1.0))
+                    .map(|(_, j)| (j[(0, 0)] * j[(1, 1)] - j[(0, 1)] * j[(1, 0)]).abs().sqrt())
+                    .filter(|m| m.is_finite() && *m > 0.0)
+                    .unwrap_or(self.focal[cf.cam_id]);
+                o.weight[cf.cam_id] = magnification / self.config.cameras[cf.cam_id].pixel_sigma;
+                // The image velocity the time-offset model shifts the point along: the track's
+                // previous displacement, `(z_{k−1} − z_{k−2}) / Δt`, not `(z_k − z_{k−1}) / Δt`,
+                // which shares this measurement's noise with its residual and biases `td`
+                // (by about σ²/Δt / (v² + σ²/Δt²) per solve; a drift of tens of milliseconds
+                // at 1 px). Zero before the track has two earlier measurements.
+                let mut velocity = Vector2::zeros();
+                let time_of = |seq: u64| {
+                    self.window
+                        .frames
+                        .iter()
+                        .find(|w| w.seq == seq)
+                        .map(|w| w.t_ns)
+                };
+                if let [Some((s1, p1)), Some((s0, p0))] =
+                    self.window.features.last_two_in(f.feature_id, cf.cam_id)
+                    && let (Some(t1), Some(t0)) = (time_of(s1), time_of(s0))
+                {
+                    let dt = (t1 - t0) as f64 * 1e-9;
+                    if dt > 0.0 {
+                        velocity = (p1 - p0) / dt;
+                    }
+                }
+                o.meas[cf.cam_id] = Some(FeatureMeasurement {
+                    point,
+                    velocity,
+                    td: self.window.td,
+                });
+                o.uv[cf.cam_id] = Some(f.uv);
+            }
+        }
+        by_id.into_iter().collect()
     }
 }
 

@@ -84,14 +84,7 @@ mod tests {
 
     use super::*;
     use crate::problem::solver::dense_normal_equations;
-    use crate::problem::{Euclidean, LinearFactor};
-
-    fn lcg(state: &mut u64) -> f64 {
-        *state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((*state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    }
+    use crate::problem::{Euclidean, LinearFactor, test_lcg as lcg};
 
     /// States and 3-dof landmarks coupled by random linear factors, one state constant.
     fn random_problem() -> (Problem, Vec<BlockId>, Vec<BlockId>) {

@@ -24,3 +24,13 @@ pub use solver::{
     Linearization, Method, SolverOptions, SolverSummary, Termination, schur_complement_system,
     solve, solve_keeping_linearization,
 };
+
+/// Deterministic pseudo-random numbers in [−1, 1] for the unit tests (no RNG dependency in the
+/// library).
+#[cfg(test)]
+pub(crate) fn test_lcg(state: &mut u64) -> f64 {
+    *state = state
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    ((*state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+}

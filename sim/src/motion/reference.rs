@@ -189,6 +189,32 @@ impl Reference for Lissajous {
     }
 }
 
+/// The quintic smoothstep `s(x) = 6x⁵ − 15x⁴ + 10x³` on `[0, 1]`, its derivative `s'(x)` and its
+/// integral `S(x) = ∫₀ˣ s = x⁶ − 3x⁵ + 2.5x⁴` (`S(1) = 1/2`: the smoothstep is symmetric).
+fn smoothstep(x: f64) -> (f64, f64, f64) {
+    (
+        x * x * x * (10.0 + x * (-15.0 + 6.0 * x)),
+        30.0 * x * x * (1.0 - x) * (1.0 - x),
+        x.powi(4) * (2.5 + x * (-3.0 + x)),
+    )
+}
+
+impl RefState {
+    /// The state of a reference played through a time warp with rate `τ' = d1` and `τ'' = d2`
+    /// (this state taken at `τ`): the chain rule, `v = v(τ)·τ'`, `a = a(τ)·τ'² + v(τ)·τ''`, the
+    /// same for the attitude rates.
+    fn time_warped(self, d1: f64, d2: f64) -> RefState {
+        RefState {
+            p: self.p,
+            v: self.v * d1,
+            a: self.a * d1 * d1 + self.v * d2,
+            q: self.q,
+            omega_w: self.omega_w * d1,
+            alpha_w: self.alpha_w * d1 * d1 + self.omega_w * d2,
+        }
+    }
+}
+
 /// Static start: the body rests at the inner reference's initial pose for `hold_s`, then the
 /// inner motion starts through a smooth time warp.
 ///
@@ -217,11 +243,8 @@ impl StaticStart {
             // ∫₀¹ s(x) dx = 1/2 (the smoothstep is symmetric).
             (t - self.hold_s - 0.5 * self.ramp_s, 1.0, 0.0)
         } else {
-            let s = x * x * x * (10.0 + x * (-15.0 + 6.0 * x));
-            let ds = 30.0 * x * x * (1.0 - x) * (1.0 - x) / self.ramp_s;
-            // ∫₀ˣ s = x⁶ − 3x⁵ + 2.5x⁴.
-            let int = x.powi(4) * (2.5 + x * (-3.0 + x));
-            (int * self.ramp_s, s, ds)
+            let (s, ds, int) = smoothstep(x);
+            (int * self.ramp_s, s, ds / self.ramp_s)
         }
     }
 }
@@ -229,15 +252,7 @@ impl StaticStart {
 impl Reference for StaticStart {
     fn state(&self, t: f64) -> RefState {
         let (tau, d1, d2) = self.warp(t);
-        let r = self.inner.state(tau);
-        RefState {
-            p: r.p,
-            v: r.v * d1,
-            a: r.a * d1 * d1 + r.v * d2,
-            q: r.q,
-            omega_w: r.omega_w * d1,
-            alpha_w: r.alpha_w * d1 * d1 + r.omega_w * d2,
-        }
+        self.inner.state(tau).time_warped(d1, d2)
     }
 
     fn duration(&self) -> Option<f64> {
@@ -275,22 +290,19 @@ impl Stop {
     /// quintic smoothstep `1 − s(x)`, stays 0, and rises along `s(x)`.
     fn warp(&self, t: f64) -> (f64, f64, f64) {
         let (r, d) = (self.ramp_s, self.duration_s);
-        let smooth = |x: f64| x * x * x * (10.0 + x * (-15.0 + 6.0 * x));
-        let dsmooth = |x: f64| 30.0 * x * x * (1.0 - x) * (1.0 - x) / r;
-        // ∫₀ˣ s = x⁶ − 3x⁵ + 2.5x⁴.
-        let integral = |x: f64| x.powi(4) * (2.5 + x * (-3.0 + x));
         let u = t - self.at_s;
         if u <= 0.0 {
             (0.0, 1.0, 0.0)
         } else if u < r {
-            let x = u / r;
-            (r * integral(x), 1.0 - smooth(x), -dsmooth(x))
+            let (s, ds, int) = smoothstep(u / r);
+            (r * int, 1.0 - s, -ds / r)
         } else if u <= r + d {
             (0.5 * r + (u - r), 0.0, 0.0)
         } else if u < 2.0 * r + d {
             let x = (u - r - d) / r;
+            let (s, ds, int) = smoothstep(x);
             // Lost while speeding up: ∫ (1 − s) = x − S(x).
-            (0.5 * r + d + r * (x - integral(x)), smooth(x), dsmooth(x))
+            (0.5 * r + d + r * (x - int), s, ds / r)
         } else {
             (r + d, 1.0, 0.0)
         }
@@ -299,8 +311,7 @@ impl Stop {
 
 /// Stops inserted into a motion by a smooth time warp `τ(t)`: during each [`Stop`] the body
 /// slows to rest, rests and resumes, with `τ'` and `τ''` continuous (so are velocity and
-/// acceleration). Stops must be sorted and not overlap. The state is the chain rule, as in
-/// [`StaticStart`].
+/// acceleration). Stops must be sorted and not overlap.
 #[derive(Debug)]
 pub struct Stops {
     /// The motion being stopped.
@@ -327,15 +338,7 @@ impl Stops {
 impl Reference for Stops {
     fn state(&self, t: f64) -> RefState {
         let (tau, d1, d2) = self.warp(t);
-        let r = self.inner.state(tau);
-        RefState {
-            p: r.p,
-            v: r.v * d1,
-            a: r.a * d1 * d1 + r.v * d2,
-            q: r.q,
-            omega_w: r.omega_w * d1,
-            alpha_w: r.alpha_w * d1 * d1 + r.omega_w * d2,
-        }
+        self.inner.state(tau).time_warped(d1, d2)
     }
 
     fn duration(&self) -> Option<f64> {

@@ -3,9 +3,8 @@
 
 use nalgebra::DMatrix;
 
-use super::normal_equations::{NormalEquations, mirror_upper};
+use super::normal_equations::NormalEquations;
 use super::plan::{Layout, NONE};
-use super::schur::SchurScratch;
 use crate::problem::covariance::covariance_of_picks;
 use crate::problem::graph::BlockId;
 
@@ -40,22 +39,8 @@ impl Linearization {
         }) {
             return None;
         }
-        let (eqs, n) = (&self.eqs, self.eqs.n);
-        let mut h = eqs.hxx.clone();
-        let mut rhs = vec![0.0; n];
-        let mut cinv = vec![0.0; eqs.hll.len()];
-        let mut valid = vec![false; eqs.num_landmarks()];
-        eqs.eliminate(
-            0.0,
-            0.0,
-            &mut h,
-            &mut rhs,
-            &mut cinv,
-            &mut valid,
-            true,
-            &mut SchurScratch::default(),
-        );
-        mirror_upper(&mut h, n);
+        let n = self.eqs.n;
+        let (mut h, _) = self.eqs.undamped_reduced();
         let picks: Vec<(usize, usize)> = coords
             .iter()
             .enumerate()

@@ -401,6 +401,30 @@ impl NormalEquations {
     }
 }
 
+impl NormalEquations {
+    /// The undamped Schur complement onto the states: `H = H_xx − H_xl H_ll⁻¹ H_lx` (full,
+    /// row-major `n × n`) and `−g = −g_x + H_xl H_ll⁻¹ g_l`. A landmark without information
+    /// folds nothing in.
+    pub(crate) fn undamped_reduced(&self) -> (Vec<f64>, Vec<f64>) {
+        let mut h = self.hxx.clone();
+        let mut neg_g: Vec<f64> = self.gx.iter().map(|v| -v).collect();
+        let mut cinv = vec![0.0; self.hll.len()];
+        let mut valid = vec![false; self.num_landmarks()];
+        self.eliminate(
+            0.0,
+            0.0,
+            &mut h,
+            &mut neg_g,
+            &mut cinv,
+            &mut valid,
+            true,
+            &mut SchurScratch::default(),
+        );
+        mirror_upper(&mut h, self.n);
+        (h, neg_g)
+    }
+}
+
 /// The normal equations `H δ = −g` of the residuals `residual_ids` at the problem's current
 /// values over the blocks `states` (tangent coordinates stacked in this order), with the blocks
 /// `eliminated` folded in by the (undamped) Schur complement: `H = H_xx − H_xl H_ll⁻¹ H_lx`,
@@ -441,21 +465,7 @@ pub fn schur_complement_system(
     };
     let ids: Vec<usize> = residual_ids.iter().map(|r| r.0).collect();
     let eqs = linearize(problem, &layout, Some(&ids))?;
-    let mut h = eqs.hxx.clone();
-    let mut neg_g: Vec<f64> = eqs.gx.iter().map(|v| -v).collect();
-    let mut cinv = vec![0.0; eqs.hll.len()];
-    let mut valid = vec![false; eqs.num_landmarks()];
-    eqs.eliminate(
-        0.0,
-        0.0,
-        &mut h,
-        &mut neg_g,
-        &mut cinv,
-        &mut valid,
-        true,
-        &mut SchurScratch::default(),
-    );
-    mirror_upper(&mut h, n);
+    let (h, neg_g) = eqs.undamped_reduced();
     Some((
         DMatrix::from_row_slice(n, n, &h),
         DVector::from_iterator(n, neg_g.iter().map(|v| -v)),
@@ -468,15 +478,8 @@ mod tests {
 
     use super::*;
     use crate::problem::solver::dense_normal_equations;
+    use crate::problem::test_lcg as lcg;
     use crate::problem::{BlockKind, Euclidean, LinearFactor};
-
-    /// Deterministic pseudo-random numbers in [−1, 1] (no RNG dependency in the library).
-    fn lcg(state: &mut u64) -> f64 {
-        *state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((*state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    }
 
     #[test]
     fn schur_step_equals_dense_solve() {
