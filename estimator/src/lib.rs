@@ -5,6 +5,7 @@
 //!
 //! This crate knows nothing about simulation: it is the product for real sensors.
 
+pub mod aiding;
 pub mod camera;
 pub mod estimator;
 pub mod factors;

@@ -191,6 +191,8 @@ pub fn export(
                 }
             }
             Measurement::Frame(f) => frames.push(f),
+            // The EuRoC layout has no place for them.
+            Measurement::Gnss(_) | Measurement::Wheel(_) => {}
         }
     }
     stream_result(scenario, &stream)?;

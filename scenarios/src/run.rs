@@ -94,6 +94,9 @@ pub enum EventKind {
     },
     /// Marginalization failed and the estimator went on without its prior.
     PriorDropped,
+    /// The estimator aligned its world frame with the GNSS receiver's; fixes are used from
+    /// now on.
+    GnssAligned,
     /// The estimator found its window failed and restarted from its last good state.
     Reset {
         /// What failed.
@@ -332,6 +335,14 @@ pub fn run_interruptible(
                 let start = Instant::now();
                 (estimator.push_imu(s), 0.0, start)
             }
+            Some(Measurement::Gnss(fix)) => {
+                let start = Instant::now();
+                (estimator.push_gnss(fix), 0.0, start)
+            }
+            Some(Measurement::Wheel(reading)) => {
+                let start = Instant::now();
+                (estimator.push_wheel(reading), 0.0, start)
+            }
             Some(Measurement::Frame(_)) if frontend.is_some() => continue,
             Some(Measurement::Frame(f)) => {
                 // Feature-level input: the frame is already the estimator's input.
@@ -433,6 +444,7 @@ impl Recorder {
                     continue;
                 }
                 EstimatorEventKind::PriorDropped => EventKind::PriorDropped,
+                EstimatorEventKind::GnssAligned => EventKind::GnssAligned,
                 EstimatorEventKind::Reset { reason } => {
                     out.resets += 1;
                     EventKind::Reset { reason }

@@ -7,6 +7,7 @@
 
 use crate::render::{CameraImage, ImageFrame};
 use crate::rng::sensor_rng;
+use estimator::aiding::{GnssSample, WheelSample};
 use estimator::frontend::{FeatureFrame, FeatureObservation};
 use estimator::imu::ImuSample;
 use rand::RngExt;
@@ -95,6 +96,31 @@ pub enum Fault {
         imu_sigma_ns: f64,
         /// Camera stamp jitter σ (ns).
         camera_sigma_ns: f64,
+    },
+    /// No GNSS fixes on `[start_ns, end_ns)` (an end past the run: the receiver is removed).
+    GnssOutage {
+        /// Start (ns).
+        start_ns: i64,
+        /// End (ns).
+        end_ns: i64,
+    },
+    /// From `at_ns` on every fix is off by `offset_m` (a multipath or reference-station
+    /// change), while the receiver keeps reporting its usual accuracy.
+    GnssBiasJump {
+        /// Time of the jump (ns).
+        at_ns: i64,
+        /// The offset (m, receiver frame).
+        offset_m: nalgebra::Vector3<f64>,
+    },
+    /// The wheels slip on `[start_ns, end_ns)`: they report `1 + slip_ratio` times the true
+    /// forward speed.
+    WheelSlip {
+        /// Start (ns).
+        start_ns: i64,
+        /// End (ns).
+        end_ns: i64,
+        /// Relative excess speed of the wheels.
+        slip_ratio: f64,
     },
     /// Frames captured from `start_ns` on are stamped `td_ns` earlier (`t_imu = t_cam + td`),
     /// on top of the rig's own offset.
@@ -219,6 +245,36 @@ impl FaultTimeline {
         }
         s.t_ns = stamp;
         Some(s)
+    }
+
+    /// Applies the GNSS faults to a fix; `None` if it is lost.
+    pub fn apply_gnss(&self, mut s: GnssSample) -> Option<GnssSample> {
+        for f in &self.faults {
+            match *f {
+                Fault::GnssOutage { start_ns, end_ns } if active(s.t_ns, start_ns, end_ns) => {
+                    return None;
+                }
+                Fault::GnssBiasJump { at_ns, offset_m } if s.t_ns >= at_ns => s.p_g += offset_m,
+                _ => {}
+            }
+        }
+        Some(s)
+    }
+
+    /// Applies the wheel faults to a reading.
+    pub fn apply_wheel(&self, mut s: WheelSample) -> WheelSample {
+        for f in &self.faults {
+            if let Fault::WheelSlip {
+                start_ns,
+                end_ns,
+                slip_ratio,
+            } = *f
+                && active(s.t_ns, start_ns, end_ns)
+            {
+                s.speed_m_s *= 1.0 + slip_ratio;
+            }
+        }
+        s
     }
 
     /// Applies the camera faults to a frame captured at true time `t_cap` (period `period_ns`);

@@ -19,6 +19,7 @@
 //! `g = (0, 0, −9.81)`; body frame = IMU frame; poses `T_w_b`. Determinism: every random draw
 //! comes from a ChaCha8 stream derived from (seed, sensor name) ([`rng::sensor_rng`]).
 
+pub mod aiding;
 pub mod camera;
 pub mod faults;
 pub mod imu;
@@ -30,6 +31,7 @@ pub mod scene;
 pub mod stream;
 pub mod validate;
 
+use crate::aiding::{GnssConfig, GnssSim, WheelConfig, WheelSim};
 use crate::camera::{RigConfig, RigSim};
 use crate::faults::{Fault, FaultTimeline};
 use crate::imu::{ImuConfig, ImuSim};
@@ -97,6 +99,10 @@ pub struct WorldConfig {
     pub scene: SceneConfig,
     /// The camera rig, if any.
     pub rig: Option<RigConfig>,
+    /// A GNSS-like position receiver, if any.
+    pub gnss: Option<GnssConfig>,
+    /// Wheel odometry, if any.
+    pub wheel: Option<WheelConfig>,
     /// Faults applied to the stream.
     pub faults: Vec<Fault>,
     /// How long ground truth stays queryable behind the last emitted event (s).
@@ -122,6 +128,8 @@ impl Default for WorldConfig {
             imu: ImuConfig::default(),
             scene: SceneConfig::default(),
             rig: Some(RigConfig::euroc_like()),
+            gnss: None,
+            wheel: None,
             faults: Vec::new(),
             truth_retention_s: 5.0,
         }
@@ -282,7 +290,11 @@ impl World {
             .unwrap_or(0);
         let retention_ns =
             ((c.truth_retention_s * 1e9) as i64).max(longest_outage_ns + 1_000_000_000);
-        Stream::new(truth, imu, rig, faults, self.end_ns, retention_ns)
+        let aiding = stream::AidingSims {
+            gnss: c.gnss.clone().map(|g| GnssSim::new(g, c.seed)),
+            wheel: c.wheel.clone().map(|w| WheelSim::new(w, c.seed)),
+        };
+        Stream::new(truth, imu, rig, faults, self.end_ns, retention_ns).with_aiding(aiding)
     }
 }
 

@@ -5,6 +5,7 @@
 //! frames are generated on demand, and ground truth older than the retention window is dropped,
 //! so memory stays bounded however long the scenario runs.
 
+use crate::aiding::{GnssSim, WheelSim};
 use crate::camera::RigSim;
 use crate::faults::FaultTimeline;
 use crate::imu::{ImuBias, ImuSim};
@@ -12,6 +13,7 @@ use crate::motion::{Kinematics, TruthBuffer};
 use crate::render::{CameraImage, DepthImage, GrayImage, ImageFrame, RenderError, Renderer};
 use crate::render_worker::{RenderJob, RenderWorker};
 use crate::scene::Landmark;
+use estimator::aiding::{GnssSample, WheelSample};
 use estimator::frontend::FeatureFrame;
 use estimator::geometry::Pose;
 use estimator::imu::ImuSample;
@@ -28,6 +30,10 @@ pub enum Measurement {
     /// The rendered images of the same capture (rendered streams only): emitted just before
     /// the feature frame with the same stamp, with the same live cameras.
     Images(ImageFrame),
+    /// A GNSS position fix.
+    Gnss(GnssSample),
+    /// A wheel-odometry reading.
+    Wheel(WheelSample),
 }
 
 impl Measurement {
@@ -37,6 +43,8 @@ impl Measurement {
             Measurement::Imu(s) => s.t_ns,
             Measurement::Frame(f) => f.t_ns,
             Measurement::Images(f) => f.t_ns,
+            Measurement::Gnss(s) => s.t_ns,
+            Measurement::Wheel(s) => s.t_ns,
         }
     }
 }
@@ -77,6 +85,13 @@ struct PendingFrame {
     images: Option<PendingImages>,
 }
 
+/// The aiding sensors of a stream (see [`crate::aiding`]).
+#[derive(Debug, Default)]
+pub(crate) struct AidingSims {
+    pub gnss: Option<GnssSim>,
+    pub wheel: Option<WheelSim>,
+}
+
 /// The merged measurement stream of a [`crate::World`] (see [`crate::World::stream`]).
 #[derive(Debug)]
 pub struct Stream {
@@ -102,6 +117,10 @@ pub struct Stream {
     imu_done: bool,
     rig_done: bool,
     last_emitted_ns: i64,
+    aiding: AidingSims,
+    /// The next GNSS fix and wheel reading to emit (after faults).
+    gnss_next: Option<GnssSample>,
+    wheel_next: Option<WheelSample>,
 }
 
 impl Stream {
@@ -130,6 +149,41 @@ impl Stream {
             imu_done: false,
             rig_done,
             last_emitted_ns: i64::MIN,
+            aiding: AidingSims::default(),
+            gnss_next: None,
+            wheel_next: None,
+        }
+    }
+
+    /// Adds the aiding sensors.
+    pub(crate) fn with_aiding(mut self, aiding: AidingSims) -> Self {
+        self.aiding = aiding;
+        self
+    }
+
+    /// Generates the next GNSS fix and wheel reading if none is waiting (fixes lost to a fault
+    /// are skipped; nothing after the end).
+    fn fill_aiding(&mut self) {
+        while self.gnss_next.is_none() {
+            let Some(g) = self.aiding.gnss.as_mut() else {
+                break;
+            };
+            if g.next_time_ns() > self.end_ns {
+                self.aiding.gnss = None;
+                break;
+            }
+            let fix = g.next_sample(&mut self.truth);
+            self.gnss_next = self.faults.apply_gnss(fix);
+        }
+        if self.wheel_next.is_none()
+            && let Some(w) = self.aiding.wheel.as_mut()
+        {
+            if w.next_time_ns() > self.end_ns {
+                self.aiding.wheel = None;
+            } else {
+                let reading = w.next_sample(&mut self.truth);
+                self.wheel_next = Some(self.faults.apply_wheel(reading));
+            }
         }
     }
 
@@ -305,6 +359,16 @@ impl Stream {
                     )
                     .min()
                     .unwrap_or(i64::MAX),
+            )
+            .min(
+                [
+                    self.aiding.gnss.as_ref().map(|g| g.next_time_ns()),
+                    self.aiding.wheel.as_ref().map(|w| w.next_time_ns()),
+                ]
+                .into_iter()
+                .flatten()
+                .min()
+                .map_or(i64::MAX, |t| t - self.truth.step_ns()),
             );
         self.truth.trim(keep_from);
         while self.biases.len() > 2 && self.biases[1].t_ns <= keep_from {
@@ -367,16 +431,25 @@ impl Iterator for Stream {
     fn next(&mut self) -> Option<Measurement> {
         self.fill_imu();
         self.fill_frame();
-        let imu_t = self.imu_queue.front().map(|s| s.t_ns);
-        let frame_t = self.pending.front().map(|p| p.frame.t_ns);
-        let frame_first = match (imu_t, frame_t) {
-            (None, None) => return None,
-            (Some(a), Some(b)) => b < a,
-            (None, Some(_)) => true,
-            (Some(_), None) => false,
-        };
-        let out = if !frame_first {
+        self.fill_aiding();
+        // The earliest event; on equal stamps IMU, wheel, GNSS, then the frame.
+        let candidates = [
+            self.imu_queue.front().map(|s| s.t_ns),
+            self.wheel_next.map(|s| s.t_ns),
+            self.gnss_next.map(|s| s.t_ns),
+            self.pending.front().map(|p| p.frame.t_ns),
+        ];
+        let (first, _) = candidates
+            .iter()
+            .enumerate()
+            .filter_map(|(i, t)| t.map(|t| (i, t)))
+            .min_by_key(|&(i, t)| (t, i))?;
+        let out = if first == 0 {
             Measurement::Imu(self.imu_queue.pop_front()?)
+        } else if first == 1 {
+            Measurement::Wheel(self.wheel_next.take()?)
+        } else if first == 2 {
+            Measurement::Gnss(self.gnss_next.take()?)
         } else if let Some(slot) = self.pending.front_mut()?.images.take() {
             let mut images = self.take_images(slot)?;
             self.faults.apply_images(&mut images);

@@ -127,6 +127,7 @@ impl Fault {
                 start_ns, end_ns, ..
             }
             | Fault::ImuDropout { start_ns, end_ns }
+            | Fault::GnssOutage { start_ns, end_ns }
             | Fault::CameraFreeze {
                 start_ns, end_ns, ..
             } => interval(start_ns, end_ns),
@@ -177,6 +178,30 @@ impl Fault {
                 interval(start_ns, end_ns)?;
                 finite_non_negative("IMU jitter σ (ns)", imu_sigma_ns)?;
                 finite_non_negative("camera jitter σ (ns)", camera_sigma_ns)
+            }
+            Fault::GnssBiasJump { offset_m, .. } => {
+                if offset_m.iter().all(|x| x.is_finite()) {
+                    Ok(())
+                } else {
+                    Err(SimError::Config(format!(
+                        "GNSS bias jump must be finite, got {:?}",
+                        offset_m.as_slice()
+                    )))
+                }
+            }
+            Fault::WheelSlip {
+                start_ns,
+                end_ns,
+                slip_ratio,
+            } => {
+                interval(start_ns, end_ns)?;
+                within(
+                    "wheel slip ratio",
+                    slip_ratio,
+                    -1.0,
+                    10.0,
+                    "from locked wheels (-1) to spinning ten times too fast",
+                )
             }
             Fault::CameraTimeOffset { td_ns, .. } => within(
                 "camera time offset (s)",
@@ -257,6 +282,19 @@ impl WorldConfig {
             return Err(SimError::Config(format!(
                 "the scene would hold {landmarks:.3e} landmarks (density × surface area), more than the limit of {MAX_LANDMARKS:.0e}: lower the landmark density"
             )));
+        }
+        if let Some(g) = &self.gnss {
+            within("GNSS rate (Hz)", g.rate_hz, 0.01, 1000.0, "a receiver")?;
+            for x in g.sigma_m.iter() {
+                finite_positive("GNSS σ (m)", *x)?;
+            }
+            if !g.lever_arm_b.iter().all(|x| x.is_finite()) {
+                return Err(SimError::Config("GNSS lever arm must be finite".into()));
+            }
+        }
+        if let Some(w) = &self.wheel {
+            within("wheel rate (Hz)", w.rate_hz, 0.1, 10_000.0, "an odometer")?;
+            finite_non_negative("wheel speed σ (m/s)", w.sigma_m_s)?;
         }
         if let Some(rig) = &self.rig {
             within(

@@ -2,6 +2,7 @@
 
 mod common;
 
+use sim::aiding::{GnssConfig, WheelConfig};
 use sim::faults::Fault;
 use sim::stream::Measurement;
 use sim::{World, WorldConfig};
@@ -24,6 +25,11 @@ fn bits(world: &World) -> Vec<u64> {
                     }
                 }
             }
+            Measurement::Gnss(g) => {
+                out.push(g.t_ns as u64);
+                out.extend(g.p_g.iter().map(|v| v.to_bits()));
+            }
+            Measurement::Wheel(w) => out.extend([w.t_ns as u64, w.speed_m_s.to_bits()]),
             Measurement::Images(_) => panic!("images in a feature-level stream"),
         }
     }
@@ -35,6 +41,8 @@ fn config(cams: usize) -> WorldConfig {
         seed: 42,
         duration_s: 8.0,
         rig: Some(common::rig(cams)),
+        gnss: Some(GnssConfig::default()),
+        wheel: Some(WheelConfig::default()),
         ..WorldConfig::default()
     }
 }
@@ -63,15 +71,26 @@ fn adding_a_sensor_leaves_the_others_unchanged() {
             match m {
                 Measurement::Imu(s) => imu.push(s),
                 Measurement::Frame(f) => cam0.push((f.t_ns, f.cameras[0].clone())),
+                Measurement::Gnss(_) | Measurement::Wheel(_) => {}
                 Measurement::Images(_) => panic!("images in a feature-level stream"),
             }
         }
         (imu, cam0)
     };
+    let (imu0, cam0) = split(
+        &World::new(WorldConfig {
+            gnss: None,
+            wheel: None,
+            ..config(1)
+        })
+        .unwrap(),
+    );
     let (imu1, cam1) = split(&World::new(config(1)).unwrap());
     let (imu2, cam2) = split(&World::new(config(2)).unwrap());
     assert_eq!(imu1, imu2, "adding cam1 changed the IMU");
     assert_eq!(cam1, cam2, "adding cam1 changed cam0");
+    assert_eq!(imu0, imu1, "adding GNSS and wheel changed the IMU");
+    assert_eq!(cam0, cam1, "adding GNSS and wheel changed cam0");
     // Adding a random fault (its own stream) changes neither.
     let faulty = World::new(WorldConfig {
         faults: vec![Fault::FrameDrops {

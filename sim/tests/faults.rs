@@ -28,6 +28,7 @@ fn run(faults: Vec<Fault>) -> (Vec<ImuSample>, Vec<FeatureFrame>) {
             Measurement::Imu(s) => imu.push(s),
             Measurement::Frame(f) => frames.push(f),
             Measurement::Images(_) => panic!("images in a feature-level stream"),
+            Measurement::Gnss(_) | Measurement::Wheel(_) => panic!("no aiding sensor configured"),
         }
     }
     (imu, frames)

@@ -23,6 +23,7 @@ fn stream_is_ordered_and_complete_with_truth_at_frame_times() {
         match m {
             Measurement::Imu(_) => n_imu += 1,
             Measurement::Images(_) => panic!("images in a feature-level stream"),
+            Measurement::Gnss(_) | Measurement::Wheel(_) => panic!("no aiding sensor configured"),
             Measurement::Frame(f) => {
                 // Stamped td before the capture; truth queried at the capture time.
                 assert_eq!((f.t_ns + 2_500_000) % 50_000_000, 0);

@@ -2,6 +2,7 @@
 
 use std::sync::Arc;
 
+use super::aiding::{GnssConfig, WheelConfig};
 use super::health::HealthLimits;
 use super::stationary::ZeroVelocityConfig;
 use crate::camera::CameraModel;
@@ -221,6 +222,10 @@ pub struct EstimatorConfig {
     pub health: HealthLimits,
     /// Zero-velocity detection at rest and its factor.
     pub zero_velocity: ZeroVelocityConfig,
+    /// GNSS position fixes (used when fixes are pushed; IMU suites).
+    pub gnss: GnssConfig,
+    /// Wheel odometry (used when readings are pushed; IMU suites).
+    pub wheel: WheelConfig,
     /// Fewest landmark observations in the newest frame's solve for the estimate to count as
     /// tracking ([`super::Status::Tracking`]); below it the frame is reported
     /// [`super::Status::Degraded`]. Ten: well above the three points a pose needs, so a
@@ -284,6 +289,8 @@ impl EstimatorConfig {
             imu_range: None,
             health: HealthLimits::default(),
             zero_velocity: ZeroVelocityConfig::default(),
+            gnss: GnssConfig::default(),
+            wheel: WheelConfig::default(),
             min_tracking_observations: 10,
         }
     }
@@ -502,6 +509,8 @@ impl EstimatorConfig {
         positive("zero_velocity.image_motion_sigmas", z.image_motion_sigmas)?;
         positive("zero_velocity.velocity_sigma_m_s", z.velocity_sigma_m_s)?;
         positive("zero_velocity.max_speed_m_s", z.max_speed_m_s)?;
+        self.gnss.validate()?;
+        self.wheel.validate()?;
         let h = &self.health;
         positive("health.max_accel_bias_m_s2", h.max_accel_bias_m_s2)?;
         positive("health.max_gyro_bias_rad_s", h.max_gyro_bias_rad_s)?;
@@ -545,7 +554,7 @@ pub struct ConfigError {
 }
 
 impl ConfigError {
-    fn new(field: impl Into<String>, message: impl Into<String>) -> Self {
+    pub(super) fn new(field: impl Into<String>, message: impl Into<String>) -> Self {
         Self {
             field: field.into(),
             message: message.into(),
@@ -554,7 +563,7 @@ impl ConfigError {
 }
 
 /// `Ok` if `v` is finite and > 0; else an error naming `field`.
-fn positive(field: &str, v: f64) -> Result<(), ConfigError> {
+pub(super) fn positive(field: &str, v: f64) -> Result<(), ConfigError> {
     if v.is_finite() && v > 0.0 {
         Ok(())
     } else {

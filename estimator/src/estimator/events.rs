@@ -80,6 +80,9 @@ pub enum EventKind {
     },
     /// Marginalization failed: the window goes on without a prior (its information is lost).
     PriorDropped,
+    /// The GNSS alignment was initialized: fixes are factors from now on (see
+    /// `super::aiding`).
+    GnssAligned,
     /// The solved window failed a health check (see [`super::health`]) and was discarded; the
     /// estimator restarted from the last good state.
     Reset {

@@ -285,7 +285,9 @@ impl Estimator {
         } else {
             self.window.extrinsics.clone()
         };
+        let aiding = std::mem::take(&mut self.window.aiding).after_reset();
         self.window = Window::new(extrinsics, self.window.td);
+        self.window.aiding = aiding;
         self.tracking_since = None;
         self.known_start = None;
         self.pending_bias_prior = false;

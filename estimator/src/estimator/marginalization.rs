@@ -10,7 +10,7 @@ use crate::problem::{BlockId, ResidualId};
 
 /// The new prior when the oldest frame leaves with the IMU active: its pose and speed-bias, the
 /// landmarks anchored in it, and every factor touching them (the IMU factor to the next frame,
-/// its zero-velocity factor, the old prior, those landmarks' reprojections) are marginalized. Without the IMU there is no
+/// its zero-velocity, GNSS and wheel factors, the old prior, those landmarks' reprojections) are marginalized. Without the IMU there is no
 /// prior (vision only: the oldest remaining pose fixes the gauge).
 pub(super) fn prior_without_oldest(
     window: &Window,
@@ -32,7 +32,7 @@ pub(super) fn prior_without_oldest(
         .collect();
     residuals.extend(
         built
-            .zero_velocity
+            .frame_factors
             .iter()
             .filter(|(_, seq)| *seq == oldest)
             .map(|(r, _)| *r),

@@ -12,6 +12,7 @@
 //! visual-inertial alignment, the world is rotated so gravity is −z, and IMU factors are used
 //! from then on.
 
+mod aiding;
 mod batch;
 pub mod config;
 mod covariance;
@@ -32,6 +33,7 @@ use std::time::Instant;
 
 use nalgebra::{DMatrix, UnitQuaternion, Vector3};
 
+pub use aiding::{GnssAlignment, GnssConfig, WheelConfig};
 use batch::History;
 pub use config::{
     CameraConfig, ConfigError, EstimatorConfig, MAX_PERSISTENT_POINTS, MAX_WINDOW_SIZE, Suite,
@@ -43,6 +45,7 @@ use imu_buffer::ImuBuffer;
 pub use stationary::{ZeroVelocityConfig, ZeroVelocityFactor};
 use window::{ProblemSettings, Window, WindowFrame};
 
+use crate::aiding::{AidingError, GnssSample, WheelSample};
 use crate::frontend::FeatureFrame;
 use crate::geometry::Pose;
 use crate::imu::{ImuError, ImuSample};
@@ -118,6 +121,8 @@ pub struct Estimate {
     /// With `EstimatorConfig::compute_covariance`: the newest pose relative to the window frame
     /// closest to `relative_pose_interval_s` before it, with its marginal covariance.
     pub relative_pose: Option<RelativePose>,
+    /// `T_g_w`, the odometry's world frame in the GNSS receiver's frame, once aligned.
+    pub gnss_alignment: Option<GnssAlignment>,
 }
 
 /// Errors from the estimator's inputs.
@@ -137,6 +142,9 @@ pub enum EstimatorError {
     /// The configuration is unusable.
     #[error("invalid estimator configuration: {0}")]
     Config(String),
+    /// A GNSS fix or wheel reading was rejected.
+    #[error(transparent)]
+    Aiding(#[from] AidingError),
 }
 
 /// The sliding-window visual(-inertial) odometry estimator.
@@ -313,6 +321,20 @@ impl Estimator {
         self.report_excluded();
         self.monitor_sensors(sample.t_ns);
         self.drain_pending()
+    }
+
+    /// Adds a GNSS position fix (used by IMU suites; see [`GnssConfig`]). Fixes are buffered:
+    /// no estimate comes out of this call.
+    pub fn push_gnss(&mut self, fix: GnssSample) -> Result<Vec<Estimate>, EstimatorError> {
+        self.window.aiding.push_gnss(fix)?;
+        Ok(Vec::new())
+    }
+
+    /// Adds a wheel-odometry reading (used by IMU suites; see [`WheelConfig`]). Buffered: no
+    /// estimate comes out of this call.
+    pub fn push_wheel(&mut self, reading: WheelSample) -> Result<Vec<Estimate>, EstimatorError> {
+        self.window.aiding.push_wheel(reading)?;
+        Ok(Vec::new())
     }
 
     /// Ends the data: the last IMU samples are judged (see
@@ -594,6 +616,12 @@ impl Estimator {
             }
             _ => (None, None),
         };
+        if imu_active && self.window.collect_for_alignment(&self.config) {
+            self.events.push(Event {
+                t_ns,
+                kind: EventKind::GnssAligned,
+            });
+        }
         let landmarks = built.landmarks.len() + built.points.len();
         let newest_observations = self.window.newest_observations(&built);
         // The newest frame's state and (not yet merged) IMU interval, as solved.
@@ -705,6 +733,7 @@ impl Estimator {
             marginalization_s: solved.as_ref().map_or(0.0, |s| s.marginalization_s),
             at_rest: self.window.rest.contains_key(&newest.seq),
             relative_pose: solved.as_ref().and_then(|s| s.relative_pose.clone()),
+            gnss_alignment: self.window.aiding.alignment(),
             covariance: solved.and_then(|s| s.covariance),
         }
     }

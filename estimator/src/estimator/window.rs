@@ -10,6 +10,7 @@ use std::sync::Arc;
 
 use nalgebra::Vector3;
 
+use super::aiding::Aiding;
 use super::config::EstimatorConfig;
 use super::features::{FeatureManager, Track};
 use super::stationary::{Rest, ZeroVelocityFactor};
@@ -46,6 +47,8 @@ pub(super) enum BlockRef {
     Td,
     /// A persistent world point (`Window::points` key).
     Point(u64),
+    /// The GNSS alignment `T_g_w` (see [`super::aiding`]).
+    GnssAlignment,
 }
 
 /// The marginalization prior and the window states it constrains, in its block order.
@@ -65,8 +68,9 @@ pub(super) struct Built {
     pub points: Vec<(u64, BlockId)>,
     /// (residual, point key, frame seq) of every observation of a persistent world point.
     pub point_obs: Vec<(ResidualId, u64, u64)>,
-    /// (zero-velocity factor, frame seq).
-    pub zero_velocity: Vec<(ResidualId, u64)>,
+    /// (factor, frame seq) of the factors on one frame's states (zero velocity, GNSS, wheel):
+    /// they go into the prior with their frame.
+    pub frame_factors: Vec<(ResidualId, u64)>,
     pub prior: Option<ResidualId>,
 }
 
@@ -126,6 +130,8 @@ pub(super) struct Window {
     /// Whether the extrinsics are free in the next solves (`EstimatorConfig::
     /// estimate_extrinsics` once the warm-up is over; the estimator decides).
     pub estimate_extrinsics: bool,
+    /// GNSS fixes, wheel readings and the GNSS alignment.
+    pub aiding: Aiding,
 }
 
 impl Window {
@@ -141,6 +147,7 @@ impl Window {
             next_point: 0,
             rest: BTreeMap::new(),
             estimate_extrinsics: false,
+            aiding: Aiding::default(),
         }
     }
 
@@ -227,10 +234,13 @@ impl Window {
             visual: Vec::new(),
             points,
             point_obs: Vec::new(),
-            zero_velocity: Vec::new(),
+            frame_factors: Vec::new(),
             prior: None,
         };
         self.add_extrinsic_priors(&mut built, config);
+        if imu_active {
+            self.add_alignment_block(&mut built);
+        }
         if !imu_active {
             // Vision only: the oldest pose fixes the gauge.
             let b = built
@@ -292,6 +302,7 @@ impl Window {
         }
         if imu_active {
             self.add_zero_velocity_factors(&mut built, config);
+            self.add_aiding_factors(&mut built, config);
         }
         self.add_visual_factors(&mut built, settings, td_block);
         built
@@ -346,7 +357,7 @@ impl Window {
                 .problem
                 .add_factor(Arc::new(f), None, &[sb])
                 .expect("sizes match");
-            built.zero_velocity.push((r, *seq));
+            built.frame_factors.push((r, *seq));
         }
     }
 
@@ -586,6 +597,7 @@ impl Window {
         if let Some(b) = built.block(BlockRef::Td) {
             self.td = built.problem.values(b)[0];
         }
+        self.write_back_alignment(built);
         for (k, b) in &built.points {
             if let Some(x) = self.points.get_mut(k) {
                 let v = built.problem.values(*b);
@@ -660,7 +672,9 @@ impl Window {
                 }
             }
         }
-        self.frames.pop_front().expect("non-empty window")
+        let removed = self.frames.pop_front().expect("non-empty window");
+        self.trim_aiding(&removed);
+        removed
     }
 
     /// Removes the second-newest frame and returns it: its IMU interval is merged into the

@@ -54,9 +54,11 @@ use crate::run::{EventKind, RunOutput};
 use crate::spec::{Bound, Scenario, SuiteSpec};
 
 mod calibration;
+mod gnss;
 mod rest;
 mod summary;
 pub use calibration::{CalibrationReport, CalibrationSample, ExtrinsicError};
+pub use gnss::{GnssReport, gnss_report};
 pub use rest::{RestInterval, RestReport, rest_report};
 pub use summary::summary;
 
@@ -394,6 +396,9 @@ pub struct Report {
     /// Zero-velocity detection against the truth and the drift during rests (`null` when the
     /// body never rests and nothing was detected, or without ground truth).
     pub rest: Option<RestReport>,
+    /// The fused position in the GNSS receiver's frame against the truth (`null` unless the
+    /// estimator aligned with a receiver, or without ground truth).
+    pub gnss: Option<GnssReport>,
     /// Simulated time (s) at which the run was interrupted (Ctrl-C); `null` when complete. An
     /// interrupted run does not pass.
     pub interrupted_at_s: Option<f64>,
@@ -430,6 +435,8 @@ impl Report {
             "frontend_track_error_p95_px" => self.frontend.map(|f| f.track_error_p95_px),
             "frontend_wrong_after_ransac" => self.frontend.map(|f| f.wrong_after_ransac),
             "frontend_stereo_error_median_px" => self.frontend.map(|f| f.stereo_error_median_px),
+            "gnss_global_rmse_m" => self.gnss.as_ref().map(|g| g.global_rmse_m),
+            "gnss_aligned_at_s" => self.gnss.as_ref().map(|g| g.aligned_at_s),
             _ => None,
         }
     }
@@ -465,6 +472,7 @@ pub fn build_report_in(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> 
                     ("suite_switch", format!("{from} -> {to} ({reason})"))
                 }
                 EventKind::PriorDropped => ("prior_dropped", String::new()),
+                EventKind::GnssAligned => ("gnss_aligned", String::new()),
                 EventKind::Reset { reason } => ("reset", reason.clone()),
             };
             EventReport {
@@ -545,6 +553,7 @@ pub fn build_report_in(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> 
             .as_ref()
             .and_then(|t| calibration::calibration_report(t, run)),
         rest: rest::rest_report(run).filter(|_| ctx.ground_truth),
+        gnss: gnss::gnss_report(run).filter(|_| ctx.ground_truth),
         interrupted_at_s: run.interrupted_at_s,
         expectations: Vec::new(),
         passed: true,

@@ -86,6 +86,13 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
                 .map_or("-".to_string(), |d| format!("{:.1} mm", d * 1e3))
         );
     }
+    if let Some(g) = &r.gnss {
+        let _ = writeln!(
+            s,
+            "gnss          aligned at {:.1} s; global position error (no trajectory alignment) RMSE {:.3} m, max {:.3} m, final {:.3} m",
+            g.aligned_at_s, g.global_rmse_m, g.global_max_m, g.global_final_m
+        );
+    }
     if let Some(p) = &r.replay {
         let _ = writeln!(
             s,

@@ -145,7 +145,7 @@ impl Scenario {
         let key = |k: &str| format!("faults[{i}].{k}");
         let ns = |s: f64| (s * 1e9).round() as i64;
         // (present, name) of every optional key, to reject keys the kind does not take.
-        let present: [(&str, bool); 13] = [
+        let present: [(&str, bool); 15] = [
             ("start_s", f.start_s.is_some()),
             ("end_s", f.end_s.is_some()),
             ("at_s", f.at_s.is_some()),
@@ -159,6 +159,8 @@ impl Scenario {
             ("imu_sigma_s", f.imu_sigma_s.is_some()),
             ("camera_sigma_s", f.camera_sigma_s.is_some()),
             ("td_s", f.td_s.is_some()),
+            ("offset_m", f.offset_m.is_some()),
+            ("slip_ratio", f.slip_ratio.is_some()),
         ];
         let (required, optional): (&[&str], &[&str]) = match f.kind {
             FaultKind::CameraBlackout => (&["start_s", "end_s"], &["black_frames"]),
@@ -184,6 +186,9 @@ impl Scenario {
                 (&["start_s", "end_s"], &["imu_sigma_s", "camera_sigma_s"])
             }
             FaultKind::CameraTimeOffset => (&["at_s", "td_s"], &[]),
+            FaultKind::GnssOutage => (&["start_s", "end_s"], &[]),
+            FaultKind::GnssBiasJump => (&["at_s", "offset_m"], &[]),
+            FaultKind::WheelSlip => (&["start_s", "end_s", "slip_ratio"], &[]),
         };
         for (name, p) in present {
             let req = required.contains(&name);
@@ -235,6 +240,7 @@ impl Scenario {
             ("imu_sigma_s", f.imu_sigma_s, 0.0, 0.1),
             ("camera_sigma_s", f.camera_sigma_s, 0.0, 0.1),
             ("td_s", f.td_s, -1.0, 1.0),
+            ("slip_ratio", f.slip_ratio, -1.0, 10.0),
         ] {
             if let Some(v) = v
                 && !(v.is_finite() && v >= lo && v <= hi)
@@ -265,8 +271,26 @@ impl Scenario {
                 format!("expected a camera index < {}", self.spec.rig.cameras.len()),
             ));
         }
+        if let Some(o) = f.offset_m
+            && !o.iter().all(|x| x.is_finite() && x.abs() <= 1e4)
+        {
+            return Err(self.error(
+                &key("offset_m"),
+                format!("expected finite offsets within ±10 km, got {o:?}"),
+            ));
+        }
         let (start_ns, end_ns) = (ns(start), ns(end));
         let fault = match f.kind {
+            FaultKind::GnssOutage => Fault::GnssOutage { start_ns, end_ns },
+            FaultKind::GnssBiasJump => Fault::GnssBiasJump {
+                at_ns: ns(f.at_s.unwrap_or(0.0)),
+                offset_m: Vector3::from(f.offset_m.unwrap_or_default()),
+            },
+            FaultKind::WheelSlip => Fault::WheelSlip {
+                start_ns,
+                end_ns,
+                slip_ratio: f.slip_ratio.unwrap_or(0.0),
+            },
             FaultKind::CameraBlackout => Fault::CameraBlackout {
                 start_ns,
                 end_ns,
@@ -344,6 +368,16 @@ impl Scenario {
                 f.half_width_m,
                 f.half_height_m,
                 f.period_s,
+            )));
+        }
+        if let Some(g) = t.ground_vehicle {
+            return Ok(TrajectoryConfig::Reference(std::sync::Arc::new(
+                sim::motion::GroundVehicle {
+                    center: v(g.center),
+                    half_width_m: g.half_width_m,
+                    half_height_m: g.half_height_m,
+                    period_s: g.period_s,
+                },
             )));
         }
         if let Some(c) = t.circle {
@@ -528,6 +562,17 @@ impl Scenario {
             imu: imu_cfg,
             scene,
             rig: Some(rig),
+            gnss: s.rig.gnss.map(|g| sim::aiding::GnssConfig {
+                rate_hz: g.rate_hz,
+                sigma_m: Vector3::from(g.sigma_m),
+                lever_arm_b: Vector3::from(g.lever_arm_m),
+                ..Default::default()
+            }),
+            wheel: s.rig.wheel.map(|w| sim::aiding::WheelConfig {
+                rate_hz: w.rate_hz,
+                sigma_m_s: w.sigma_m_s,
+                ..Default::default()
+            }),
             faults,
             ..WorldConfig::default()
         })
@@ -616,6 +661,10 @@ impl Scenario {
             imu_noise: self.imu_noise(),
             ..self.settings.clone()
         };
+        // The antenna's lever arm is part of the rig.
+        if let Some(g) = s.rig.gnss {
+            cfg.gnss.lever_arm_m = g.lever_arm_m;
+        }
         // The IMU's datasheet ranges: the estimator treats readings on them as clipped.
         let imu = &s.rig.imu;
         if cfg.imu_range.is_none()

@@ -193,6 +193,24 @@ pub struct TrajectorySpec {
     pub waypoints: Option<WaypointsSpec>,
     /// Replay of a TUM or EuRoC ASL ground-truth file.
     pub replay: Option<ReplaySpec>,
+    /// A ground vehicle's horizontal figure-eight, heading along its velocity.
+    pub ground_vehicle: Option<GroundVehicleSpec>,
+}
+
+/// `trajectory.ground_vehicle`: `x = cx + a·sin(ωt)`, `y = cy + b·sin(2ωt)` at height `cz`,
+/// level, the body's x axis along the velocity (see [`sim::motion::GroundVehicle`]).
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GroundVehicleSpec {
+    /// Centre (m); `z` is the body's height.
+    #[serde(deserialize_with = "exact::array")]
+    pub center: [f64; 3],
+    /// Half extent along x (m).
+    pub half_width_m: f64,
+    /// Half extent along y (m).
+    pub half_height_m: f64,
+    /// One loop (s).
+    pub period_s: f64,
 }
 
 impl TrajectorySpec {
@@ -205,6 +223,7 @@ impl TrajectorySpec {
             ("lissajous", self.lissajous.is_some()),
             ("waypoints", self.waypoints.is_some()),
             ("replay", self.replay.is_some()),
+            ("ground_vehicle", self.ground_vehicle.is_some()),
         ]
         .into_iter()
         .filter_map(|(n, g)| g.then_some(n))
@@ -406,6 +425,35 @@ pub struct RigSpec {
     pub imu: ImuSpec,
     /// Kalibr calibration files instead of `[[rig.cameras]]` / `[rig.imu]`.
     pub kalibr: Option<KalibrSpec>,
+    /// A GNSS-like position receiver (its frame is the simulator's world frame).
+    pub gnss: Option<GnssSpec>,
+    /// Wheel odometry (forward speed of the body origin).
+    pub wheel: Option<WheelSpec>,
+}
+
+/// `[rig.gnss]`.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GnssSpec {
+    /// Fix rate (Hz).
+    pub rate_hz: f64,
+    /// White noise σ east / north / up (m), also the reported accuracy.
+    #[serde(deserialize_with = "exact::array")]
+    pub sigma_m: [f64; 3],
+    /// Antenna position in the body frame (m).
+    #[serde(default)]
+    #[serde(deserialize_with = "exact::array")]
+    pub lever_arm_m: [f64; 3],
+}
+
+/// `[rig.wheel]`.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WheelSpec {
+    /// Reading rate (Hz).
+    pub rate_hz: f64,
+    /// White noise σ of the speed (m/s).
+    pub sigma_m_s: f64,
 }
 
 /// `rig.kalibr`: a Kalibr calibration as the rig (see [`crate::dataset::kalibr`]).
@@ -570,6 +618,12 @@ pub enum FaultKind {
     TimestampJitter,
     /// Frames stamped `td_s` earlier from `at_s` on.
     CameraTimeOffset,
+    /// No GNSS fixes on `[start_s, end_s)` (an end past the run removes the receiver).
+    GnssOutage,
+    /// Every GNSS fix off by `offset_m` from `at_s` on.
+    GnssBiasJump,
+    /// The wheels report `1 + slip_ratio` times the speed on `[start_s, end_s)`.
+    WheelSlip,
 }
 
 /// One `[[faults]]` entry: a kind and the keys that kind takes.
@@ -604,6 +658,10 @@ pub struct FaultSpec {
     pub camera_sigma_s: Option<f64>,
     /// Time offset (s, `camera_time_offset`).
     pub td_s: Option<f64>,
+    /// Position offset (m, `gnss_bias_jump`).
+    pub offset_m: Option<[f64; 3]>,
+    /// Relative excess wheel speed (`wheel_slip`).
+    pub slip_ratio: Option<f64>,
 }
 
 /// A bound on a metric: `min ≤ value ≤ max`, either side optional.
@@ -664,6 +722,11 @@ pub struct ExpectationsSpec {
     pub frontend_wrong_after_ransac: Option<Bound>,
     /// Median stereo match error (px).
     pub frontend_stereo_error_median_px: Option<Bound>,
+    /// RMS of the position error in the GNSS frame through the estimated alignment, no
+    /// trajectory alignment (m; frames after the GNSS alignment).
+    pub gnss_global_rmse_m: Option<Bound>,
+    /// Time (s) at which the GNSS alignment was initialized.
+    pub gnss_aligned_at_s: Option<Bound>,
 }
 
 impl ExpectationsSpec {
@@ -698,6 +761,8 @@ impl ExpectationsSpec {
                 "frontend_stereo_error_median_px",
                 self.frontend_stereo_error_median_px,
             ),
+            ("gnss_global_rmse_m", self.gnss_global_rmse_m),
+            ("gnss_aligned_at_s", self.gnss_aligned_at_s),
         ]
         .into_iter()
         .filter_map(|(n, b)| b.map(|b| (n, b)))

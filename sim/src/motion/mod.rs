@@ -22,9 +22,11 @@
 pub mod recording;
 pub mod reference;
 pub mod spline;
+pub mod vehicle;
 
 pub use reference::{Lissajous, RefState, Reference, StaticStart, Stop, Stops};
 pub use spline::{PoseSample, PoseSpline, RandomWaypoints, Replay, TrajectoryError};
+pub use vehicle::GroundVehicle;
 
 use estimator::geometry::Pose;
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};

@@ -1,0 +1,544 @@
+//! GNSS position fixes and wheel odometry in the sliding window: they are factors over the same
+//! frame states as the camera and IMU factors ([`GnssPositionFactor`], [`BodyVelocityFactor`]),
+//! not a separate pose graph.
+//!
+//! - **Association.** Measurements are buffered in the window ([`Aiding`]) and attached to frames
+//!   when the window problem is built: a GNSS fix to the window frame nearest in time (within
+//!   `GnssConfig::max_dt_s`, its position carried along the frame's velocity), a frame to the
+//!   wheel speed interpolated at its time between the two readings around it. A frame that
+//!   leaves the window as a non-keyframe takes no measurement with it (they re-attach to the
+//!   frames that stay, or are not used); one that is marginalized takes its factors into the
+//!   prior, and its measurements leave the buffer.
+//! - **The GNSS frame.** The receiver's frame `g` and the odometry's world frame `w` are both
+//!   gravity-aligned, so they differ by a yaw and a translation: the 4-dof alignment
+//!   `T_g_w = [t, ψ]`, a state of the window (never marginalized; carried through the prior like
+//!   the extrinsics). It is initialized in closed form once the fixes, paired with the causal
+//!   estimates at their times, span `align_min_spread_m` horizontally; that solution enters as a
+//!   prior on the alignment with its own covariance, so the switch moves no state: the odometry
+//!   keeps its world frame, and from then on the fixes pull the window through the alignment.
+//!   Before it, fixes are only collected.
+//! - **Vision-only suites** use neither sensor (the factors need the frames' velocities).
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+
+use nalgebra::{Vector2, Vector3};
+
+use super::config::{ConfigError, EstimatorConfig};
+use super::window::{BlockRef, Built, Window, WindowFrame};
+use crate::aiding::{GnssSample, WheelSample};
+use crate::factors::{ALIGNMENT_SIZE, BodyVelocityFactor, GnssPositionFactor, yaw_rotation};
+use crate::problem::{Euclidean, HuberLoss, LossFunction, PriorFactor};
+
+/// GNSS settings (`[estimator.gnss]`).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GnssConfig {
+    /// Antenna position in the body frame (m). A scenario sets it from its `[rig.gnss]`.
+    pub lever_arm_m: [f64; 3],
+    /// Largest time between a fix and the frame it is attached to (s).
+    pub max_dt_s: f64,
+    /// Huber threshold of the fixes, in standard deviations (a bias jump or multipath).
+    pub huber_sigmas: f64,
+    /// Fewest fixes before the alignment is initialized.
+    pub align_min_fixes: usize,
+    /// Smallest horizontal RMS spread (m) of the estimated antenna positions of those fixes
+    /// around their mean: the yaw is known to about `σ / (spread·√N)`.
+    pub align_min_spread_m: f64,
+    /// The initial alignment's standard deviations are its least-squares ones times this (the
+    /// odometry drifts while the fixes are collected).
+    pub align_sigma_inflation: f64,
+    /// Most fix/estimate pairs kept for the alignment (the oldest go first).
+    pub align_max_fixes: usize,
+}
+
+impl Default for GnssConfig {
+    fn default() -> Self {
+        Self {
+            lever_arm_m: [0.0; 3],
+            max_dt_s: 0.03,
+            huber_sigmas: 3.0,
+            align_min_fixes: 20,
+            align_min_spread_m: 5.0,
+            align_sigma_inflation: 2.0,
+            align_max_fixes: 2000,
+        }
+    }
+}
+
+/// Wheel-odometry settings (`[estimator.wheel]`).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct WheelConfig {
+    /// σ of the forward speed (m/s).
+    pub speed_sigma_m_s: f64,
+    /// σ of the lateral and vertical body velocity, the non-holonomic constraint (m/s).
+    pub lateral_sigma_m_s: f64,
+    /// Huber threshold, in standard deviations (wheel slip).
+    pub huber_sigmas: f64,
+    /// Largest gap (s) between the two readings a frame's speed is interpolated from.
+    pub max_gap_s: f64,
+}
+
+impl Default for WheelConfig {
+    fn default() -> Self {
+        Self {
+            speed_sigma_m_s: 0.05,
+            lateral_sigma_m_s: 0.05,
+            huber_sigmas: 3.0,
+            max_gap_s: 0.1,
+        }
+    }
+}
+
+impl GnssConfig {
+    /// Range checks, naming the field.
+    pub(super) fn validate(&self) -> Result<(), ConfigError> {
+        if !self.lever_arm_m.iter().all(|x| x.is_finite()) {
+            return Err(ConfigError::new("gnss.lever_arm_m", "expected finite numbers"));
+        }
+        for (k, v) in [
+            ("gnss.max_dt_s", self.max_dt_s),
+            ("gnss.huber_sigmas", self.huber_sigmas),
+            ("gnss.align_min_spread_m", self.align_min_spread_m),
+            ("gnss.align_sigma_inflation", self.align_sigma_inflation),
+        ] {
+            super::config::positive(k, v)?;
+        }
+        if self.align_min_fixes < 2 || self.align_max_fixes < self.align_min_fixes {
+            return Err(ConfigError::new(
+                "gnss.align_min_fixes",
+                format!(
+                    "expected 2 ≤ align_min_fixes ≤ align_max_fixes, got {} and {}",
+                    self.align_min_fixes, self.align_max_fixes
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl WheelConfig {
+    /// Range checks, naming the field.
+    pub(super) fn validate(&self) -> Result<(), ConfigError> {
+        for (k, v) in [
+            ("wheel.speed_sigma_m_s", self.speed_sigma_m_s),
+            ("wheel.lateral_sigma_m_s", self.lateral_sigma_m_s),
+            ("wheel.huber_sigmas", self.huber_sigmas),
+            ("wheel.max_gap_s", self.max_gap_s),
+        ] {
+            super::config::positive(k, v)?;
+        }
+        Ok(())
+    }
+}
+
+/// The 4-dof transform `T_g_w` from the odometry's world frame to the GNSS receiver's frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GnssAlignment {
+    /// Translation (m).
+    pub t: Vector3<f64>,
+    /// Yaw (rad).
+    pub yaw: f64,
+}
+
+impl GnssAlignment {
+    /// A world point in the receiver's frame.
+    pub fn to_gnss(&self, p_w: &Vector3<f64>) -> Vector3<f64> {
+        yaw_rotation(self.yaw).0 * p_w + self.t
+    }
+
+    fn to_array(self) -> [f64; ALIGNMENT_SIZE] {
+        [self.t.x, self.t.y, self.t.z, self.yaw]
+    }
+
+    fn from_slice(v: &[f64]) -> Self {
+        Self {
+            t: Vector3::new(v[0], v[1], v[2]),
+            yaw: v[3],
+        }
+    }
+}
+
+/// A fix paired with the causal estimate of the antenna at its time (alignment input).
+#[derive(Clone, Copy, Debug)]
+struct FixPair {
+    antenna_w: Vector3<f64>,
+    fix: GnssSample,
+}
+
+/// The aiding sensors' part of the window: buffered measurements, the alignment and what its
+/// initialization collects.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Aiding {
+    /// GNSS fixes not yet marginalized, in time order.
+    gnss: VecDeque<GnssSample>,
+    /// Wheel readings from just before the oldest window frame on, in time order.
+    wheel: VecDeque<WheelSample>,
+    /// The alignment state and the prior of its initialization.
+    alignment: Option<(GnssAlignment, Arc<PriorFactor>)>,
+    /// Fix/estimate pairs for the initialization (until it succeeds).
+    pairs: VecDeque<FixPair>,
+    /// Fixes up to this time have been paired.
+    paired_until_ns: i64,
+    /// Newest sample times (order checks).
+    last_gnss_ns: Option<i64>,
+    last_wheel_ns: Option<i64>,
+}
+
+impl Aiding {
+    /// Buffers a fix (refused when invalid or out of order).
+    pub fn push_gnss(&mut self, s: GnssSample) -> Result<(), crate::aiding::AidingError> {
+        s.validate()?;
+        check_order("gnss", &mut self.last_gnss_ns, s.t_ns)?;
+        self.gnss.push_back(s);
+        Ok(())
+    }
+
+    /// Buffers a wheel reading (refused when invalid or out of order).
+    pub fn push_wheel(&mut self, s: WheelSample) -> Result<(), crate::aiding::AidingError> {
+        s.validate()?;
+        check_order("wheel", &mut self.last_wheel_ns, s.t_ns)?;
+        self.wheel.push_back(s);
+        Ok(())
+    }
+
+    /// The current alignment, once initialized.
+    pub fn alignment(&self) -> Option<GnssAlignment> {
+        self.alignment.as_ref().map(|(a, _)| *a)
+    }
+
+    /// What survives a reset: the buffers, the alignment (the world frame is kept) and its
+    /// initialization prior; the information the window had gathered on it is lost.
+    pub fn after_reset(self) -> Self {
+        self
+    }
+}
+
+fn check_order(
+    sensor: &'static str,
+    last: &mut Option<i64>,
+    t_ns: i64,
+) -> Result<(), crate::aiding::AidingError> {
+    if let Some(prev) = *last
+        && t_ns <= prev
+    {
+        return Err(crate::aiding::AidingError::NonIncreasing {
+            sensor,
+            t_ns,
+            prev_t_ns: prev,
+        });
+    }
+    *last = Some(t_ns);
+    Ok(())
+}
+
+/// The window frame nearest to `t_ns` within `max_dt_s`: (index, fix time − frame time in s).
+fn nearest_frame(
+    frames: &VecDeque<WindowFrame>,
+    t_ns: i64,
+    max_dt_s: f64,
+) -> Option<(usize, f64)> {
+    let i = frames.partition_point(|f| f.t_ns < t_ns);
+    [i.checked_sub(1), (i < frames.len()).then_some(i)]
+        .into_iter()
+        .flatten()
+        .map(|k| (k, (t_ns - frames[k].t_ns) as f64 * 1e-9))
+        .filter(|(_, dt)| dt.abs() <= max_dt_s)
+        .min_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+}
+
+/// The wheel speed at `t_ns`, interpolated between the readings around it (at most `max_gap_s`
+/// apart).
+fn wheel_speed_at(wheel: &VecDeque<WheelSample>, t_ns: i64, max_gap_s: f64) -> Option<f64> {
+    let i = wheel.partition_point(|s| s.t_ns < t_ns);
+    let b = wheel.get(i)?;
+    if b.t_ns == t_ns {
+        return Some(b.speed_m_s);
+    }
+    let a = wheel.get(i.checked_sub(1)?)?;
+    let gap = (b.t_ns - a.t_ns) as f64;
+    if gap * 1e-9 > max_gap_s {
+        return None;
+    }
+    let f = (t_ns - a.t_ns) as f64 / gap;
+    Some(a.speed_m_s + f * (b.speed_m_s - a.speed_m_s))
+}
+
+impl Window {
+    /// Adds the alignment block (once initialized) with its initialization prior; called by
+    /// `build` before the marginalization prior, which may refer to the block.
+    pub(super) fn add_alignment_block(&self, built: &mut Built) {
+        let Some((a, prior)) = &self.aiding.alignment else {
+            return;
+        };
+        let b = built
+            .problem
+            .add_block(
+                &a.to_array(),
+                Arc::new(Euclidean::new(ALIGNMENT_SIZE)),
+                crate::problem::BlockKind::State,
+            )
+            .expect("finite alignment");
+        built.refs.push((BlockRef::GnssAlignment, b));
+        let f: Arc<dyn crate::problem::Factor> = prior.clone();
+        built.problem.add_factor(f, None, &[b]).expect("sizes match");
+    }
+
+    /// The GNSS and wheel factors of the window frames (IMU suites; see the module docs).
+    pub(super) fn add_aiding_factors(&self, built: &mut Built, config: &EstimatorConfig) {
+        let wc = &config.wheel;
+        let wheel_loss: Arc<dyn LossFunction> = Arc::new(HuberLoss {
+            delta: wc.huber_sigmas,
+        });
+        for f in &self.frames {
+            let Some(speed) = wheel_speed_at(&self.aiding.wheel, f.t_ns, wc.max_gap_s) else {
+                continue;
+            };
+            let (Some(pose), Some(sb)) = (
+                built.block(BlockRef::Pose(f.seq)),
+                built.block(BlockRef::SpeedBias(f.seq)),
+            ) else {
+                continue;
+            };
+            let factor = BodyVelocityFactor {
+                speed_m_s: speed,
+                speed_sigma: wc.speed_sigma_m_s,
+                lateral_sigma: wc.lateral_sigma_m_s,
+            };
+            let r = built
+                .problem
+                .add_factor(Arc::new(factor), Some(wheel_loss.clone()), &[pose, sb])
+                .expect("sizes match");
+            built.frame_factors.push((r, f.seq));
+        }
+        let Some(align) = built.block(BlockRef::GnssAlignment) else {
+            return;
+        };
+        let gc = &config.gnss;
+        let gnss_loss: Arc<dyn LossFunction> = Arc::new(HuberLoss {
+            delta: gc.huber_sigmas,
+        });
+        for fix in &self.aiding.gnss {
+            let Some((k, dt)) = nearest_frame(&self.frames, fix.t_ns, gc.max_dt_s) else {
+                continue;
+            };
+            let seq = self.frames[k].seq;
+            let (Some(pose), Some(sb)) = (
+                built.block(BlockRef::Pose(seq)),
+                built.block(BlockRef::SpeedBias(seq)),
+            ) else {
+                continue;
+            };
+            let factor = GnssPositionFactor {
+                z: fix.p_g,
+                weight: fix.sigma_m.map(|s| 1.0 / s),
+                lever_arm_b: Vector3::from(gc.lever_arm_m),
+                dt_s: dt,
+            };
+            let r = built
+                .problem
+                .add_factor(
+                    Arc::new(factor),
+                    Some(gnss_loss.clone()),
+                    &[pose, sb, align],
+                )
+                .expect("sizes match");
+            built.frame_factors.push((r, seq));
+        }
+    }
+
+    /// Copies the solved alignment back.
+    pub(super) fn write_back_alignment(&mut self, built: &Built) {
+        if let (Some(b), Some((a, _))) = (
+            built.block(BlockRef::GnssAlignment),
+            self.aiding.alignment.as_mut(),
+        ) {
+            *a = GnssAlignment::from_slice(built.problem.values(b));
+        }
+    }
+
+    /// After the oldest frame (`removed`) left: its fixes (those nearer to it than to the new
+    /// oldest frame) went into the prior or were never used, and wheel readings before the new
+    /// oldest frame's bracket are no longer needed.
+    pub(super) fn trim_aiding(&mut self, removed: &WindowFrame) {
+        let Some(oldest) = self.frames.front() else {
+            return;
+        };
+        let mid = removed.t_ns + (oldest.t_ns - removed.t_ns) / 2;
+        while self.aiding.gnss.front().is_some_and(|s| s.t_ns <= mid) {
+            self.aiding.gnss.pop_front();
+        }
+        while self.aiding.wheel.get(1).is_some_and(|s| s.t_ns <= oldest.t_ns) {
+            self.aiding.wheel.pop_front();
+        }
+    }
+
+    /// After a solve, before the alignment exists: pairs the fixes whose frame is settled (all
+    /// but the newest frame's) with the estimated antenna positions, and initializes the
+    /// alignment once they span enough ground. Returns whether it was initialized now.
+    pub(super) fn collect_for_alignment(&mut self, config: &EstimatorConfig) -> bool {
+        let gc = config.gnss;
+        if self.aiding.alignment.is_some() || self.frames.len() < 2 {
+            return false;
+        }
+        let n = self.frames.len();
+        // Fixes nearer to the second-newest frame than to the newest are settled.
+        let settled_until = self.frames[n - 2].t_ns + (self.frames[n - 1].t_ns - self.frames[n - 2].t_ns) / 2;
+        let lever = Vector3::from(gc.lever_arm_m);
+        let from = self.aiding.paired_until_ns;
+        let new: Vec<FixPair> = self
+            .aiding
+            .gnss
+            .iter()
+            .filter(|s| s.t_ns > from && s.t_ns <= settled_until)
+            .filter_map(|fix| {
+                let (k, dt) = nearest_frame(&self.frames, fix.t_ns, gc.max_dt_s)?;
+                let f = &self.frames[k];
+                Some(FixPair {
+                    antenna_w: f.pose.p + f.pose.q * lever + f.v * dt,
+                    fix: *fix,
+                })
+            })
+            .collect();
+        self.aiding.paired_until_ns = self.aiding.paired_until_ns.max(settled_until);
+        self.aiding.pairs.extend(new);
+        while self.aiding.pairs.len() > gc.align_max_fixes {
+            self.aiding.pairs.pop_front();
+        }
+        let Some(alignment) = align_4dof(&self.aiding.pairs, &gc) else {
+            return false;
+        };
+        self.aiding.alignment = Some(alignment);
+        self.aiding.pairs.clear();
+        true
+    }
+}
+
+/// The closed-form 4-dof alignment of the collected pairs (weighted by the fixes' horizontal
+/// and vertical accuracies) with its prior, or `None` while they are too few or too close
+/// together.
+fn align_4dof(
+    pairs: &VecDeque<FixPair>,
+    gc: &GnssConfig,
+) -> Option<(GnssAlignment, Arc<PriorFactor>)> {
+    let n = pairs.len();
+    if n < gc.align_min_fixes {
+        return None;
+    }
+    let nf = n as f64;
+    let mean_a: Vector3<f64> = pairs.iter().map(|p| p.antenna_w).sum::<Vector3<f64>>() / nf;
+    let mean_z: Vector3<f64> = pairs.iter().map(|p| p.fix.p_g).sum::<Vector3<f64>>() / nf;
+    let (mut dot, mut cross, mut spread2) = (0.0, 0.0, 0.0);
+    for p in pairs {
+        let a = Vector2::new(p.antenna_w.x - mean_a.x, p.antenna_w.y - mean_a.y);
+        let z = Vector2::new(p.fix.p_g.x - mean_z.x, p.fix.p_g.y - mean_z.y);
+        dot += a.dot(&z);
+        cross += a.x * z.y - a.y * z.x;
+        spread2 += a.norm_squared();
+    }
+    let spread = (spread2 / nf).sqrt();
+    if spread < gc.align_min_spread_m {
+        return None;
+    }
+    let yaw = cross.atan2(dot);
+    let t = mean_z - yaw_rotation(yaw).0 * mean_a;
+    // Least-squares accuracy: the mean fix noise over √N for the translation, the horizontal
+    // noise over the spread for the yaw; inflated for the odometry's drift meanwhile.
+    let sigma: Vector3<f64> = pairs.iter().map(|p| p.fix.sigma_m).sum::<Vector3<f64>>() / nf;
+    let k = gc.align_sigma_inflation;
+    let sigma_t = sigma * k / nf.sqrt();
+    let sigma_yaw = k * 0.5 * (sigma.x + sigma.y) / (spread * nf.sqrt());
+    let alignment = GnssAlignment { t, yaw };
+    let mut jac = vec![0.0; ALIGNMENT_SIZE * ALIGNMENT_SIZE];
+    for i in 0..3 {
+        jac[i * ALIGNMENT_SIZE + i] = 1.0 / sigma_t[i];
+    }
+    jac[ALIGNMENT_SIZE * ALIGNMENT_SIZE - 1] = 1.0 / sigma_yaw;
+    let prior = PriorFactor::new(
+        vec![Arc::new(Euclidean::new(ALIGNMENT_SIZE))],
+        vec![alignment.to_array().to_vec()],
+        jac,
+        vec![0.0; ALIGNMENT_SIZE],
+    )
+    .ok()?;
+    Some((alignment, Arc::new(prior)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Pose;
+
+    fn frame(seq: u64, t_ns: i64) -> WindowFrame {
+        WindowFrame {
+            seq,
+            t_ns,
+            pose: Pose::identity(),
+            v: Vector3::zeros(),
+            ba: Vector3::zeros(),
+            bg: Vector3::zeros(),
+            preint: None,
+        }
+    }
+
+    #[test]
+    fn a_fix_attaches_to_the_nearest_frame_within_reach() {
+        let frames: VecDeque<WindowFrame> =
+            (0..3).map(|k| frame(k, k as i64 * 50_000_000)).collect();
+        assert_eq!(nearest_frame(&frames, 60_000_000, 0.03).map(|x| x.0), Some(1));
+        let (k, dt) = nearest_frame(&frames, 80_000_000, 0.03).unwrap();
+        assert_eq!(k, 2);
+        assert!((dt + 0.02).abs() < 1e-12);
+        assert!(nearest_frame(&frames, 200_000_000, 0.03).is_none());
+    }
+
+    #[test]
+    fn wheel_speed_is_interpolated_between_close_readings() {
+        let w: VecDeque<WheelSample> = [(0, 1.0), (20_000_000, 2.0), (300_000_000, 3.0)]
+            .into_iter()
+            .map(|(t_ns, speed_m_s)| WheelSample { t_ns, speed_m_s })
+            .collect();
+        assert_eq!(wheel_speed_at(&w, 5_000_000, 0.1), Some(1.25));
+        assert_eq!(wheel_speed_at(&w, 20_000_000, 0.1), Some(2.0));
+        // The gap to the next reading is too long, or nothing follows.
+        assert_eq!(wheel_speed_at(&w, 100_000_000, 0.1), None);
+        assert_eq!(wheel_speed_at(&w, 400_000_000, 0.1), None);
+    }
+
+    #[test]
+    fn the_closed_form_alignment_recovers_yaw_and_translation() {
+        let truth = GnssAlignment {
+            t: Vector3::new(12.0, -4.0, 0.7),
+            yaw: 2.5,
+        };
+        let mut seed = 7u64;
+        let pairs: VecDeque<FixPair> = (0..60)
+            .map(|k| {
+                let s = k as f64 * 0.2;
+                let a = Vector3::new(10.0 * s.cos(), 6.0 * (2.0 * s).sin(), 0.1 * s);
+                let noise = Vector3::from_fn(|_, _| crate::problem::test_lcg(&mut seed) * 0.1);
+                FixPair {
+                    antenna_w: a,
+                    fix: GnssSample {
+                        t_ns: k,
+                        p_g: truth.to_gnss(&a) + noise,
+                        sigma_m: Vector3::repeat(0.1),
+                    },
+                }
+            })
+            .collect();
+        let (a, _) = align_4dof(&pairs, &GnssConfig::default()).expect("enough spread");
+        assert!((a.yaw - truth.yaw).abs() < 0.01, "yaw {}", a.yaw);
+        assert!((a.t - truth.t).norm() < 0.1, "t {:?}", a.t);
+        // Too little spread: refused.
+        let close: VecDeque<FixPair> = pairs
+            .iter()
+            .map(|p| FixPair {
+                antenna_w: p.antenna_w * 0.1,
+                fix: p.fix,
+            })
+            .collect();
+        assert!(align_4dof(&close, &GnssConfig::default()).is_none());
+    }
+}

@@ -1,0 +1,179 @@
+//! Factors of the aiding sensors: a GNSS-like position receiver ([`GnssPositionFactor`]) and
+//! wheel odometry ([`BodyVelocityFactor`]). Both act on one window frame's pose and
+//! speed-bias; the GNSS factor also on the 4-dof alignment `T_g_w` between the odometry world
+//! frame and the receiver's frame.
+//!
+//! Tangent conventions are the window's: pose `[δp (world), δθ (body, right)]`, speed-bias
+//! `[δv, δba, δbg]`, alignment `[δt (3), δψ]` (Euclidean: `T_g_w` is a rotation by yaw `ψ`
+//! about z followed by the translation `t`; both world frames are gravity-aligned, so this is
+//! all that can differ between them).
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::geometry::{quat_from_xyzw, skew};
+use crate::problem::Factor;
+
+/// Size of the alignment block `[tx, ty, tz, ψ]` (ambient = tangent).
+pub const ALIGNMENT_SIZE: usize = 4;
+
+/// Rotation by `yaw` about z and its derivative with respect to `yaw`.
+pub fn yaw_rotation(yaw: f64) -> (Matrix3<f64>, Matrix3<f64>) {
+    let (s, c) = yaw.sin_cos();
+    (
+        Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0),
+        Matrix3::new(-s, -c, 0.0, c, -s, 0.0, 0.0, 0.0, 0.0),
+    )
+}
+
+/// A position fix of the receiver's antenna in the receiver's frame `g`:
+///
+/// `r = W · (R_z(ψ)·(p + R·l + v·dt) + t − z)`
+///
+/// with the frame's pose `(p, R)` and velocity `v`, the antenna's lever arm `l` in the body
+/// frame, `dt` the fix time minus the frame time (the position at the fix is taken along the
+/// frame's velocity; the rotation over `dt` is neglected, `|ω|·|dt|·|l|`, about 1 cm for a 0.5 m
+/// lever arm turning at 1 rad/s 25 ms away), and `W = diag(1/σ)` the fix's reported accuracy.
+/// Blocks: pose (7/6), speed-bias (9/9), alignment `[t, ψ]` (4/4).
+#[derive(Clone, Debug)]
+pub struct GnssPositionFactor {
+    /// The fix `z` (m, receiver frame).
+    pub z: Vector3<f64>,
+    /// `1/σ` per axis (1/m).
+    pub weight: Vector3<f64>,
+    /// Antenna lever arm in the body frame (m).
+    pub lever_arm_b: Vector3<f64>,
+    /// Fix time minus frame time (s).
+    pub dt_s: f64,
+}
+
+impl Factor for GnssPositionFactor {
+    fn residual_dim(&self) -> usize {
+        3
+    }
+    fn parameter_block_sizes(&self) -> &[usize] {
+        &[7, 9, ALIGNMENT_SIZE]
+    }
+    fn parameter_tangent_sizes(&self) -> &[usize] {
+        &[6, 9, ALIGNMENT_SIZE]
+    }
+    fn evaluate(
+        &self,
+        params: &[&[f64]],
+        residuals: &mut [f64],
+        jacobians: Option<&mut [Option<&mut [f64]>]>,
+    ) -> bool {
+        let (pose, sb, align) = (params[0], params[1], params[2]);
+        let p = Vector3::new(pose[0], pose[1], pose[2]);
+        let r_wb = quat_from_xyzw(&pose[3..7]).to_rotation_matrix().into_inner();
+        let v = Vector3::new(sb[0], sb[1], sb[2]);
+        let t = Vector3::new(align[0], align[1], align[2]);
+        let (r_gw, d_r_gw) = yaw_rotation(align[3]);
+        let antenna_w = p + r_wb * self.lever_arm_b + v * self.dt_s;
+        let e = r_gw * antenna_w + t - self.z;
+        let w = Matrix3::from_diagonal(&self.weight);
+        let r = w * e;
+        residuals[..3].copy_from_slice(r.as_slice());
+        if let Some(jacs) = jacobians {
+            let wr = w * r_gw;
+            if let Some(j) = jacs[0].as_deref_mut() {
+                // ∂/∂δp = W R_z; ∂/∂δθ = −W R_z R [l]×.
+                let j_theta = -wr * r_wb * skew(&self.lever_arm_b);
+                for row in 0..3 {
+                    for c in 0..3 {
+                        j[row * 6 + c] = wr[(row, c)];
+                        j[row * 6 + 3 + c] = j_theta[(row, c)];
+                    }
+                }
+            }
+            if let Some(j) = jacs[1].as_deref_mut() {
+                j.fill(0.0);
+                for row in 0..3 {
+                    for c in 0..3 {
+                        j[row * 9 + c] = wr[(row, c)] * self.dt_s;
+                    }
+                }
+            }
+            if let Some(j) = jacs[2].as_deref_mut() {
+                let j_yaw = w * d_r_gw * antenna_w;
+                for row in 0..3 {
+                    for c in 0..3 {
+                        j[row * 4 + c] = w[(row, c)];
+                    }
+                    j[row * 4 + 3] = j_yaw[row];
+                }
+            }
+        }
+        residuals[..3].iter().all(|x| x.is_finite())
+    }
+}
+
+/// Wheel odometry: the body-frame velocity `u = Rᵀ·v` against the wheels' forward speed `s`,
+/// with the non-holonomic constraint of a vehicle that neither slides sideways nor jumps:
+///
+/// `r = [(u_x − s)/σ_s, u_y/σ_n, u_z/σ_n]`
+///
+/// The body frame is the vehicle frame (x forward, the IMU at the rear axle's centre, so the
+/// wheels' speed is the body origin's). Blocks: pose (7/6), speed-bias (9/9).
+#[derive(Clone, Debug)]
+pub struct BodyVelocityFactor {
+    /// Measured forward speed (m/s).
+    pub speed_m_s: f64,
+    /// σ of the forward speed (m/s).
+    pub speed_sigma: f64,
+    /// σ of the lateral and vertical velocity (m/s).
+    pub lateral_sigma: f64,
+}
+
+impl Factor for BodyVelocityFactor {
+    fn residual_dim(&self) -> usize {
+        3
+    }
+    fn parameter_block_sizes(&self) -> &[usize] {
+        &[7, 9]
+    }
+    fn parameter_tangent_sizes(&self) -> &[usize] {
+        &[6, 9]
+    }
+    fn evaluate(
+        &self,
+        params: &[&[f64]],
+        residuals: &mut [f64],
+        jacobians: Option<&mut [Option<&mut [f64]>]>,
+    ) -> bool {
+        let (pose, sb) = (params[0], params[1]);
+        let r_wb = quat_from_xyzw(&pose[3..7]).to_rotation_matrix().into_inner();
+        let v = Vector3::new(sb[0], sb[1], sb[2]);
+        let u = r_wb.transpose() * v;
+        let w = Vector3::new(
+            1.0 / self.speed_sigma,
+            1.0 / self.lateral_sigma,
+            1.0 / self.lateral_sigma,
+        );
+        residuals[0] = w[0] * (u.x - self.speed_m_s);
+        residuals[1] = w[1] * u.y;
+        residuals[2] = w[2] * u.z;
+        if let Some(jacs) = jacobians {
+            let wm = Matrix3::from_diagonal(&w);
+            if let Some(j) = jacs[0].as_deref_mut() {
+                // (R·Exp(δθ))ᵀ v ≈ u + [u]× δθ; the position does not enter.
+                let j_theta = wm * skew(&u);
+                for row in 0..3 {
+                    for c in 0..3 {
+                        j[row * 6 + c] = 0.0;
+                        j[row * 6 + 3 + c] = j_theta[(row, c)];
+                    }
+                }
+            }
+            if let Some(j) = jacs[1].as_deref_mut() {
+                j.fill(0.0);
+                let j_v = wm * r_wb.transpose();
+                for row in 0..3 {
+                    for c in 0..3 {
+                        j[row * 9 + c] = j_v[(row, c)];
+                    }
+                }
+            }
+        }
+        residuals[..3].iter().all(|x| x.is_finite())
+    }
+}
