@@ -97,6 +97,9 @@ pub enum EventKind {
     /// The estimator aligned its world frame with the GNSS receiver's; fixes are used from
     /// now on.
     GnssAligned,
+    /// GNSS fixes kept disagreeing with the odometry: the alignment was dropped and starts
+    /// again.
+    GnssAlignmentDropped,
     /// The estimator found its window failed and restarted from its last good state.
     Reset {
         /// What failed.
@@ -445,6 +448,7 @@ impl Recorder {
                 }
                 EstimatorEventKind::PriorDropped => EventKind::PriorDropped,
                 EstimatorEventKind::GnssAligned => EventKind::GnssAligned,
+                EstimatorEventKind::GnssAlignmentDropped => EventKind::GnssAlignmentDropped,
                 EstimatorEventKind::Reset { reason } => {
                     out.resets += 1;
                     EventKind::Reset { reason }

@@ -28,7 +28,7 @@ use super::config::{ConfigError, EstimatorConfig};
 use super::window::{BlockRef, Built, Window, WindowFrame};
 use crate::aiding::{GnssSample, WheelSample};
 use crate::factors::{ALIGNMENT_SIZE, BodyVelocityFactor, GnssPositionFactor, yaw_rotation};
-use crate::problem::{Euclidean, HuberLoss, LossFunction, PriorFactor};
+use crate::problem::{Euclidean, Factor, HuberLoss, LossFunction, PriorFactor};
 
 /// GNSS settings (`[estimator.gnss]`).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -50,6 +50,13 @@ pub struct GnssConfig {
     pub align_sigma_inflation: f64,
     /// Most fix/estimate pairs kept for the alignment (the oldest go first).
     pub align_max_fixes: usize,
+    /// A fix whose whitened error against the window's estimate before the solve exceeds this
+    /// norm is not used (5: a 3-dof χ² tail of 1e-5; a bias jump or multipath).
+    pub gate_sigmas: f64,
+    /// After this many rejected fixes in a row the receiver's frame is taken to have moved (a
+    /// bias jump, a new reference station): the alignment is marginalized out of the prior and
+    /// initialized again from the fixes that follow.
+    pub realign_after_rejections: usize,
 }
 
 impl Default for GnssConfig {
@@ -62,6 +69,8 @@ impl Default for GnssConfig {
             align_min_spread_m: 5.0,
             align_sigma_inflation: 2.0,
             align_max_fixes: 2000,
+            gate_sigmas: 5.0,
+            realign_after_rejections: 20,
         }
     }
 }
@@ -78,6 +87,9 @@ pub struct WheelConfig {
     pub huber_sigmas: f64,
     /// Largest gap (s) between the two readings a frame's speed is interpolated from.
     pub max_gap_s: f64,
+    /// A frame's wheel factor is left out while its whitened error at the window's current
+    /// estimate exceeds this norm (wheel slip: the window's other sensors disagree).
+    pub gate_sigmas: f64,
 }
 
 impl Default for WheelConfig {
@@ -87,6 +99,7 @@ impl Default for WheelConfig {
             lateral_sigma_m_s: 0.05,
             huber_sigmas: 3.0,
             max_gap_s: 0.1,
+            gate_sigmas: 5.0,
         }
     }
 }
@@ -102,6 +115,7 @@ impl GnssConfig {
             ("gnss.huber_sigmas", self.huber_sigmas),
             ("gnss.align_min_spread_m", self.align_min_spread_m),
             ("gnss.align_sigma_inflation", self.align_sigma_inflation),
+            ("gnss.gate_sigmas", self.gate_sigmas),
         ] {
             super::config::positive(k, v)?;
         }
@@ -112,6 +126,12 @@ impl GnssConfig {
                     "expected 2 ≤ align_min_fixes ≤ align_max_fixes, got {} and {}",
                     self.align_min_fixes, self.align_max_fixes
                 ),
+            ));
+        }
+        if self.realign_after_rejections < 1 {
+            return Err(ConfigError::new(
+                "gnss.realign_after_rejections",
+                "expected at least 1",
             ));
         }
         Ok(())
@@ -126,6 +146,7 @@ impl WheelConfig {
             ("wheel.lateral_sigma_m_s", self.lateral_sigma_m_s),
             ("wheel.huber_sigmas", self.huber_sigmas),
             ("wheel.max_gap_s", self.max_gap_s),
+            ("wheel.gate_sigmas", self.gate_sigmas),
         ] {
             super::config::positive(k, v)?;
         }
@@ -171,8 +192,13 @@ struct FixPair {
 /// initialization collects.
 #[derive(Clone, Debug, Default)]
 pub(super) struct Aiding {
-    /// GNSS fixes not yet marginalized, in time order.
-    gnss: VecDeque<GnssSample>,
+    /// GNSS fixes not yet marginalized, in time order, with the gate's verdict (`None`: not
+    /// screened yet).
+    gnss: VecDeque<(GnssSample, Option<bool>)>,
+    /// Fixes rejected by the gate in a row.
+    rejected_streak: usize,
+    /// Fixes rejected by the gate so far.
+    pub rejected: usize,
     /// Wheel readings from just before the oldest window frame on, in time order.
     wheel: VecDeque<WheelSample>,
     /// The alignment state and the prior of its initialization.
@@ -191,7 +217,7 @@ impl Aiding {
     pub fn push_gnss(&mut self, s: GnssSample) -> Result<(), crate::aiding::AidingError> {
         s.validate()?;
         check_order("gnss", &mut self.last_gnss_ns, s.t_ns)?;
-        self.gnss.push_back(s);
+        self.gnss.push_back((s, None));
         Ok(())
     }
 
@@ -281,7 +307,7 @@ impl Window {
             )
             .expect("finite alignment");
         built.refs.push((BlockRef::GnssAlignment, b));
-        let f: Arc<dyn crate::problem::Factor> = prior.clone();
+        let f: Arc<dyn Factor> = prior.clone();
         built.problem.add_factor(f, None, &[b]).expect("sizes match");
     }
 
@@ -306,6 +332,12 @@ impl Window {
                 speed_sigma: wc.speed_sigma_m_s,
                 lateral_sigma: wc.lateral_sigma_m_s,
             };
+            let mut r = [0.0; 3];
+            let sb_values = built.problem.values(sb);
+            let ok = factor.evaluate(&[built.problem.values(pose), sb_values], &mut r, None);
+            if !ok || Vector3::from(r).norm() > wc.gate_sigmas {
+                continue;
+            }
             let r = built
                 .problem
                 .add_factor(Arc::new(factor), Some(wheel_loss.clone()), &[pose, sb])
@@ -319,7 +351,10 @@ impl Window {
         let gnss_loss: Arc<dyn LossFunction> = Arc::new(HuberLoss {
             delta: gc.huber_sigmas,
         });
-        for fix in &self.aiding.gnss {
+        for (fix, accepted) in &self.aiding.gnss {
+            if *accepted != Some(true) {
+                continue;
+            }
             let Some((k, dt)) = nearest_frame(&self.frames, fix.t_ns, gc.max_dt_s) else {
                 continue;
             };
@@ -330,12 +365,7 @@ impl Window {
             ) else {
                 continue;
             };
-            let factor = GnssPositionFactor {
-                z: fix.p_g,
-                weight: fix.sigma_m.map(|s| 1.0 / s),
-                lever_arm_b: Vector3::from(gc.lever_arm_m),
-                dt_s: dt,
-            };
+            let factor = gnss_factor(fix, gc, dt);
             let r = built
                 .problem
                 .add_factor(
@@ -366,11 +396,56 @@ impl Window {
             return;
         };
         let mid = removed.t_ns + (oldest.t_ns - removed.t_ns) / 2;
-        while self.aiding.gnss.front().is_some_and(|s| s.t_ns <= mid) {
+        while self.aiding.gnss.front().is_some_and(|(s, _)| s.t_ns <= mid) {
             self.aiding.gnss.pop_front();
         }
         while self.aiding.wheel.get(1).is_some_and(|s| s.t_ns <= oldest.t_ns) {
             self.aiding.wheel.pop_front();
+        }
+    }
+
+    /// Before a solve, with the alignment: the gate's verdict on the fixes not yet screened,
+    /// from their whitened error against the window's current (predicted) states. Returns
+    /// `true` when `realign_after_rejections` fixes in a row were rejected.
+    pub(super) fn screen_fixes(&mut self, config: &EstimatorConfig) -> bool {
+        let gc = &config.gnss;
+        let Some((alignment, _)) = &self.aiding.alignment else {
+            return false;
+        };
+        let align = alignment.to_array();
+        for (fix, verdict) in self.aiding.gnss.iter_mut().filter(|(_, v)| v.is_none()) {
+            let Some((k, dt)) = nearest_frame(&self.frames, fix.t_ns, gc.max_dt_s) else {
+                continue;
+            };
+            let f = &self.frames[k];
+            let sb = [f.v.x, f.v.y, f.v.z, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+            let mut r = [0.0; 3];
+            let ok = gnss_factor(fix, gc, dt).evaluate(
+                &[&f.pose.to_array(), &sb, &align],
+                &mut r,
+                None,
+            );
+            let accepted = ok && Vector3::from(r).norm() <= gc.gate_sigmas;
+            *verdict = Some(accepted);
+            if accepted {
+                self.aiding.rejected_streak = 0;
+            } else {
+                self.aiding.rejected_streak += 1;
+                self.aiding.rejected += 1;
+            }
+        }
+        self.aiding.rejected_streak >= gc.realign_after_rejections
+    }
+
+    /// Forgets the alignment (its information about the window's states stays in the prior,
+    /// which the caller has already rid of the alignment block) and starts collecting fixes for
+    /// a new one from now on.
+    pub(super) fn forget_alignment(&mut self) {
+        self.aiding.alignment = None;
+        self.aiding.rejected_streak = 0;
+        self.aiding.pairs.clear();
+        if let Some(last) = self.aiding.gnss.back() {
+            self.aiding.paired_until_ns = last.0.t_ns;
         }
     }
 
@@ -391,6 +466,7 @@ impl Window {
             .aiding
             .gnss
             .iter()
+            .map(|(s, _)| s)
             .filter(|s| s.t_ns > from && s.t_ns <= settled_until)
             .filter_map(|fix| {
                 let (k, dt) = nearest_frame(&self.frames, fix.t_ns, gc.max_dt_s)?;
@@ -412,6 +488,16 @@ impl Window {
         self.aiding.alignment = Some(alignment);
         self.aiding.pairs.clear();
         true
+    }
+}
+
+/// The factor of `fix`, `dt_s` after its frame.
+fn gnss_factor(fix: &GnssSample, gc: &GnssConfig, dt_s: f64) -> GnssPositionFactor {
+    GnssPositionFactor {
+        z: fix.p_g,
+        weight: fix.sigma_m.map(|s| 1.0 / s),
+        lever_arm_b: Vector3::from(gc.lever_arm_m),
+        dt_s,
     }
 }
 

@@ -83,6 +83,9 @@ pub enum EventKind {
     /// The GNSS alignment was initialized: fixes are factors from now on (see
     /// `super::aiding`).
     GnssAligned,
+    /// GNSS fixes disagreed with the window `GnssConfig::realign_after_rejections` times in a
+    /// row: the alignment was dropped and is initialized again from the fixes that follow.
+    GnssAlignmentDropped,
     /// The solved window failed a health check (see [`super::health`]) and was discarded; the
     /// estimator restarted from the last good state.
     Reset {

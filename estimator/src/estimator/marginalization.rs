@@ -100,6 +100,19 @@ pub(super) fn prior_without_second_newest(window: &Window, built: &Built) -> Opt
     prior_from(built, &[r], &remove)
 }
 
+/// The prior without the GNSS alignment (it is forgotten; see
+/// `super::aiding::Window::forget_alignment`): the block is marginalized out of the prior alone.
+/// `Some(current)` when the prior does not involve it.
+pub(super) fn prior_without_alignment(window: &Window, built: &Built) -> Option<Prior> {
+    let (Some(r), Some(b)) = (built.prior, built.block(BlockRef::GnssAlignment)) else {
+        return window.prior.clone();
+    };
+    if !built.problem.residual_blocks(r).contains(&b) {
+        return window.prior.clone();
+    }
+    prior_from(built, &[r], &[b])
+}
+
 /// Marginalizes `remove` out of `residuals`; `None` when that fails or leaves no information.
 fn prior_from(built: &Built, residuals: &[ResidualId], remove: &[BlockId]) -> Option<Prior> {
     let mp = marginalize(

@@ -598,6 +598,16 @@ impl Estimator {
         let warmup_ns = (self.config.calibration_warmup_s * 1e9).round() as i64;
         self.window.estimate_extrinsics = self.config.estimate_extrinsics
             && self.tracking_since.is_some_and(|t0| t_ns - t0 >= warmup_ns);
+        if imu_active && self.window.screen_fixes(&self.config) {
+            // The receiver's frame moved: the alignment leaves the prior and starts again.
+            let built = self.window.build(&self.problem_settings(), imu_active);
+            self.window.prior = marginalization::prior_without_alignment(&self.window, &built);
+            self.window.forget_alignment();
+            self.events.push(Event {
+                t_ns,
+                kind: EventKind::GnssAlignmentDropped,
+            });
+        }
         let mut built = self.window.build(&self.problem_settings(), imu_active);
         let (summary, linearization) =
             solve_keeping_linearization(&mut built.problem, &self.config.solver);

@@ -473,6 +473,7 @@ pub fn build_report_in(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> 
                 }
                 EventKind::PriorDropped => ("prior_dropped", String::new()),
                 EventKind::GnssAligned => ("gnss_aligned", String::new()),
+                EventKind::GnssAlignmentDropped => ("gnss_alignment_dropped", String::new()),
                 EventKind::Reset { reason } => ("reset", reason.clone()),
             };
             EventReport {
