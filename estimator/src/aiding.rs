@@ -59,7 +59,10 @@ impl GnssSample {
             what,
         };
         if !self.p_g.iter().all(|x| x.is_finite()) {
-            return Err(bad(format!("non-finite position {:?}", self.p_g.as_slice())));
+            return Err(bad(format!(
+                "non-finite position {:?}",
+                self.p_g.as_slice()
+            )));
         }
         if !self.sigma_m.iter().all(|s| s.is_finite() && *s > 0.0) {
             return Err(bad(format!(

@@ -303,3 +303,42 @@ fn calibration_errors_out_of_range_are_refused() {
         assert_bad(tag, &text, key, &[]);
     }
 }
+
+#[test]
+fn aiding_sensor_keys_are_checked_with_their_names() {
+    let with_gnss = |g: &str| default_text(2.0) + "\n[rig.gnss]\n" + g + "\n";
+    assert_bad(
+        "gnss-sigma",
+        &with_gnss("rate_hz = 10.0\nsigma_m = [0.3, 0.0, 0.5]"),
+        "rig.gnss.sigma_m[1]",
+        &["> 0"],
+    );
+    assert_bad(
+        "gnss-rate",
+        &with_gnss("rate_hz = 3.0\nsigma_m = [0.3, 0.3, 0.5]"),
+        "rig.gnss.rate_hz",
+        &["whole number of nanoseconds"],
+    );
+    let wheel = default_text(2.0) + "\n[rig.wheel]\nrate_hz = 50.0\nsigma_m_s = -0.1\n";
+    assert_bad("wheel-sigma", &wheel, "rig.wheel.sigma_m_s", &["≥ 0"]);
+    assert_bad(
+        "slip",
+        &with_fault("kind = \"wheel_slip\"\nstart_s = 1.0\nend_s = 1.5\nslip_ratio = 20.0"),
+        "faults[0].slip_ratio",
+        &["[-1, 10]"],
+    );
+    assert_bad(
+        "jump-key",
+        &with_fault(
+            "kind = \"gnss_bias_jump\"\nat_s = 1.0\noffset_m = [1.0, 0.0, 0.0]\nslip_ratio = 0.1",
+        ),
+        "faults[0].slip_ratio",
+        &["not used by a gnss_bias_jump fault"],
+    );
+    assert_bad(
+        "gnss-gate",
+        &with_estimator("[estimator.gnss]\ngate_sigmas = 0.0"),
+        "gnss.gate_sigmas",
+        &["> 0"],
+    );
+}

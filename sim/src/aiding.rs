@@ -92,7 +92,11 @@ impl GnssSim {
     /// A receiver drawing noise from the stream of `cfg.name`.
     pub fn new(cfg: GnssConfig, seed: u64) -> Self {
         let rng = sensor_rng(seed, &cfg.name);
-        Self { cfg, next_k: 0, rng }
+        Self {
+            cfg,
+            next_k: 0,
+            rng,
+        }
     }
 
     /// Time of the next fix (ns).
@@ -129,7 +133,11 @@ impl WheelSim {
     /// Wheel odometry drawing noise from the stream of `cfg.name`.
     pub fn new(cfg: WheelConfig, seed: u64) -> Self {
         let rng = sensor_rng(seed, &cfg.name);
-        Self { cfg, next_k: 0, rng }
+        Self {
+            cfg,
+            next_k: 0,
+            rng,
+        }
     }
 
     /// Time of the next reading (ns).

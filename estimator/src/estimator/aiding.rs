@@ -108,7 +108,10 @@ impl GnssConfig {
     /// Range checks, naming the field.
     pub(super) fn validate(&self) -> Result<(), ConfigError> {
         if !self.lever_arm_m.iter().all(|x| x.is_finite()) {
-            return Err(ConfigError::new("gnss.lever_arm_m", "expected finite numbers"));
+            return Err(ConfigError::new(
+                "gnss.lever_arm_m",
+                "expected finite numbers",
+            ));
         }
         for (k, v) in [
             ("gnss.max_dt_s", self.max_dt_s),
@@ -260,11 +263,7 @@ fn check_order(
 }
 
 /// The window frame nearest to `t_ns` within `max_dt_s`: (index, fix time − frame time in s).
-fn nearest_frame(
-    frames: &VecDeque<WindowFrame>,
-    t_ns: i64,
-    max_dt_s: f64,
-) -> Option<(usize, f64)> {
+fn nearest_frame(frames: &VecDeque<WindowFrame>, t_ns: i64, max_dt_s: f64) -> Option<(usize, f64)> {
     let i = frames.partition_point(|f| f.t_ns < t_ns);
     [i.checked_sub(1), (i < frames.len()).then_some(i)]
         .into_iter()
@@ -308,7 +307,10 @@ impl Window {
             .expect("finite alignment");
         built.refs.push((BlockRef::GnssAlignment, b));
         let f: Arc<dyn Factor> = prior.clone();
-        built.problem.add_factor(f, None, &[b]).expect("sizes match");
+        built
+            .problem
+            .add_factor(f, None, &[b])
+            .expect("sizes match");
     }
 
     /// The GNSS and wheel factors of the window frames (IMU suites; see the module docs).
@@ -399,7 +401,12 @@ impl Window {
         while self.aiding.gnss.front().is_some_and(|(s, _)| s.t_ns <= mid) {
             self.aiding.gnss.pop_front();
         }
-        while self.aiding.wheel.get(1).is_some_and(|s| s.t_ns <= oldest.t_ns) {
+        while self
+            .aiding
+            .wheel
+            .get(1)
+            .is_some_and(|s| s.t_ns <= oldest.t_ns)
+        {
             self.aiding.wheel.pop_front();
         }
     }
@@ -420,11 +427,8 @@ impl Window {
             let f = &self.frames[k];
             let sb = [f.v.x, f.v.y, f.v.z, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
             let mut r = [0.0; 3];
-            let ok = gnss_factor(fix, gc, dt).evaluate(
-                &[&f.pose.to_array(), &sb, &align],
-                &mut r,
-                None,
-            );
+            let ok =
+                gnss_factor(fix, gc, dt).evaluate(&[&f.pose.to_array(), &sb, &align], &mut r, None);
             let accepted = ok && Vector3::from(r).norm() <= gc.gate_sigmas;
             *verdict = Some(accepted);
             if accepted {
@@ -459,7 +463,8 @@ impl Window {
         }
         let n = self.frames.len();
         // Fixes nearer to the second-newest frame than to the newest are settled.
-        let settled_until = self.frames[n - 2].t_ns + (self.frames[n - 1].t_ns - self.frames[n - 2].t_ns) / 2;
+        let settled_until =
+            self.frames[n - 2].t_ns + (self.frames[n - 1].t_ns - self.frames[n - 2].t_ns) / 2;
         let lever = Vector3::from(gc.lever_arm_m);
         let from = self.aiding.paired_until_ns;
         let new: Vec<FixPair> = self
@@ -572,7 +577,10 @@ mod tests {
     fn a_fix_attaches_to_the_nearest_frame_within_reach() {
         let frames: VecDeque<WindowFrame> =
             (0..3).map(|k| frame(k, k as i64 * 50_000_000)).collect();
-        assert_eq!(nearest_frame(&frames, 60_000_000, 0.03).map(|x| x.0), Some(1));
+        assert_eq!(
+            nearest_frame(&frames, 60_000_000, 0.03).map(|x| x.0),
+            Some(1)
+        );
         let (k, dt) = nearest_frame(&frames, 80_000_000, 0.03).unwrap();
         assert_eq!(k, 2);
         assert!((dt + 0.02).abs() < 1e-12);

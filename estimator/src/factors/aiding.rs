@@ -64,7 +64,9 @@ impl Factor for GnssPositionFactor {
     ) -> bool {
         let (pose, sb, align) = (params[0], params[1], params[2]);
         let p = Vector3::new(pose[0], pose[1], pose[2]);
-        let r_wb = quat_from_xyzw(&pose[3..7]).to_rotation_matrix().into_inner();
+        let r_wb = quat_from_xyzw(&pose[3..7])
+            .to_rotation_matrix()
+            .into_inner();
         let v = Vector3::new(sb[0], sb[1], sb[2]);
         let t = Vector3::new(align[0], align[1], align[2]);
         let (r_gw, d_r_gw) = yaw_rotation(align[3]);
@@ -141,7 +143,9 @@ impl Factor for BodyVelocityFactor {
         jacobians: Option<&mut [Option<&mut [f64]>]>,
     ) -> bool {
         let (pose, sb) = (params[0], params[1]);
-        let r_wb = quat_from_xyzw(&pose[3..7]).to_rotation_matrix().into_inner();
+        let r_wb = quat_from_xyzw(&pose[3..7])
+            .to_rotation_matrix()
+            .into_inner();
         let v = Vector3::new(sb[0], sb[1], sb[2]);
         let u = r_wb.transpose() * v;
         let w = Vector3::new(

@@ -171,6 +171,14 @@ impl Scenario {
             c.non_negative("trajectory.figure_eight.half_width_m", f.half_width_m)?;
             c.non_negative("trajectory.figure_eight.half_height_m", f.half_height_m)?;
         }
+        if let Some(g) = t.ground_vehicle {
+            let k = |n: &str| format!("trajectory.ground_vehicle.{n}");
+            c.finite_all(&k("center"), &g.center)?;
+            c.positive(&k("period_s"), g.period_s)?;
+            // Both extents > 0: the heading is defined only where the velocity never vanishes.
+            c.positive(&k("half_width_m"), g.half_width_m)?;
+            c.positive(&k("half_height_m"), g.half_height_m)?;
+        }
         if let Some(o) = t.circle {
             c.finite_all("trajectory.circle.center", &o.center)?;
             c.positive("trajectory.circle.period_s", o.period_s)?;
@@ -240,6 +248,19 @@ impl Scenario {
             "a camera no faster than 1 kHz nor than the IMU",
         )?;
         c.whole_ns_period("rig.rate_hz", rig.rate_hz)?;
+        if let Some(g) = rig.gnss {
+            c.within("rig.gnss.rate_hz", g.rate_hz, 0.01, 1000.0, "a receiver")?;
+            c.whole_ns_period("rig.gnss.rate_hz", g.rate_hz)?;
+            for (i, v) in g.sigma_m.iter().enumerate() {
+                c.positive(&format!("rig.gnss.sigma_m[{i}]"), *v)?;
+            }
+            c.finite_all("rig.gnss.lever_arm_m", &g.lever_arm_m)?;
+        }
+        if let Some(w) = rig.wheel {
+            c.within("rig.wheel.rate_hz", w.rate_hz, 0.1, 10_000.0, "an odometer")?;
+            c.whole_ns_period("rig.wheel.rate_hz", w.rate_hz)?;
+            c.non_negative("rig.wheel.sigma_m_s", w.sigma_m_s)?;
+        }
         c.within(
             "rig.time_offset_s",
             rig.time_offset_s,
