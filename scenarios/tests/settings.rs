@@ -34,6 +34,8 @@ fn every_estimator_setting_is_reachable_and_unset_keys_keep_the_defaults() {
             .replace("[solver]", "[estimator.solver]")
             .replace("[health]", "[estimator.health]")
             .replace("[zero_velocity]", "[estimator.zero_velocity]")
+            .replace("[gnss]", "[estimator.gnss]")
+            .replace("[wheel]", "[estimator.wheel]")
             .replacen("", "[estimator]\n", 1);
     let mut cfg = parse(&text).unwrap().estimator_config().unwrap();
     // The rig's IMU has datasheet ranges; `imu_range` takes them where the file leaves it unset.
