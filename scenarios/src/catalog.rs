@@ -52,6 +52,8 @@ const ENTRIES: &[Entry] = &[
     entry!("hall_ground_vehicle_stereo_imu"),
     entry!("hall_ground_vehicle_wheel_stereo_imu"),
     entry!("hall_ground_vehicle_wheel_slip_stereo_imu"),
+    entry!("hall_ground_vehicle_mono_imu"),
+    entry!("hall_ground_vehicle_wheel_mono_imu"),
     entry!("room_figure8_rendered_stereo_imu"),
     entry!("room_figure8_exposure_jump_rendered"),
     entry!("room_figure8_blur_rendered"),
