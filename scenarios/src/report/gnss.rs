@@ -55,3 +55,21 @@ pub fn gnss_report(run: &RunOutput) -> Option<GnssReport> {
         global_error_series: series,
     })
 }
+
+/// `gnss.png`: the fused position's error in the receiver's frame over time (once per second,
+/// as in the report), no trajectory alignment.
+pub fn gnss_png(scenario: &str, g: &GnssReport) -> Result<Vec<u8>, String> {
+    let panels = [crate::plot::SeriesPanel {
+        title: format!(
+            "position error in the GNSS frame through the estimated alignment (aligned at {:.1} s)",
+            g.aligned_at_s
+        ),
+        y_desc: "[m]".into(),
+        series: g
+            .global_error_series
+            .iter()
+            .map(|[t, e]| (*t, *e))
+            .collect(),
+    }];
+    crate::plot::series_png(&format!("{scenario}: global position error"), &panels)
+}

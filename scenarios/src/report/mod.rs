@@ -711,5 +711,10 @@ pub fn write_outputs_in(
         let p = dir.join("calibration.png");
         std::fs::write(&p, png).map_err(|e| io(&p.display().to_string(), e))?;
     }
+    if let Some(g) = &report.gnss {
+        let png = gnss::gnss_png(&report.scenario, g)?;
+        let p = dir.join("gnss.png");
+        std::fs::write(&p, png).map_err(|e| io(&p.display().to_string(), e))?;
+    }
     Ok(())
 }
