@@ -237,6 +237,11 @@ impl Aiding {
         self.alignment.as_ref().map(|(a, _)| *a)
     }
 
+    /// The wheel speed at `t_ns`, interpolated between readings at most `max_gap_s` apart.
+    pub fn wheel_speed(&self, t_ns: i64, max_gap_s: f64) -> Option<f64> {
+        wheel_speed_at(&self.wheel, t_ns, max_gap_s)
+    }
+
     /// What survives a reset: the buffers, the alignment (the world frame is kept) and its
     /// initialization prior; the information the window had gathered on it is lost.
     pub fn after_reset(self) -> Self {

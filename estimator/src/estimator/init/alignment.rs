@@ -137,6 +137,19 @@ pub struct UpToScaleTrajectory<'a> {
     pub t_b_c: &'a Vector3<f64>,
 }
 
+/// Wheel odometry for [`align_with_scale`]: the forward body speed at each window frame (`None`
+/// where no reading covers it) and the standard deviations of the forward speed and of the
+/// lateral and vertical body velocity (the non-holonomic constraint).
+#[derive(Clone, Copy, Debug)]
+pub struct WheelSpeeds<'a> {
+    /// Forward speed per frame (m/s).
+    pub speeds: &'a [Option<f64>],
+    /// σ of the forward speed (m/s).
+    pub speed_sigma: f64,
+    /// σ of the lateral and vertical body velocity (m/s).
+    pub lateral_sigma: f64,
+}
+
 /// Velocities, gravity, metric scale and accelerometer bias from an up-to-scale visual
 /// reconstruction with the attitudes held fixed (VINS-Mono §V-B, with the accelerometer bias and
 /// the noise model of ORB-SLAM3's inertial-only MAP step): `cam_positions[k]` is camera k's
@@ -149,6 +162,10 @@ pub struct UpToScaleTrajectory<'a> {
 /// covariances plus the camera positions' covariance carried through the α rows at the current
 /// scale, with the prior `ba ~ N(0, ba_sigma²)`.
 ///
+/// With `wheel`, each frame it covers adds `Rₖᵀ vₖ = (speed, 0, 0)`: the metric velocity the
+/// wheels measure, which determines the scale on motions whose body-frame acceleration the
+/// accelerometer bias could absorb (a vehicle on level ground at near-constant speed).
+///
 /// A first unweighted solve with `ba = 0` and free gravity gives the starting scale (rejected
 /// when |‖g‖ − `g_norm`| > 1 m/s² or `s ≤ 0`); then four weighted solves refine gravity on its
 /// two-dimensional tangent space with its norm fixed.
@@ -158,6 +175,7 @@ pub fn align_with_scale(
     bg: &Vector3<f64>,
     ba_sigma: f64,
     g_norm: f64,
+    wheel: Option<&WheelSpeeds<'_>>,
 ) -> Option<ScaleAlignment> {
     let UpToScaleTrajectory {
         cam_positions,
@@ -251,6 +269,33 @@ pub fn align_with_scale(
         b = b.insert_rows(m, 3, 0.0);
         for i in 0..3 {
             a[(m + i, ba_at + i)] = w_ba;
+        }
+        // The wheels' body velocities (unit weights in the unweighted first solve, like the
+        // velocity rows there).
+        if let Some(w) = wheel {
+            for (k, speed) in w.speeds.iter().enumerate().take(n) {
+                let Some(speed) = speed else { continue };
+                let r = a.nrows();
+                a = a.insert_rows(r, 3, 0.0);
+                b = b.insert_rows(r, 3, 0.0);
+                let ri_t = body_rotations[k].transpose();
+                for i in 0..3 {
+                    let sigma = if i == 0 {
+                        w.speed_sigma
+                    } else {
+                        w.lateral_sigma
+                    };
+                    let wt = if noise_scale.is_some() {
+                        1.0 / sigma
+                    } else {
+                        1.0
+                    };
+                    for c in 0..3 {
+                        a[(r + i, 3 * k + c)] = wt * ri_t[(i, c)];
+                    }
+                    b[r + i] = if i == 0 { wt * speed } else { 0.0 };
+                }
+            }
         }
         // By SVD rather than normal equations: the whitened columns span many orders of
         // magnitude (gravity's ½dt² against velocities), which squaring would ruin.
@@ -352,7 +397,7 @@ mod tests {
     /// Aligns 20 frames 0.25 s apart of `motion` seen as an SfM reconstruction shrunk by
     /// 1/2.5 (camera positions modelled with σ = 1e-4 SfM units) against noise-free IMU
     /// readings carrying the accelerometer bias `ba_true`.
-    fn align(motion: Motion, ba_true: Vector3<f64>) -> Option<ScaleAlignment> {
+    fn align(motion: Motion, ba_true: Vector3<f64>, with_wheel: bool) -> Option<ScaleAlignment> {
         let noise = ImuNoise {
             gyroscope_noise_density: 1.7e-4,
             accelerometer_noise_density: 2e-3,
@@ -394,7 +439,27 @@ mod tests {
             body_rotations: &rots,
             t_b_c: &t_b_c.p,
         };
-        align_with_scale(&visual, &intervals, &Vector3::zeros(), 0.2, crate::GRAVITY)
+        let speeds: Vec<Option<f64>> = frames
+            .iter()
+            .map(|&t| {
+                let h = 1e-4;
+                let v = (motion(t + h).0 - motion(t - h).0) / (2.0 * h);
+                with_wheel.then(|| (motion(t).1.inverse() * v).x)
+            })
+            .collect();
+        let wheel = WheelSpeeds {
+            speeds: &speeds,
+            speed_sigma: 0.05,
+            lateral_sigma: 0.05,
+        };
+        align_with_scale(
+            &visual,
+            &intervals,
+            &Vector3::zeros(),
+            0.2,
+            crate::GRAVITY,
+            with_wheel.then_some(&wheel),
+        )
     }
 
     /// Noise-free data with an accelerometer bias: the alignment recovers velocities, gravity,
@@ -403,7 +468,7 @@ mod tests {
     #[test]
     fn scale_alignment_recovers_the_truth() {
         let ba_true = Vector3::new(0.08, -0.05, 0.1);
-        let al = align(wander, ba_true).expect("aligned");
+        let al = align(wander, ba_true, false).expect("aligned");
         assert!((al.ba - ba_true).norm() < 1e-3, "ba {:?}", al.ba);
         assert!((al.scale - 2.5).abs() < 2.5e-3, "scale {}", al.scale);
         assert!(al.scale_rel_sigma < 0.006, "σ_s/s {}", al.scale_rel_sigma);
@@ -424,8 +489,17 @@ mod tests {
     /// estimator waits instead of starting at a wrong scale.
     #[test]
     fn scale_is_unobservable_on_a_tangent_facing_circle() {
-        let rel = align(circle, Vector3::new(0.08, -0.05, 0.1))
+        let rel = align(circle, Vector3::new(0.08, -0.05, 0.1), false)
             .map_or(f64::INFINITY, |a| a.scale_rel_sigma);
         assert!(rel > 0.5, "σ_s/s {rel}");
+    }
+
+    /// The same circle with wheel speeds (σ 5 cm/s at 0.75 m/s): the wheels measure the metric
+    /// velocity, so the scale is determined and recovered.
+    #[test]
+    fn wheel_speeds_make_the_circle_scale_observable() {
+        let al = align(circle, Vector3::new(0.08, -0.05, 0.1), true).expect("aligned");
+        assert!(al.scale_rel_sigma < 0.02, "σ_s/s {}", al.scale_rel_sigma);
+        assert!((al.scale - 2.5).abs() < 0.01, "scale {}", al.scale);
     }
 }

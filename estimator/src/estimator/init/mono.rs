@@ -4,7 +4,7 @@
 
 use nalgebra::{UnitQuaternion, Vector3};
 
-use super::alignment::{UpToScaleTrajectory, align_with_scale, estimate_gyro_bias};
+use super::alignment::{UpToScaleTrajectory, WheelSpeeds, align_with_scale, estimate_gyro_bias};
 use super::sfm::{SfmFailure, SfmSettings, solve_sfm};
 use super::stereo::initial_prior;
 use super::{repropagate, set_gravity_aligned, window_intervals};
@@ -85,12 +85,24 @@ pub(in crate::estimator) fn initialize_mono_inertial(
         body_rotations: &rotations,
         t_b_c: &t_b_c.p,
     };
+    // Wheel odometry, where it covers the window's frames, measures the metric velocity.
+    let speeds: Vec<Option<f64>> = window
+        .frames
+        .iter()
+        .map(|f| window.aiding.wheel_speed(f.t_ns, config.wheel.max_gap_s))
+        .collect();
+    let wheel = WheelSpeeds {
+        speeds: &speeds,
+        speed_sigma: config.wheel.speed_sigma_m_s,
+        lateral_sigma: config.wheel.lateral_sigma_m_s,
+    };
     let aligned = align_with_scale(
         &visual,
         &window_intervals(window).ok_or(MonoInitFailure::MissingImu)?,
         &bg,
         config.initial_ba_sigma,
         crate::GRAVITY,
+        speeds.iter().any(Option::is_some).then_some(&wheel),
     )
     .ok_or(MonoInitFailure::Alignment)?;
     if aligned.scale_rel_sigma > config.mono_init_max_scale_sigma {
