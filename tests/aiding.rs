@@ -32,12 +32,12 @@ fn gnss_events(report: &Report) -> Vec<(f64, &str)> {
 fn the_fused_position_stays_within_the_receiver_noise_without_any_trajectory_alignment() {
     let done = run_catalog("outdoor_figure8_gnss_stereo_imu", None);
     let g = done.report.gnss.as_ref().expect("aligned");
-    // Receiver σ 0.3 m horizontal, 0.5 m vertical. Measured: aligned at 4.2 s, RMSE 0.107 m,
-    // max 0.244 m (at the start, while the alignment is young), final 0.051 m. Bounds: the
-    // RMSE below the receiver's horizontal σ, the max below its 3-d σ.
+    // Receiver σ 0.3 m horizontal, 0.5 m vertical. Measured: aligned at 4.2 s, RMSE 0.061 m,
+    // max 0.175 m (at the start, while the alignment is young), final 0.051 m (seeds 2, 3:
+    // RMSE 0.076, 0.076 m). Bounds: measured + about 70 %, both well below the receiver's σ.
     assert!(g.aligned_at_s < 6.0, "{g:?}");
-    assert!(g.global_rmse_m < 0.2, "{g:?}");
-    assert!(g.global_max_m < 0.4, "{g:?}");
+    assert!(g.global_rmse_m < 0.1, "{g:?}");
+    assert!(g.global_max_m < 0.3, "{g:?}");
     assert_eq!(
         gnss_events(&done.report),
         vec![(g.aligned_at_s, "gnss_aligned")]
@@ -48,12 +48,13 @@ fn the_fused_position_stays_within_the_receiver_noise_without_any_trajectory_ali
 #[test]
 fn a_20_s_outage_is_bridged_and_the_fixes_pull_the_estimate_back() {
     let done = run_catalog("outdoor_figure8_gnss_outage_stereo_imu", None);
-    // Measured (outage 20-40 s): largest error 0.226 m before it, 0.209 m during it, 0.218 m in
-    // the 10 s after it, 0.101 m over the last 10 s; no fix rejected on its return.
-    assert!(max_error(&done.report, 20.0, 40.0) < 0.4);
-    assert!(max_error(&done.report, 50.0, 61.0) < 0.15);
+    // Measured (outage 20-40 s): largest error 0.146 m before it, 0.118 m during it, 0.132 m in
+    // the 10 s after it, 0.071 m over the last 10 s (the same run without the outage: 0.056 m);
+    // no fix rejected on its return.
+    assert!(max_error(&done.report, 20.0, 40.0) < 0.25);
+    assert!(max_error(&done.report, 50.0, 61.0) < 0.12);
     assert_eq!(gnss_events(&done.report).len(), 1, "no re-alignment");
-    assert!(done.report.ate_rmse_m.unwrap() < 0.08); // measured 0.0523
+    assert!(done.report.ate_rmse_m.unwrap() < 0.08); // measured 0.0494
 }
 
 #[test]
@@ -69,19 +70,19 @@ fn a_receiver_removed_mid_run_leaves_the_odometry_running() {
     let output = run(&scenario, &RunOptions::default(), &mut |_| {}).unwrap();
     let eval = scenarios::report::evaluate(&output, scenario.spec.suite);
     let report = scenarios::report::build_report(&scenario, &output, &eval);
-    // Measured: ATE 0.0463 m, largest global error after the removal 0.314 m (the alignment
+    // Measured: ATE 0.0452 m, largest global error after the removal 0.111 m (the alignment
     // keeps what the fixes taught it; the odometry drifts from there).
     assert_eq!(report.resets, 0);
     assert!(report.ate_rmse_m.unwrap() < 0.08);
-    assert!(max_error(&report, 30.0, 61.0) < 0.5);
+    assert!(max_error(&report, 30.0, 61.0) < 0.25);
 }
 
 #[test]
 fn a_bias_jump_is_rejected_and_the_alignment_found_again_without_dragging_the_odometry() {
     let done = run_catalog("outdoor_figure8_gnss_bias_jump_stereo_imu", None);
     // Jump of (2, -1, 0) m at 30 s: 20 fixes rejected in a row, the alignment dropped at
-    // 31.9 s and found again at 37.25 s from the new fixes. ATE 0.0488 m (0.48 m when the fixes
-    // were only Huber-weighted: they dragged the odometry).
+    // 31.9 s and found again at 37.25 s from the new fixes. ATE 0.0615 m (0.0561 m without any
+    // GNSS; 0.48 m when the fixes were only Huber-weighted: they dragged the odometry).
     let events = gnss_events(&done.report);
     assert_eq!(events.len(), 3, "{events:?}");
     assert_eq!(events[1].1, "gnss_alignment_dropped");
