@@ -8,10 +8,10 @@
 //! about z followed by the translation `t`; both world frames are gravity-aligned, so this is
 //! all that can differ between them).
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, SMatrix, Vector3};
 
-use crate::geometry::{quat_from_xyzw, skew};
-use crate::problem::Factor;
+use crate::geometry::skew;
+use crate::problem::{Factor, rotation_matrix, write_row_major};
 
 /// Size of the alignment block `[tx, ty, tz, ψ]` (ambient = tangent).
 pub const ALIGNMENT_SIZE: usize = 4;
@@ -23,6 +23,15 @@ pub fn yaw_rotation(yaw: f64) -> (Matrix3<f64>, Matrix3<f64>) {
         Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0),
         Matrix3::new(-s, -c, 0.0, c, -s, 0.0, 0.0, 0.0, 0.0),
     )
+}
+
+/// A 3 × C Jacobian that is zero but for 3 × 3 blocks at the given first columns.
+fn blocks<const C: usize>(parts: &[(usize, Matrix3<f64>)]) -> SMatrix<f64, 3, C> {
+    let mut m = SMatrix::<f64, 3, C>::zeros();
+    for (col, part) in parts {
+        m.fixed_view_mut::<3, 3>(0, *col).copy_from(part);
+    }
+    m
 }
 
 /// A position fix of the receiver's antenna in the receiver's frame `g`:
@@ -64,9 +73,7 @@ impl Factor for GnssPositionFactor {
     ) -> bool {
         let (pose, sb, align) = (params[0], params[1], params[2]);
         let p = Vector3::new(pose[0], pose[1], pose[2]);
-        let r_wb = quat_from_xyzw(&pose[3..7])
-            .to_rotation_matrix()
-            .into_inner();
+        let r_wb = rotation_matrix(&pose[3..7]);
         let v = Vector3::new(sb[0], sb[1], sb[2]);
         let t = Vector3::new(align[0], align[1], align[2]);
         let (r_gw, d_r_gw) = yaw_rotation(align[3]);
@@ -80,29 +87,16 @@ impl Factor for GnssPositionFactor {
             if let Some(j) = jacs[0].as_deref_mut() {
                 // ∂/∂δp = W R_z; ∂/∂δθ = −W R_z R [l]×.
                 let j_theta = -wr * r_wb * skew(&self.lever_arm_b);
-                for row in 0..3 {
-                    for c in 0..3 {
-                        j[row * 6 + c] = wr[(row, c)];
-                        j[row * 6 + 3 + c] = j_theta[(row, c)];
-                    }
-                }
+                write_row_major(&blocks::<6>(&[(0, wr), (3, j_theta)]), j);
             }
             if let Some(j) = jacs[1].as_deref_mut() {
-                j.fill(0.0);
-                for row in 0..3 {
-                    for c in 0..3 {
-                        j[row * 9 + c] = wr[(row, c)] * self.dt_s;
-                    }
-                }
+                // Only the velocity enters.
+                write_row_major(&blocks::<9>(&[(0, wr * self.dt_s)]), j);
             }
             if let Some(j) = jacs[2].as_deref_mut() {
-                let j_yaw = w * d_r_gw * antenna_w;
-                for row in 0..3 {
-                    for c in 0..3 {
-                        j[row * 4 + c] = w[(row, c)];
-                    }
-                    j[row * 4 + 3] = j_yaw[row];
-                }
+                let mut m = blocks::<ALIGNMENT_SIZE>(&[(0, w)]);
+                m.set_column(3, &(w * d_r_gw * antenna_w));
+                write_row_major(&m, j);
             }
         }
         residuals[..3].iter().all(|x| x.is_finite())
@@ -143,9 +137,7 @@ impl Factor for BodyVelocityFactor {
         jacobians: Option<&mut [Option<&mut [f64]>]>,
     ) -> bool {
         let (pose, sb) = (params[0], params[1]);
-        let r_wb = quat_from_xyzw(&pose[3..7])
-            .to_rotation_matrix()
-            .into_inner();
+        let r_wb = rotation_matrix(&pose[3..7]);
         let v = Vector3::new(sb[0], sb[1], sb[2]);
         let u = r_wb.transpose() * v;
         let w = Vector3::new(
@@ -160,22 +152,11 @@ impl Factor for BodyVelocityFactor {
             let wm = Matrix3::from_diagonal(&w);
             if let Some(j) = jacs[0].as_deref_mut() {
                 // (R·Exp(δθ))ᵀ v ≈ u + [u]× δθ; the position does not enter.
-                let j_theta = wm * skew(&u);
-                for row in 0..3 {
-                    for c in 0..3 {
-                        j[row * 6 + c] = 0.0;
-                        j[row * 6 + 3 + c] = j_theta[(row, c)];
-                    }
-                }
+                write_row_major(&blocks::<6>(&[(3, wm * skew(&u))]), j);
             }
             if let Some(j) = jacs[1].as_deref_mut() {
-                j.fill(0.0);
-                let j_v = wm * r_wb.transpose();
-                for row in 0..3 {
-                    for c in 0..3 {
-                        j[row * 9 + c] = j_v[(row, c)];
-                    }
-                }
+                // Only the velocity enters.
+                write_row_major(&blocks::<9>(&[(0, wm * r_wb.transpose())]), j);
             }
         }
         residuals[..3].iter().all(|x| x.is_finite())
