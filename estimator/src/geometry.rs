@@ -281,6 +281,51 @@ pub enum GeometryError {
     NotUnit(f64),
 }
 
+/// The closed-form yaw of a position+yaw (4-dof) alignment of `src` onto `dst` (associated,
+/// gravity-aligned point lists), minimizing `Σ ‖dst_i − (R_z(ψ) src_i + t)‖²`: with centred
+/// points `a_i`, `b_i`, `ψ = atan2(Σ a_x b_y − a_y b_x, Σ a_x b_x + a_y b_y)`, and
+/// `t = mean(dst) − R_z(ψ) mean(src)` for the caller to form.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PositionYaw {
+    /// The yaw ψ (rad).
+    pub yaw: f64,
+    /// Mean of `src`.
+    pub mean_src: Vector3<f64>,
+    /// Mean of `dst`.
+    pub mean_dst: Vector3<f64>,
+    /// `Σ |a_i|²` over the horizontal components of the centred `src`.
+    pub src_spread2: f64,
+}
+
+/// [`PositionYaw`] of two equally long, non-empty point lists; `None` otherwise, or when the
+/// horizontal positions do not determine a yaw (all at one place, or no turn between them).
+pub fn position_yaw(src: &[Vector3<f64>], dst: &[Vector3<f64>]) -> Option<PositionYaw> {
+    if src.len() != dst.len() || src.is_empty() {
+        return None;
+    }
+    let n = src.len() as f64;
+    let mean_src = src.iter().sum::<Vector3<f64>>() / n;
+    let mean_dst = dst.iter().sum::<Vector3<f64>>() / n;
+    let (mut dot, mut cross, mut spread_a, mut spread_b) = (0.0, 0.0, 0.0, 0.0);
+    for (x, y) in src.iter().zip(dst) {
+        let a = x - mean_src;
+        let b = y - mean_dst;
+        dot += a.x * b.x + a.y * b.y;
+        cross += a.x * b.y - a.y * b.x;
+        spread_a += a.x * a.x + a.y * a.y;
+        spread_b += b.x * b.x + b.y * b.y;
+    }
+    if dot.hypot(cross) <= 1e-12 * (spread_a * spread_b).sqrt() || spread_a == 0.0 {
+        return None;
+    }
+    Some(PositionYaw {
+        yaw: cross.atan2(dot),
+        mean_src,
+        mean_dst,
+        src_spread2: spread_a,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -23,12 +23,13 @@
 use std::collections::VecDeque;
 use std::sync::Arc;
 
-use nalgebra::{Vector2, Vector3};
+use nalgebra::Vector3;
 
 use super::config::{ConfigError, EstimatorConfig};
 use super::window::{BlockRef, Built, Window, WindowFrame};
 use crate::aiding::{GnssSample, WheelSample};
 use crate::factors::{ALIGNMENT_SIZE, BodyVelocityFactor, GnssPositionFactor, yaw_rotation};
+use crate::geometry::position_yaw;
 use crate::problem::{Euclidean, Factor, HuberLoss, LossFunction, PriorFactor};
 
 /// GNSS settings (`[estimator.gnss]`).
@@ -209,8 +210,6 @@ pub(super) struct Aiding {
     gnss: VecDeque<(GnssSample, Option<bool>)>,
     /// Fixes rejected by the gate in a row.
     rejected_streak: usize,
-    /// Fixes rejected by the gate so far.
-    pub rejected: usize,
     /// Wheel readings from just before the oldest window frame on, in time order.
     wheel: VecDeque<WheelSample>,
     /// The alignment state and the prior of its initialization.
@@ -249,12 +248,6 @@ impl Aiding {
     /// The wheel speed at `t_ns`, interpolated between readings at most `max_gap_s` apart.
     pub fn wheel_speed(&self, t_ns: i64, max_gap_s: f64) -> Option<f64> {
         wheel_speed_at(&self.wheel, t_ns, max_gap_s)
-    }
-
-    /// What survives a reset: the buffers, the alignment (the world frame is kept) and its
-    /// initialization prior; the information the window had gathered on it is lost.
-    pub fn after_reset(self) -> Self {
-        self
     }
 }
 
@@ -449,7 +442,6 @@ impl Window {
                 self.aiding.rejected_streak = 0;
             } else {
                 self.aiding.rejected_streak += 1;
-                self.aiding.rejected += 1;
             }
         }
         self.aiding.rejected_streak >= gc.realign_after_rejections
@@ -521,9 +513,8 @@ fn gnss_factor(fix: &GnssSample, gc: &GnssConfig, dt_s: f64) -> GnssPositionFact
     }
 }
 
-/// The closed-form 4-dof alignment of the collected pairs (weighted by the fixes' horizontal
-/// and vertical accuracies) with its prior, or `None` while they are too few or too close
-/// together.
+/// The closed-form 4-dof alignment of the collected pairs ([`position_yaw`], every fix
+/// weighted alike) with its prior, or `None` while they are too few or too close together.
 fn align_4dof(
     pairs: &VecDeque<FixPair>,
     gc: &GnssConfig,
@@ -533,22 +524,15 @@ fn align_4dof(
         return None;
     }
     let nf = n as f64;
-    let mean_a: Vector3<f64> = pairs.iter().map(|p| p.antenna_w).sum::<Vector3<f64>>() / nf;
-    let mean_z: Vector3<f64> = pairs.iter().map(|p| p.fix.p_g).sum::<Vector3<f64>>() / nf;
-    let (mut dot, mut cross, mut spread2) = (0.0, 0.0, 0.0);
-    for p in pairs {
-        let a = Vector2::new(p.antenna_w.x - mean_a.x, p.antenna_w.y - mean_a.y);
-        let z = Vector2::new(p.fix.p_g.x - mean_z.x, p.fix.p_g.y - mean_z.y);
-        dot += a.dot(&z);
-        cross += a.x * z.y - a.y * z.x;
-        spread2 += a.norm_squared();
-    }
-    let spread = (spread2 / nf).sqrt();
+    let antenna: Vec<Vector3<f64>> = pairs.iter().map(|p| p.antenna_w).collect();
+    let fixes: Vec<Vector3<f64>> = pairs.iter().map(|p| p.fix.p_g).collect();
+    let py = position_yaw(&antenna, &fixes)?;
+    let spread = (py.src_spread2 / nf).sqrt();
     if spread < gc.align_min_spread_m {
         return None;
     }
-    let yaw = cross.atan2(dot);
-    let t = mean_z - yaw_rotation(yaw).0 * mean_a;
+    let yaw = py.yaw;
+    let t = py.mean_dst - yaw_rotation(yaw).0 * py.mean_src;
     // Least-squares accuracy: the mean fix noise over √N for the translation, the horizontal
     // noise over the spread for the yaw; inflated for the odometry's drift meanwhile.
     let sigma: Vector3<f64> = pairs.iter().map(|p| p.fix.sigma_m).sum::<Vector3<f64>>() / nf;

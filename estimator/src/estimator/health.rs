@@ -285,7 +285,9 @@ impl Estimator {
         } else {
             self.window.extrinsics.clone()
         };
-        let aiding = std::mem::take(&mut self.window.aiding).after_reset();
+        // The aiding buffers and the GNSS alignment with its initialization prior survive (the
+        // world frame is kept); what the window had learnt about the alignment is lost.
+        let aiding = std::mem::take(&mut self.window.aiding);
         self.window = Window::new(extrinsics, self.window.td);
         self.window.aiding = aiding;
         self.tracking_since = None;

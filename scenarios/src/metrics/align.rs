@@ -176,27 +176,13 @@ pub fn align_position_yaw(
             need: 2,
         });
     }
-    let mx = mean(src);
-    let my = mean(dst);
-    let (mut dot, mut cross, mut spread_a, mut spread_b) = (0.0, 0.0, 0.0, 0.0);
-    for (x, y) in src.iter().zip(dst) {
-        let a = x - mx;
-        let b = y - my;
-        dot += a.x * b.x + a.y * b.y;
-        cross += a.x * b.y - a.y * b.x;
-        spread_a += a.x * a.x + a.y * a.y;
-        spread_b += b.x * b.x + b.y * b.y;
-    }
-    if dot.hypot(cross) <= 1e-12 * (spread_a * spread_b).sqrt() || spread_a == 0.0 {
-        return Err(MetricsError::Degenerate(
-            "the horizontal positions do not determine a yaw".into(),
-        ));
-    }
-    let yaw = cross.atan2(dot);
-    let rotation = Rotation3::from_axis_angle(&Vector3::z_axis(), yaw);
+    let py = estimator::geometry::position_yaw(src, dst).ok_or_else(|| {
+        MetricsError::Degenerate("the horizontal positions do not determine a yaw".into())
+    })?;
+    let rotation = Rotation3::from_axis_angle(&Vector3::z_axis(), py.yaw);
     Ok(Sim3 {
         rotation,
-        translation: my - rotation * mx,
+        translation: py.mean_dst - rotation * py.mean_src,
         scale: 1.0,
     })
 }
