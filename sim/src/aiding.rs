@@ -11,7 +11,7 @@ use nalgebra::Vector3;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use crate::motion::TruthBuffer;
+use crate::motion::{Kinematics, TruthBuffer};
 use crate::rng::sensor_rng;
 
 /// A GNSS-like position receiver.
@@ -80,39 +80,64 @@ fn normal(rng: &mut ChaCha8Rng) -> f64 {
     StandardNormal.sample(rng)
 }
 
+/// What both sensors share: a sample every `period_ns` from `t = 0`, the ground truth at it and
+/// the sensor's own noise stream.
+#[derive(Debug)]
+struct Sampling {
+    period_ns: i64,
+    next_k: i64,
+    rng: ChaCha8Rng,
+}
+
+impl Sampling {
+    fn new(name: &str, period_ns: i64, seed: u64) -> Self {
+        Self {
+            period_ns,
+            next_k: 0,
+            rng: sensor_rng(seed, name),
+        }
+    }
+
+    fn next_time_ns(&self) -> i64 {
+        self.next_k * self.period_ns
+    }
+
+    /// The next sample's time and ground truth.
+    fn take(&mut self, truth: &mut TruthBuffer) -> (i64, Kinematics) {
+        let t_ns = self.next_time_ns();
+        self.next_k += 1;
+        let k = truth
+            .kinematics(t_ns)
+            .expect("ground truth is kept for the next sample");
+        (t_ns, k)
+    }
+}
+
 /// Generates GNSS fixes one by one from the ground truth (the first at `t = 0`).
 #[derive(Debug)]
 pub struct GnssSim {
     cfg: GnssConfig,
-    next_k: i64,
-    rng: ChaCha8Rng,
+    sampling: Sampling,
 }
 
 impl GnssSim {
     /// A receiver drawing noise from the stream of `cfg.name`.
     pub fn new(cfg: GnssConfig, seed: u64) -> Self {
-        let rng = sensor_rng(seed, &cfg.name);
-        Self {
-            cfg,
-            next_k: 0,
-            rng,
-        }
+        let sampling = Sampling::new(&cfg.name, cfg.period_ns(), seed);
+        Self { cfg, sampling }
     }
 
     /// Time of the next fix (ns).
     pub fn next_time_ns(&self) -> i64 {
-        self.next_k * self.cfg.period_ns()
+        self.sampling.next_time_ns()
     }
 
     /// The next fix: the antenna's true position plus white noise.
     pub fn next_sample(&mut self, truth: &mut TruthBuffer) -> GnssSample {
-        let t_ns = self.next_time_ns();
-        self.next_k += 1;
-        let k = truth
-            .kinematics(t_ns)
-            .expect("ground truth is kept for the next fix");
+        let (t_ns, k) = self.sampling.take(truth);
         let antenna = k.pose.transform(&self.cfg.lever_arm_b);
-        let noise = Vector3::from_fn(|i, _| normal(&mut self.rng) * self.cfg.sigma_m[i]);
+        let rng = &mut self.sampling.rng;
+        let noise = Vector3::from_fn(|i, _| normal(rng) * self.cfg.sigma_m[i]);
         GnssSample {
             t_ns,
             p_g: antenna + noise,
@@ -125,37 +150,28 @@ impl GnssSim {
 #[derive(Debug)]
 pub struct WheelSim {
     cfg: WheelConfig,
-    next_k: i64,
-    rng: ChaCha8Rng,
+    sampling: Sampling,
 }
 
 impl WheelSim {
     /// Wheel odometry drawing noise from the stream of `cfg.name`.
     pub fn new(cfg: WheelConfig, seed: u64) -> Self {
-        let rng = sensor_rng(seed, &cfg.name);
-        Self {
-            cfg,
-            next_k: 0,
-            rng,
-        }
+        let sampling = Sampling::new(&cfg.name, cfg.period_ns(), seed);
+        Self { cfg, sampling }
     }
 
     /// Time of the next reading (ns).
     pub fn next_time_ns(&self) -> i64 {
-        self.next_k * self.cfg.period_ns()
+        self.sampling.next_time_ns()
     }
 
     /// The next reading: the true forward body velocity plus white noise.
     pub fn next_sample(&mut self, truth: &mut TruthBuffer) -> WheelSample {
-        let t_ns = self.next_time_ns();
-        self.next_k += 1;
-        let k = truth
-            .kinematics(t_ns)
-            .expect("ground truth is kept for the next reading");
+        let (t_ns, k) = self.sampling.take(truth);
         let forward = (k.pose.q.inverse() * k.v_w).x;
         WheelSample {
             t_ns,
-            speed_m_s: forward + normal(&mut self.rng) * self.cfg.sigma_m_s,
+            speed_m_s: forward + normal(&mut self.sampling.rng) * self.cfg.sigma_m_s,
         }
     }
 }
