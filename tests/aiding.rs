@@ -4,9 +4,8 @@
 
 mod common;
 
-use common::run_catalog;
+use common::{run_catalog, run_scenario};
 use scenarios::report::Report;
-use scenarios::run::{RunOptions, run};
 use scenarios::spec::{Origin, Scenario};
 
 /// The largest global error of the report's series over `[from_s, to_s)`.
@@ -67,9 +66,7 @@ fn a_receiver_removed_mid_run_leaves_the_odometry_running() {
             "[[faults]]\nkind = \"gnss_outage\"\nstart_s = 30.0\nend_s = 1000.0\n\n[expectations]",
         );
     let scenario = Scenario::parse("removed", Origin::Catalog, &text).unwrap();
-    let output = run(&scenario, &RunOptions::default(), &mut |_| {}).unwrap();
-    let eval = scenarios::report::evaluate(&output, scenario.spec.suite);
-    let report = scenarios::report::build_report(&scenario, &output, &eval);
+    let report = run_scenario(scenario, None).report;
     // Measured: ATE 0.0452 m, largest global error after the removal 0.111 m (the alignment
     // keeps what the fixes taught it; the odometry drifts from there).
     assert_eq!(report.resets, 0);

@@ -3,8 +3,10 @@
 //! the true 0 to +72 ms, and from a −10 ms error to +62 ms, before the velocity became the
 //! track's previous displacement). Measured now: +2.5 ms from the truth, −10 → −7.6 ms.
 
+mod common;
+
+use common::run_scenario;
 use scenarios::report::{self, Report};
-use scenarios::run::{RunOptions, run};
 use scenarios::spec::{Origin, Scenario};
 
 fn run_with_td(true_td_s: f64) -> Report {
@@ -20,9 +22,7 @@ fn run_with_td(true_td_s: f64) -> Report {
         "[estimator]\nestimate_td = true\n\n[expectations]",
     );
     let scenario = Scenario::parse("td", Origin::Catalog, &text).unwrap();
-    let output = run(&scenario, &RunOptions::default(), &mut |_| {}).unwrap();
-    let eval = report::evaluate(&output, scenario.spec.suite);
-    report::build_report(&scenario, &output, &eval)
+    run_scenario(scenario, None).report
 }
 
 #[test]
@@ -55,17 +55,8 @@ fn extrinsic_estimation_waits_for_its_warm_up_and_stays_near_the_truth() {
             "[estimator]\nestimate_extrinsics = true\n\n[expectations]",
         );
     let scenario = Scenario::parse("extrinsics", Origin::Catalog, &text).unwrap();
-    let output = run(
-        &scenario,
-        &RunOptions {
-            duration_s: Some(20.0),
-            ..Default::default()
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    let eval = report::evaluate(&output, scenario.spec.suite);
-    let r = report::build_report(&scenario, &output, &eval);
+    let done = run_scenario(scenario, Some(20.0));
+    let r = &done.report;
     let c = r.calibration.as_ref().unwrap();
     // Initialization at about 0.5 s, then 3 s of warm-up: untouched at 1, 2 and 3 s.
     for s in &c.history[..4] {
@@ -82,7 +73,7 @@ fn extrinsic_estimation_waits_for_its_warm_up_and_stays_near_the_truth() {
     assert!(r.ate_rmse_m.unwrap() < 0.012);
     // A run that studies calibration draws its errors over time.
     let dir = std::env::temp_dir().join(format!("vio-calibration-{}", std::process::id()));
-    report::write_outputs(&dir, &scenario, &output, &eval, &r).unwrap();
+    report::write_outputs(&dir, &done.scenario, &done.output, &done.eval, r).unwrap();
     let png = std::fs::read(dir.join("calibration.png")).unwrap();
     assert!(png.starts_with(b"\x89PNG"), "not a PNG");
     let _ = std::fs::remove_dir_all(dir);
@@ -96,17 +87,7 @@ fn extrinsics_calibrate_from_the_perturbed_rig_on_a_tilting_motion() {
     // seeds 2, 3 alike): at most 0.023° (0.021, 0.025) and 4.2 mm (4.4, 2.4). Bounds: the
     // issue's 0.1° halved, and its 5 mm.
     let scenario = Scenario::load("room_lissajous_extrinsic_calibration_stereo_imu").unwrap();
-    let output = run(
-        &scenario,
-        &RunOptions {
-            duration_s: Some(40.0),
-            ..Default::default()
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    let eval = report::evaluate(&output, scenario.spec.suite);
-    let r = report::build_report(&scenario, &output, &eval);
+    let r = run_scenario(scenario, Some(40.0)).report;
     let c = r.calibration.as_ref().unwrap();
     let first = &c.history[0];
     assert!((first.rotation_error_deg - 1.97).abs() < 0.01, "{first:?}");

@@ -13,22 +13,9 @@ fn out_dir(tag: &str) -> PathBuf {
     d
 }
 
-/// Runs the default scenario for 6 s with `seed` and writes its files into a fresh folder.
-fn run_into(tag: &str, seed: Option<u64>) -> PathBuf {
-    run_scenario_into(scenarios::catalog::DEFAULT, 6.0, tag, seed)
-}
-
-/// Runs catalog scenario `name` for `duration_s` with `seed` into a fresh folder.
-fn run_scenario_into(name: &str, duration_s: f64, tag: &str, seed: Option<u64>) -> PathBuf {
-    run_full(name, duration_s, tag, seed).0
-}
-
-/// [`run_scenario_into`] with the scenario's seed, also returning the report.
-fn run_scenario_with_report(name: &str, duration_s: f64, tag: &str) -> (PathBuf, report::Report) {
-    run_full(name, duration_s, tag, None)
-}
-
-fn run_full(
+/// Runs catalog scenario `name` for `duration_s` with `seed` (None: its own), writes its files
+/// into a fresh folder and returns the folder and the report.
+fn run_into(
     name: &str,
     duration_s: f64,
     tag: &str,
@@ -50,9 +37,10 @@ fn run_full(
 
 #[test]
 fn two_runs_write_identical_trajectories() {
-    let a = run_into("a", None);
-    let b = run_into("b", None);
-    let c = run_into("c", Some(12345));
+    let default = scenarios::catalog::DEFAULT;
+    let a = run_into(default, 6.0, "a", None).0;
+    let b = run_into(default, 6.0, "b", None).0;
+    let c = run_into(default, 6.0, "c", Some(12345)).0;
     for name in ["estimate.tum", "groundtruth.tum"] {
         let fa = std::fs::read(a.join(name)).unwrap();
         let fb = std::fs::read(b.join(name)).unwrap();
@@ -75,8 +63,8 @@ fn aiding_sensors_keep_runs_identical() {
         "outdoor_figure8_gnss_stereo_imu",
         "hall_ground_vehicle_wheel_mono_imu",
     ] {
-        let (a, ra) = run_scenario_with_report(name, 8.0, "aid-a");
-        let (b, rb) = run_scenario_with_report(name, 8.0, "aid-b");
+        let (a, ra) = run_into(name, 8.0, "aid-a", None);
+        let (b, rb) = run_into(name, 8.0, "aid-b", None);
         let fa = std::fs::read(a.join("estimate.tum")).unwrap();
         let fb = std::fs::read(b.join("estimate.tum")).unwrap();
         assert!(fa.len() > 1000, "{name}: estimate.tum is too short");

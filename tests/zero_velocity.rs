@@ -4,9 +4,7 @@
 
 mod common;
 
-use common::run_catalog;
-use scenarios::report;
-use scenarios::run::{RunOptions, run};
+use common::{run_catalog, run_scenario};
 use scenarios::spec::{Origin, Scenario};
 
 #[test]
@@ -39,28 +37,14 @@ fn default_with_detection(period_s: f64) -> Scenario {
     Scenario::parse("moving", Origin::Catalog, &text).unwrap()
 }
 
-fn run_20s(scenario: &Scenario) -> (scenarios::run::RunOutput, report::Report) {
-    let output = run(
-        scenario,
-        &RunOptions {
-            duration_s: Some(20.0),
-            ..Default::default()
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    let eval = report::evaluate(&output, scenario.spec.suite);
-    let r = report::build_report(scenario, &output, &eval);
-    (output, r)
-}
-
 #[test]
 fn nothing_is_detected_at_rest_on_a_moving_run() {
     // The default figure-eight never stops: with the detector on, no frame may be called at
     // rest, and the run is the one without it (ATE 0.0065 m over 20 s).
-    let (output, r) = run_20s(&default_with_detection(20.0));
+    let done = run_scenario(default_with_detection(20.0), Some(20.0));
+    let r = &done.report;
     assert!(r.rest.is_none(), "{:?}", r.rest);
-    assert!(output.frames.iter().all(|f| !f.estimate.at_rest));
+    assert!(done.output.frames.iter().all(|f| !f.estimate.at_rest));
     let plain = run_catalog("room_figure8_stereo_imu", Some(20.0));
     assert_eq!(r.ate_rmse_m, plain.report.ate_rmse_m);
 }
@@ -71,9 +55,9 @@ fn a_slow_creep_is_not_called_at_rest() {
     // which the IMU and 0.25 s of 1 px features cannot tell from rest. Before the window's
     // speed was consulted every frame was declared at rest: 7 resets, ATE 0.20 m (0.012 m
     // without the factor). Now none is (seed 1, 20 s).
-    let (output, r) = run_20s(&default_with_detection(400.0));
-    assert!(output.frames.iter().all(|f| !f.estimate.at_rest));
-    assert_eq!(r.resets, 0);
+    let done = run_scenario(default_with_detection(400.0), Some(20.0));
+    assert!(done.output.frames.iter().all(|f| !f.estimate.at_rest));
+    assert_eq!(done.report.resets, 0);
 }
 
 #[test]

@@ -4,36 +4,16 @@
 
 mod common;
 
-use common::{pose, vec3};
+use common::{check, pose, speed_bias, vec3};
 use estimator::factors::{BodyVelocityFactor, GnssPositionFactor, yaw_rotation};
 use estimator::geometry::Pose;
-use estimator::problem::{
-    CheckOptions, Euclidean, Factor, Manifold, PoseManifold, check_factor_jacobians,
-};
+use estimator::problem::{Euclidean, Factor, PoseManifold};
 use nalgebra::{UnitQuaternion, Vector3};
 use proptest::prelude::*;
 
 const POSE: PoseManifold = PoseManifold;
 const R4: Euclidean = Euclidean::new(4);
 const R9: Euclidean = Euclidean::new(9);
-
-fn check(factor: &dyn Factor, params: &[Vec<f64>], manifolds: &[&dyn Manifold]) {
-    let opts = CheckOptions {
-        step: 1e-6,
-        rel_tol: 1e-5,
-    };
-    if let Err(e) = check_factor_jacobians(factor, params, manifolds, opts) {
-        panic!("Jacobian check failed: {e}");
-    }
-}
-
-fn speed_bias(v: Vector3<f64>, ba: Vector3<f64>, bg: Vector3<f64>) -> Vec<f64> {
-    v.iter()
-        .chain(ba.iter())
-        .chain(bg.iter())
-        .copied()
-        .collect()
-}
 
 fn residual(factor: &dyn Factor, params: &[Vec<f64>]) -> Vec<f64> {
     let views: Vec<&[f64]> = params.iter().map(|p| p.as_slice()).collect();

@@ -5,7 +5,7 @@ mod common;
 
 use std::sync::Arc;
 
-use common::{pose, rotation, small_rotation, vec3};
+use common::{check, pose, rotation, small_rotation, speed_bias, vec3};
 use estimator::factors::{
     AnchorBearing, FeatureMeasurement, ImuFactor, PointProjection, ProjectionOneFrameTwoCam,
     ProjectionTwoFrameOneCam, ProjectionTwoFrameTwoCam, WorldPointProjection,
@@ -23,24 +23,6 @@ const POSE: PoseManifold = PoseManifold;
 const R1: Euclidean = Euclidean::new(1);
 const R3: Euclidean = Euclidean::new(3);
 const R9: Euclidean = Euclidean::new(9);
-
-fn check(factor: &dyn Factor, params: &[Vec<f64>], manifolds: &[&dyn Manifold]) {
-    let opts = CheckOptions {
-        step: 1e-6,
-        rel_tol: 1e-5,
-    };
-    if let Err(e) = check_factor_jacobians(factor, params, manifolds, opts) {
-        panic!("Jacobian check failed: {e}");
-    }
-}
-
-fn speed_bias(v: Vector3<f64>, ba: Vector3<f64>, bg: Vector3<f64>) -> Vec<f64> {
-    v.iter()
-        .chain(ba.iter())
-        .chain(bg.iter())
-        .copied()
-        .collect()
-}
 
 /// An IMU interval of `n` samples at `rate_hz` with smoothly varying random motion.
 fn preintegration(

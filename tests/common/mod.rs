@@ -36,25 +36,31 @@ pub fn run_catalog(name: &str, duration_s: Option<f64>) -> Arc<Done> {
         .clone();
     cell.get_or_init(|| {
         let scenario = Scenario::load(name).unwrap_or_else(|e| panic!("{e}"));
-        let output = run(
-            &scenario,
-            &RunOptions {
-                seed: None,
-                duration_s,
-                ..Default::default()
-            },
-            &mut |_| {},
-        )
-        .unwrap_or_else(|e| panic!("{e}"));
-        let eval = report::evaluate(&output, scenario.spec.suite);
-        let report = report::build_report(&scenario, &output, &eval);
-        println!("{}", report::summary(&report, None));
-        Arc::new(Done {
-            scenario,
-            output,
-            eval,
-            report,
-        })
+        Arc::new(run_scenario(scenario, duration_s))
     })
     .clone()
+}
+
+/// Runs `scenario` with its own seed for `duration_s` (None: its full length), evaluates it and
+/// builds its report (printing the summary).
+pub fn run_scenario(scenario: Scenario, duration_s: Option<f64>) -> Done {
+    let output = run(
+        &scenario,
+        &RunOptions {
+            seed: None,
+            duration_s,
+            ..Default::default()
+        },
+        &mut |_| {},
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let eval = report::evaluate(&output, scenario.spec.suite);
+    let report = report::build_report(&scenario, &output, &eval);
+    println!("{}", report::summary(&report, None));
+    Done {
+        scenario,
+        output,
+        eval,
+        report,
+    }
 }

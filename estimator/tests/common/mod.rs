@@ -6,6 +6,7 @@ pub mod world;
 use estimator::geometry::{Pose, so3_exp};
 use estimator::gravity_w;
 use estimator::imu::ImuSample;
+use estimator::problem::{CheckOptions, Factor, Manifold, check_factor_jacobians};
 use nalgebra::{UnitQuaternion, Vector3};
 use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
@@ -114,4 +115,25 @@ impl Analytic {
         let t = t_ns as f64 * 1e-9;
         Pose::new(Self::rotation(t), Self::position(t))
     }
+}
+
+/// The factor tests' Jacobian check: the shared checker at step 1e-6, relative tolerance 1e-5;
+/// panics with the worst entry.
+pub fn check(factor: &dyn Factor, params: &[Vec<f64>], manifolds: &[&dyn Manifold]) {
+    let opts = CheckOptions {
+        step: 1e-6,
+        rel_tol: 1e-5,
+    };
+    if let Err(e) = check_factor_jacobians(factor, params, manifolds, opts) {
+        panic!("Jacobian check failed: {e}");
+    }
+}
+
+/// A speed-bias block `[v, ba, bg]`.
+pub fn speed_bias(v: Vector3<f64>, ba: Vector3<f64>, bg: Vector3<f64>) -> Vec<f64> {
+    v.iter()
+        .chain(ba.iter())
+        .chain(bg.iter())
+        .copied()
+        .collect()
 }
