@@ -45,7 +45,7 @@ const ENTRIES: &[Entry] = &[
     entry!("room_fast_rotation_imu_saturation_stereo_imu"),
     entry!("room_figure8_stops_stereo_imu"),
     entry!("room_figure8_calibration_stereo_imu"),
-    entry!("room_lissajous_extrinsic_calibration_stereo_imu"),
+    entry!("room_lissajous_calibration_stereo_imu"),
     entry!("outdoor_figure8_stereo_imu"),
     entry!("outdoor_figure8_gnss_stereo_imu"),
     entry!("outdoor_figure8_gnss_outage_stereo_imu"),

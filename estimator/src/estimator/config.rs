@@ -94,9 +94,10 @@ pub struct EstimatorConfig {
     pub max_depth_m: f64,
     /// Camera-IMU time offset `td` (s): a frame stamped `t` was taken at IMU time `t + td`.
     pub td_s: f64,
-    /// Estimate `td` online. Slow: on the default figure-eight (seed 1, 60 s) a −10 ms error
-    /// shrinks to −7.6 ms, and from the true value it drifts by 2.5 ms; no excitation gating
-    /// and no prior on it yet.
+    /// Estimate `td` online (with the IMU, from the start of tracking), through image
+    /// velocities the window's motion predicts (`time_offset.rs`). Default figure-eight, seed 1,
+    /// 60 s: a −10 ms error is −1.3 ms at 30 s and −0.5 ms at the end; from the true value at
+    /// most 1.5 ms off after 20 s. No prior on it.
     pub estimate_td: bool,
     /// Estimate the camera extrinsics online (with the IMU, after initialization), held near
     /// the configured values by `extrinsic_prior_sigma_deg` / `extrinsic_prior_sigma_m`.
@@ -107,11 +108,22 @@ pub struct EstimatorConfig {
     pub extrinsic_prior_sigma_deg: f64,
     /// Standard deviation of the configured extrinsic translations when estimated (m).
     pub extrinsic_prior_sigma_m: f64,
+    /// Standard deviation of the configured relative rotation of every camera to camera 0 when
+    /// the extrinsics are estimated (deg): a [`crate::factors::RelativePosePrior`]. A stereo
+    /// rig's own calibration knows its baseline far better than where it sits on the IMU; with
+    /// only the absolute priors, the two free extrinsics let the baseline, and the scale of every
+    /// stereo depth, wander (a 2° / 2 cm rig error on the tilting Lissajous motion, seed 1: the
+    /// first loop 20 % too small, ATE 0.119 m).
+    pub extrinsic_relative_prior_sigma_deg: f64,
+    /// Standard deviation of the configured relative translation of every camera to camera 0
+    /// when the extrinsics are estimated (m).
+    pub extrinsic_relative_prior_sigma_m: f64,
     /// The extrinsics are estimated only once the estimator has tracked (with the IMU) for this
     /// long (s) since its last initialization or reset: during the start-up transient the
     /// biases, tilt and velocities are still converging, and what they get wrong flows into
-    /// free extrinsics. Default motion, seed 1, estimation from the true extrinsics: 2.4° /
-    /// 35 mm off within 20 s without a warm-up, within 0.08° / 6 mm over 30 s after 3 s.
+    /// free extrinsics. Default motion, seed 1, estimation from the true extrinsics: up to
+    /// 2.7° / 34 mm off without a warm-up, within 0.11° / 5.6 mm over 60 s after 3 s. From a
+    /// known-wrong rig set it to 0: held wrong, the extrinsics go into the prior and stay.
     pub calibration_warmup_s: f64,
     /// Frames collected for the visual-inertial alignment before IMU factors are used.
     pub init_frames: usize,
@@ -265,6 +277,8 @@ impl EstimatorConfig {
             estimate_extrinsics: false,
             extrinsic_prior_sigma_deg: 2.0,
             extrinsic_prior_sigma_m: 0.02,
+            extrinsic_relative_prior_sigma_deg: 0.1,
+            extrinsic_relative_prior_sigma_m: 0.001,
             calibration_warmup_s: 3.0,
             init_frames: 10,
             mono_init_parallax_px: 30.0,
@@ -490,6 +504,14 @@ impl EstimatorConfig {
         }
         positive("extrinsic_prior_sigma_deg", self.extrinsic_prior_sigma_deg)?;
         positive("extrinsic_prior_sigma_m", self.extrinsic_prior_sigma_m)?;
+        positive(
+            "extrinsic_relative_prior_sigma_deg",
+            self.extrinsic_relative_prior_sigma_deg,
+        )?;
+        positive(
+            "extrinsic_relative_prior_sigma_m",
+            self.extrinsic_relative_prior_sigma_m,
+        )?;
         if !(self.calibration_warmup_s >= 0.0 && self.calibration_warmup_s <= 3600.0) {
             return Err(ConfigError::new(
                 "calibration_warmup_s",

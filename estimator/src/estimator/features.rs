@@ -196,7 +196,9 @@ impl super::Estimator {
                 // previous displacement, `(z_{k−1} − z_{k−2}) / Δt`, not `(z_k − z_{k−1}) / Δt`,
                 // which shares this measurement's noise with its residual and biases `td`
                 // (by about σ²/Δt / (v² + σ²/Δt²) per solve; a drift of tens of milliseconds
-                // at 1 px). Zero before the track has two earlier measurements.
+                // at 1 px). Zero before the track has two earlier measurements. With `td`
+                // estimated, the velocity the window's motion predicts replaces it before every
+                // solve (`time_offset.rs`).
                 let mut velocity = Vector2::zeros();
                 let time_of = |seq: u64| {
                     self.window

@@ -16,7 +16,7 @@ use super::features::{FeatureManager, Track};
 use super::stationary::{Rest, ZeroVelocityFactor};
 use crate::factors::{
     AnchorBearing, ImuFactor, LANDMARK_SIZE, ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam,
-    ProjectionTwoFrameTwoCam, WorldPointProjection,
+    ProjectionTwoFrameTwoCam, RelativePosePrior, WorldPointProjection,
 };
 use crate::geometry::Pose;
 use crate::imu::{ImuNoise, Preintegration};
@@ -130,6 +130,9 @@ pub(super) struct Window {
     /// Whether the extrinsics are free in the next solves (`EstimatorConfig::
     /// estimate_extrinsics` once the warm-up is over; the estimator decides).
     pub estimate_extrinsics: bool,
+    /// Whether the time offset is free in the next solves (`EstimatorConfig::estimate_td`
+    /// once the same warm-up is over).
+    pub estimate_td: bool,
     /// GNSS fixes, wheel readings and the GNSS alignment.
     pub aiding: Aiding,
 }
@@ -147,6 +150,7 @@ impl Window {
             next_point: 0,
             rest: BTreeMap::new(),
             estimate_extrinsics: false,
+            estimate_td: false,
             aiding: Aiding::default(),
         }
     }
@@ -224,7 +228,7 @@ impl Window {
         }
         // Vision alone cannot tell a time offset from motion: td is estimated only against
         // the IMU.
-        problem.set_constant(td_block, !(config.estimate_td && imu_active));
+        problem.set_constant(td_block, !(self.estimate_td && imu_active));
         refs.push((BlockRef::Td, td_block));
         let mut built = Built {
             problem,
@@ -338,6 +342,30 @@ impl Window {
             built
                 .problem
                 .add_factor(Arc::new(prior), None, &[b])
+                .expect("sizes match");
+        }
+        // Every other camera's pose relative to camera 0: the rig's own calibration.
+        let Some(first) = config.cameras.first() else {
+            return;
+        };
+        for (i, camera) in config.cameras.iter().enumerate().skip(1) {
+            let (Some(a), Some(b)) = (
+                built.block(BlockRef::Extrinsic(0)),
+                built.block(BlockRef::Extrinsic(i)),
+            ) else {
+                continue;
+            };
+            if built.problem.is_constant(a) || built.problem.is_constant(b) {
+                continue;
+            }
+            let prior = RelativePosePrior {
+                T_a_b: first.T_b_c.inverse().compose(&camera.T_b_c),
+                sigma_m: config.extrinsic_relative_prior_sigma_m,
+                sigma_rad: config.extrinsic_relative_prior_sigma_deg.to_radians(),
+            };
+            built
+                .problem
+                .add_factor(Arc::new(prior), None, &[a, b])
                 .expect("sizes match");
         }
     }

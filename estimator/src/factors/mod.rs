@@ -7,11 +7,13 @@
 //! the GNSS alignment `[t, ψ]` 4/4.
 
 mod aiding;
+mod calibration;
 mod imu;
 mod point;
 mod reprojection;
 
 pub use aiding::{ALIGNMENT_SIZE, BodyVelocityFactor, GnssPositionFactor, yaw_rotation};
+pub use calibration::RelativePosePrior;
 pub use imu::ImuFactor;
 pub use point::{PointProjection, WorldPointProjection};
 pub use reprojection::{
