@@ -1,8 +1,9 @@
-//! Online calibration. The time offset on the default motion (60 s, seed 1): it is estimated
-//! through image velocities predicted from the window's motion (`time_offset.rs`); with the
-//! track's previous pixel displacement as the velocity it went from −10 to −7.6 ms in 60 s and
-//! wandered 2.5 ms from the truth. Extrinsics from the truth after the warm-up, and the issue's
-//! whole perturbed start (10 ms, 2°, 2 cm) on a tilting motion.
+//! Online calibration, gated by what the window observes (`estimator/src/estimator/
+//! calibration.rs`): the time offset on the default motion (60 s, seed 1), estimated through
+//! image velocities predicted from the window's motion (`time_offset.rs`; with the track's
+//! previous pixel displacement it went from −10 to −7.6 ms in 60 s); extrinsics from the truth,
+//! where the figure-eight determines the rotation but not the translation; the whole
+//! perturbed start (10 ms, 2°, 2 cm) on a tilting motion.
 
 mod common;
 
@@ -28,35 +29,52 @@ fn run_with_td(true_td_s: f64) -> Report {
 
 #[test]
 fn td_estimation_converges_and_stays_at_the_truth() {
-    // Measured (seed 1): from the truth, at most 1.45 ms off after 20 s, final +0.17 ms, ATE
-    // 0.0066 m; from a −10 ms error, −1.3 ms at 30 s and −0.54 ms at the end, ATE 0.0066 m.
+    // Measured (seed 1): the offset is held at its configured value until the window alone
+    // determines it to 5 ms (3.5 s). From the truth: at most 1.01 ms off after 20 s, final
+    // +0.14 ms, ATE 0.0098 m. From a −10 ms error: at most 1.00 ms off after 30 s, final
+    // −0.70 ms, ATE 0.0082 m.
+    let released = |r: &Report| {
+        r.events
+            .iter()
+            .filter(|e| e.kind == "calibration_released")
+            .map(|e| (e.t_s, e.detail.clone()))
+            .collect::<Vec<_>>()
+    };
     let from_truth = run_with_td(0.0);
     let c = from_truth.calibration.as_ref().unwrap();
     for s in c.history.iter().filter(|s| s.t_s >= 20.0) {
-        assert!(s.td_error_ms.abs() < 2.0, "{s:?}");
+        assert!(s.td_error_ms.abs() < 1.5, "{s:?}");
     }
     assert!(c.td_error_ms.abs() < 0.5, "final {} ms", c.td_error_ms);
-    assert!(from_truth.ate_rmse_m.unwrap() < 0.009);
+    assert!(from_truth.ate_rmse_m.unwrap() < 0.012);
+    let events = released(&from_truth);
+    assert_eq!(events.len(), 1, "{events:?}");
+    assert!(events[0].1.starts_with("time offset") && (3.0..5.0).contains(&events[0].0));
 
     let from_error = run_with_td(0.01);
     let c = from_error.calibration.as_ref().unwrap();
-    assert_eq!(c.history[0].td_error_ms, -10.0);
+    // Held until the release: no drift toward any value the window cannot yet support.
+    for s in c.history.iter().filter(|s| s.t_s < 3.0) {
+        assert!((s.td_error_ms + 10.0).abs() < 0.01, "{s:?}");
+    }
     for s in c.history.iter().filter(|s| s.t_s >= 30.0) {
-        assert!(s.td_error_ms.abs() < 2.0, "{s:?}");
+        assert!(s.td_error_ms.abs() < 1.5, "{s:?}");
     }
     assert!(
         c.td_error_ms.abs() < 1.0,
         "from −10 ms to {} ms",
         c.td_error_ms
     );
-    assert!(from_error.ate_rmse_m.unwrap() < 0.009);
+    assert!(from_error.ate_rmse_m.unwrap() < 0.011);
 }
 
 #[test]
-fn extrinsic_estimation_waits_for_its_warm_up_and_stays_near_the_truth() {
-    // Default motion, seed 1, 20 s, estimation from the true extrinsics. Before the prior,
-    // the IMU-only gate and the 3 s warm-up they left for metres within a second; with the
-    // prior alone 2.4° / 35 mm within 20 s. Measured now: at most 0.12° / 5.6 mm (30 s).
+fn extrinsics_are_estimated_where_the_motion_determines_them() {
+    // Default motion, seed 1, 20 s, from the true extrinsics. The figure-eight turns about one
+    // axis: the window determines the rig's rotation to 0.5° within about 2 s, never its
+    // translation (σ about 13 mm if free: a horizontal lever arm looks like an accelerometer
+    // bias). Measured: rotation released at 2.1 s, a 0.51° excursion at 3 s, at most 0.17°
+    // after 10 s; translation held, 0.19 mm; ATE 0.0108 m.
     let text = scenarios::catalog::get(scenarios::catalog::DEFAULT)
         .unwrap()
         .text
@@ -67,20 +85,25 @@ fn extrinsic_estimation_waits_for_its_warm_up_and_stays_near_the_truth() {
     let scenario = Scenario::parse("extrinsics", Origin::Catalog, &text).unwrap();
     let done = run_scenario(scenario, Some(20.0));
     let r = &done.report;
+    let released: Vec<_> = r
+        .events
+        .iter()
+        .filter(|e| e.kind == "calibration_released")
+        .collect();
+    assert_eq!(released.len(), 1, "{released:?}");
+    assert!(released[0].detail.starts_with("rotation") && released[0].t_s < 4.0);
     let c = r.calibration.as_ref().unwrap();
-    // Initialization at about 0.5 s, then 3 s of warm-up: untouched at 1, 2 and 3 s.
-    for s in &c.history[..4] {
-        assert_eq!(s.rotation_error_deg, 0.0, "{s:?}");
-    }
-    assert!(c.history.iter().skip(5).any(|s| s.rotation_error_deg > 0.0));
     for s in &c.history {
         assert!(
-            s.rotation_error_deg < 0.2 && s.translation_error_mm < 8.0,
+            s.rotation_error_deg < 0.7 && s.translation_error_mm < 0.5,
             "{s:?}"
         );
+        if s.t_s >= 10.0 {
+            assert!(s.rotation_error_deg < 0.25, "{s:?}");
+        }
     }
     assert_eq!(r.resets, 0);
-    assert!(r.ate_rmse_m.unwrap() < 0.012);
+    assert!(r.ate_rmse_m.unwrap() < 0.013);
     // A run that studies calibration draws its errors over time.
     let dir = std::env::temp_dir().join(format!("vio-calibration-{}", std::process::id()));
     report::write_outputs(&dir, &done.scenario, &done.output, &done.eval, r).unwrap();
@@ -93,9 +116,10 @@ fn extrinsic_estimation_waits_for_its_warm_up_and_stays_near_the_truth() {
 fn calibration_converges_from_the_perturbed_start_on_a_tilting_motion() {
     // The calibration issue's perturbed start: a 10 ms time offset and both cameras off by
     // [1.2, −1.2, 1.0]° and [12, −12, 10] mm (1.97° / 19.7 mm), on a motion whose roll and pitch
-    // swing ±0.5 rad at 0.2 Hz, everything free from the start. Measured after 30 s, seeds
-    // 1 / 2 / 3: td at most 0.27 / 0.12 / 0.15 ms, rotation 0.033 / 0.027 / 0.025°, translation
-    // 3.5 / 3.0 / 2.2 mm. Bounds: the 0.5 ms and 5 mm, its 0.1° halved.
+    // swing ±0.5 rad at 0.2 Hz. Measured after 30 s, seeds 1 / 2 / 3: td at most 0.36 / 0.36 /
+    // 0.16 ms, rotation 0.038 / 0.044 / 0.024°, translation 3.7 / 3.4 / 1.8 mm; released (seed 1)
+    // time offset 0.7 s, rotation 0.9 s, translation 9.3 s. Bounds: the 0.5 ms and
+    // 5 mm, its 0.1° halved.
     let scenario = Scenario::load("room_lissajous_calibration_stereo_imu").unwrap();
     let r = run_scenario(scenario, Some(40.0)).report;
     let c = r.calibration.as_ref().unwrap();
@@ -114,4 +138,15 @@ fn calibration_converges_from_the_perturbed_start_on_a_tilting_motion() {
         );
     }
     assert_eq!(r.resets, 0);
+    let released: Vec<_> = r
+        .events
+        .iter()
+        .filter(|e| e.kind == "calibration_released")
+        .map(|e| (e.t_s, e.detail.split(' ').next().unwrap_or("")))
+        .collect();
+    assert_eq!(released.len(), 3, "{released:?}");
+    for (t, what) in released {
+        let by = if what == "translation" { 12.0 } else { 2.0 };
+        assert!(t < by, "{what} released at {t} s");
+    }
 }

@@ -100,6 +100,9 @@ pub enum EventKind {
     /// GNSS fixes kept disagreeing with the odometry: the alignment was dropped and starts
     /// again.
     GnssAlignmentDropped,
+    /// A calibration quantity the estimator held at its configured value is estimated from
+    /// now on (which, and its σ then).
+    CalibrationReleased(String),
     /// The estimator found its window failed and restarted from its last good state.
     Reset {
         /// What failed.
@@ -449,6 +452,9 @@ impl Recorder {
                 EstimatorEventKind::PriorDropped => EventKind::PriorDropped,
                 EstimatorEventKind::GnssAligned => EventKind::GnssAligned,
                 EstimatorEventKind::GnssAlignmentDropped => EventKind::GnssAlignmentDropped,
+                EstimatorEventKind::CalibrationReleased { detail } => {
+                    EventKind::CalibrationReleased(detail)
+                }
                 EstimatorEventKind::Reset { reason } => {
                     out.resets += 1;
                     EventKind::Reset { reason }

@@ -94,13 +94,16 @@ pub struct EstimatorConfig {
     pub max_depth_m: f64,
     /// Camera-IMU time offset `td` (s): a frame stamped `t` was taken at IMU time `t + td`.
     pub td_s: f64,
-    /// Estimate `td` online (with the IMU, from the start of tracking), through image
-    /// velocities the window's motion predicts (`time_offset.rs`). Default figure-eight, seed 1,
-    /// 60 s: a −10 ms error is −1.3 ms at 30 s and −0.5 ms at the end; from the true value at
-    /// most 1.5 ms off after 20 s. No prior on it.
+    /// Estimate `td` online (with the IMU), through image velocities the window's motion
+    /// predicts (`time_offset.rs`); held at `td_s` until the window determines it to
+    /// `calibration_release_sigma_ms` (`calibration.rs`). Default figure-eight, seed 1, 60 s:
+    /// released at 3.5 s; a −10 ms error is within 1.0 ms after 30 s, −0.7 ms at the end; from
+    /// the true value within 1.0 ms after 20 s.
     pub estimate_td: bool,
-    /// Estimate the camera extrinsics online (with the IMU, after initialization), held near
-    /// the configured values by `extrinsic_prior_sigma_deg` / `extrinsic_prior_sigma_m`.
+    /// Estimate the camera extrinsics online (with the IMU), held near the configured values by
+    /// `extrinsic_prior_sigma_*` and, between cameras, `extrinsic_relative_prior_sigma_*`. The
+    /// rig's rotation and translation are each held at the configured values until the window
+    /// determines them to `calibration_release_sigma_deg` / `_m` (`calibration.rs`).
     pub estimate_extrinsics: bool,
     /// Standard deviation of the configured extrinsic rotations when they are estimated (deg):
     /// a prior factor on each camera's `T_b_c`, applied in every solve and never marginalized
@@ -118,13 +121,21 @@ pub struct EstimatorConfig {
     /// Standard deviation of the configured relative translation of every camera to camera 0
     /// when the extrinsics are estimated (m).
     pub extrinsic_relative_prior_sigma_m: f64,
-    /// The extrinsics are estimated only once the estimator has tracked (with the IMU) for this
-    /// long (s) since its last initialization or reset: during the start-up transient the
-    /// biases, tilt and velocities are still converging, and what they get wrong flows into
-    /// free extrinsics. Default motion, seed 1, estimation from the true extrinsics: up to
-    /// 2.7° / 34 mm off without a warm-up, within 0.11° / 5.6 mm over 60 s after 3 s. From a
-    /// known-wrong rig set it to 0: held wrong, the extrinsics go into the prior and stay.
+    /// A minimum time (s) of tracking with the IMU since the last (re)initialization before a
+    /// held calibration quantity may be released, on top of the information gate. 0 by default:
+    /// the gate already keeps the start-up transient out (from the true extrinsics on the
+    /// figure-eight, seed 1, the rotation is released at 2.1 s and moves at most 0.51°), and a
+    /// held quantity is a variable of the marginalization prior, so holding it longer folds
+    /// nothing wrong into the prior but does cost accuracy while it is wrong.
     pub calibration_warmup_s: f64,
+    /// A held extrinsic rotation is released once, free, its marginal σ would be at most this
+    /// (deg, largest direction; see `calibration.rs`).
+    pub calibration_release_sigma_deg: f64,
+    /// A held extrinsic translation is released once, free, its marginal σ would be at most
+    /// this (m, largest direction).
+    pub calibration_release_sigma_m: f64,
+    /// A held time offset is released once, free, its marginal σ would be at most this (ms).
+    pub calibration_release_sigma_ms: f64,
     /// Frames collected for the visual-inertial alignment before IMU factors are used.
     pub init_frames: usize,
     /// Mono+IMU initialization: the mean parallax (px) between the structure-from-motion
@@ -279,7 +290,10 @@ impl EstimatorConfig {
             extrinsic_prior_sigma_m: 0.02,
             extrinsic_relative_prior_sigma_deg: 0.1,
             extrinsic_relative_prior_sigma_m: 0.001,
-            calibration_warmup_s: 3.0,
+            calibration_warmup_s: 0.0,
+            calibration_release_sigma_deg: 0.5,
+            calibration_release_sigma_m: 0.005,
+            calibration_release_sigma_ms: 5.0,
             init_frames: 10,
             mono_init_parallax_px: 30.0,
             mono_init_window_s: 4.0,
@@ -504,6 +518,18 @@ impl EstimatorConfig {
         }
         positive("extrinsic_prior_sigma_deg", self.extrinsic_prior_sigma_deg)?;
         positive("extrinsic_prior_sigma_m", self.extrinsic_prior_sigma_m)?;
+        positive(
+            "calibration_release_sigma_deg",
+            self.calibration_release_sigma_deg,
+        )?;
+        positive(
+            "calibration_release_sigma_m",
+            self.calibration_release_sigma_m,
+        )?;
+        positive(
+            "calibration_release_sigma_ms",
+            self.calibration_release_sigma_ms,
+        )?;
         positive(
             "extrinsic_relative_prior_sigma_deg",
             self.extrinsic_relative_prior_sigma_deg,

@@ -86,6 +86,12 @@ pub enum EventKind {
     /// GNSS fixes disagreed with the window `GnssConfig::realign_after_rejections` times in a
     /// row: the alignment was dropped and is initialized again from the fixes that follow.
     GnssAlignmentDropped,
+    /// A held calibration quantity (rig rotation, rig translation or time offset) is free
+    /// from now on: the window determines it (see `super::calibration`).
+    CalibrationReleased {
+        /// Which, and the σ it had when released.
+        detail: String,
+    },
     /// The solved window failed a health check (see [`super::health`]) and was discarded; the
     /// estimator restarted from the last good state.
     Reset {

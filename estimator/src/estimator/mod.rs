@@ -14,6 +14,7 @@
 
 mod aiding;
 mod batch;
+mod calibration;
 pub mod config;
 mod covariance;
 pub mod events;
@@ -590,18 +591,14 @@ impl Estimator {
             // persistent points instead of ending with it.
             self.window.promote_to_points(&self.config);
         }
-        // Extrinsics are free only after the warm-up (see `calibration_warmup_s`); the time
-        // offset from the start of tracking (held during a warm-up, a wrong td is folded into
-        // the prior and stays: −10 ms was still −5 ms after 60 s on the figure-eight, seed 1).
+        // Calibration: held at the configured values until the window determines it (see
+        // `calibration.rs`).
         if self.status == Status::Tracking {
             self.tracking_since.get_or_insert(t_ns);
         } else {
             self.tracking_since = None;
         }
-        let warmup_ns = (self.config.calibration_warmup_s * 1e9).round() as i64;
-        self.window.estimate_extrinsics = self.config.estimate_extrinsics
-            && self.tracking_since.is_some_and(|t0| t_ns - t0 >= warmup_ns);
-        self.window.estimate_td = self.config.estimate_td;
+        self.configure_calibration();
         if imu_active && self.window.screen_fixes(&self.config) {
             // The receiver's frame moved: the alignment leaves the prior and starts again.
             let built = self.window.build(&self.problem_settings(), imu_active);
@@ -612,7 +609,7 @@ impl Estimator {
                 kind: EventKind::GnssAlignmentDropped,
             });
         }
-        if imu_active && self.window.estimate_td {
+        if imu_active && self.window.calibration.td_variable() {
             self.window.predict_image_velocities();
         }
         let mut built = self.window.build(&self.problem_settings(), imu_active);
@@ -624,6 +621,7 @@ impl Estimator {
             self.reset(t_ns, reason);
             return self.estimate(&predicted, keyframe, start, None);
         }
+        self.release_calibration(t_ns, &built, linearization.as_ref(), imu_active);
         let (covariance, relative_pose) = match &linearization {
             Some(lin) if self.config.compute_covariance => {
                 let frames: Vec<&WindowFrame> = self.window.frames.iter().collect();

@@ -11,12 +11,13 @@ use std::sync::Arc;
 use nalgebra::Vector3;
 
 use super::aiding::Aiding;
+use super::calibration::CalibrationGates;
 use super::config::EstimatorConfig;
 use super::features::{FeatureManager, Track};
 use super::stationary::{Rest, ZeroVelocityFactor};
 use crate::factors::{
     AnchorBearing, ImuFactor, LANDMARK_SIZE, ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam,
-    ProjectionTwoFrameTwoCam, RelativePosePrior, WorldPointProjection,
+    ProjectionTwoFrameTwoCam, WorldPointProjection,
 };
 use crate::geometry::Pose;
 use crate::imu::{ImuNoise, Preintegration};
@@ -127,12 +128,9 @@ pub(super) struct Window {
     /// Frames detected at rest (by seq) and what the IMU read there: each gets a
     /// [`ZeroVelocityFactor`].
     pub rest: BTreeMap<u64, Rest>,
-    /// Whether the extrinsics are free in the next solves (`EstimatorConfig::
-    /// estimate_extrinsics` once the warm-up is over; the estimator decides).
-    pub estimate_extrinsics: bool,
-    /// Whether the time offset is free in the next solves (`EstimatorConfig::estimate_td`
-    /// once the same warm-up is over).
-    pub estimate_td: bool,
+    /// How the extrinsics and the time offset enter the next solves (fixed, held at their
+    /// configured values, or free; see [`super::calibration`]).
+    pub calibration: CalibrationGates,
     /// GNSS fixes, wheel readings and the GNSS alignment.
     pub aiding: Aiding,
 }
@@ -149,8 +147,7 @@ impl Window {
             points: BTreeMap::new(),
             next_point: 0,
             rest: BTreeMap::new(),
-            estimate_extrinsics: false,
-            estimate_td: false,
+            calibration: CalibrationGates::default(),
             aiding: Aiding::default(),
         }
     }
@@ -210,7 +207,7 @@ impl Window {
             let b = problem
                 .add_block(&e.to_array(), pose_m.clone(), BlockKind::State)
                 .expect("finite");
-            problem.set_constant(b, !(self.estimate_extrinsics && imu_active));
+            problem.set_constant(b, !(self.calibration.extrinsics_variable() && imu_active));
             refs.push((BlockRef::Extrinsic(i), b));
         }
         let td_block = problem
@@ -228,7 +225,7 @@ impl Window {
         }
         // Vision alone cannot tell a time offset from motion: td is estimated only against
         // the IMU.
-        problem.set_constant(td_block, !(self.estimate_td && imu_active));
+        problem.set_constant(td_block, !(self.calibration.td_variable() && imu_active));
         refs.push((BlockRef::Td, td_block));
         let mut built = Built {
             problem,
@@ -241,7 +238,7 @@ impl Window {
             frame_factors: Vec::new(),
             prior: None,
         };
-        self.add_extrinsic_priors(&mut built, config);
+        self.add_calibration_priors(&mut built, config);
         if imu_active {
             self.add_alignment_block(&mut built);
         }
@@ -310,64 +307,6 @@ impl Window {
         }
         self.add_visual_factors(&mut built, settings, td_block);
         built
-    }
-
-    /// With the extrinsics estimated: a prior on each camera's `T_b_c` at its configured value
-    /// (`extrinsic_prior_sigma_deg` / `_m`). It touches no state that ever leaves the window, so
-    /// marginalization never folds it into the window prior: it counts once.
-    fn add_extrinsic_priors(&self, built: &mut Built, config: &EstimatorConfig) {
-        let (wr, wt) = (
-            1.0 / config.extrinsic_prior_sigma_deg.to_radians(),
-            1.0 / config.extrinsic_prior_sigma_m,
-        );
-        for (i, camera) in config.cameras.iter().enumerate() {
-            let Some(b) = built.block(BlockRef::Extrinsic(i)) else {
-                continue;
-            };
-            if built.problem.is_constant(b) {
-                continue;
-            }
-            let mut jac = vec![0.0; 36];
-            for k in 0..3 {
-                jac[k * 6 + k] = wt;
-                jac[(3 + k) * 6 + 3 + k] = wr;
-            }
-            let prior = PriorFactor::new(
-                vec![Arc::new(PoseManifold)],
-                vec![camera.T_b_c.to_array().to_vec()],
-                jac,
-                vec![0.0; 6],
-            )
-            .expect("a 6x6 prior on a pose");
-            built
-                .problem
-                .add_factor(Arc::new(prior), None, &[b])
-                .expect("sizes match");
-        }
-        // Every other camera's pose relative to camera 0: the rig's own calibration.
-        let Some(first) = config.cameras.first() else {
-            return;
-        };
-        for (i, camera) in config.cameras.iter().enumerate().skip(1) {
-            let (Some(a), Some(b)) = (
-                built.block(BlockRef::Extrinsic(0)),
-                built.block(BlockRef::Extrinsic(i)),
-            ) else {
-                continue;
-            };
-            if built.problem.is_constant(a) || built.problem.is_constant(b) {
-                continue;
-            }
-            let prior = RelativePosePrior {
-                T_a_b: first.T_b_c.inverse().compose(&camera.T_b_c),
-                sigma_m: config.extrinsic_relative_prior_sigma_m,
-                sigma_rad: config.extrinsic_relative_prior_sigma_deg.to_radians(),
-            };
-            built
-                .problem
-                .add_factor(Arc::new(prior), None, &[a, b])
-                .expect("sizes match");
-        }
     }
 
     /// A [`ZeroVelocityFactor`] on the speed-bias of every window frame detected at rest.

@@ -285,7 +285,8 @@ pub struct TimingReport {
 pub struct EventReport {
     /// Time (s).
     pub t_s: f64,
-    /// `status_change`, `input_rejected`, `suite_switch` or `prior_dropped`.
+    /// `status_change`, `input_rejected`, `suite_switch`, `prior_dropped`, `reset`, `gnss_aligned`,
+    /// `gnss_alignment_dropped` or `calibration_released`.
     pub kind: &'static str,
     /// Details.
     pub detail: String,
@@ -474,6 +475,7 @@ pub fn build_report_in(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> 
                 EventKind::PriorDropped => ("prior_dropped", String::new()),
                 EventKind::GnssAligned => ("gnss_aligned", String::new()),
                 EventKind::GnssAlignmentDropped => ("gnss_alignment_dropped", String::new()),
+                EventKind::CalibrationReleased(d) => ("calibration_released", d.clone()),
                 EventKind::Reset { reason } => ("reset", reason.clone()),
             };
             EventReport {
