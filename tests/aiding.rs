@@ -107,19 +107,18 @@ fn wheel_odometry_lowers_the_drift_of_a_ground_vehicle() {
 }
 
 #[test]
-fn wheel_odometry_holds_the_scale_of_a_monocular_ground_vehicle() {
+fn wheel_odometry_gives_the_scale_of_a_monocular_ground_vehicle() {
     let with = run_catalog("hall_ground_vehicle_wheel_mono_imu", None);
     let without = run_catalog("hall_ground_vehicle_mono_imu", None);
-    let (a, b) = (
-        with.report.ate_rmse_m.unwrap(),
-        without.report.ate_rmse_m.unwrap(),
-    );
-    // 60 s: 0.0384 m with the wheels, 0.306 m without (seeds 2, 3: 0.0318 / 0.0630 against
-    // 0.323 / 0.431): on level ground at near-constant speed the accelerometer barely sees
-    // the scale, the wheels measure it. Asserted: at least 4 times lower, and below 5 cm.
-    assert!(a < 0.25 * b && a < 0.05, "with {a}, without {b}");
-    // The wheel speeds enter the initial visual-inertial alignment too: initialized at 3.3 s
-    // (94.6 % of the frames tracking) against 21.6 s (64 %) without.
+    // On level ground at near-constant speed the accelerometer barely sees the scale; the
+    // wheels measure it, in the initial visual-inertial alignment too. With them (seed 1,
+    // 60 s): initialized at 3.3 s (94.6 % of the frames tracking), ATE 0.0384 m (seeds 2, 3:
+    // 0.0318 / 0.0630). Without them the scale never passes the initialization's 3 % gate and
+    // the estimator does not start (it started at 21.6 s into 0.31 m with a 5 % gate).
+    let a = with.report.ate_rmse_m.unwrap();
+    assert!(a < 0.05, "with the wheels {a}");
     assert!(with.report.tracking_fraction > 0.9);
-    assert!(without.report.tracking_fraction < 0.7);
+    assert_eq!(without.report.tracking_fraction, 0.0);
+    assert!(without.report.ate_rmse_m.is_none());
+    assert_eq!(with.report.resets + without.report.resets, 0);
 }

@@ -68,11 +68,12 @@ fn camera_0_dead_from_the_start_initializes_on_camera_1() {
         t.to_string() + "\n[[faults]]\nkind = \"camera_death\"\ncam_id = 0\nat_s = 0.0\n"
     });
     let r = run_report(&s, None, Some(20.0));
-    // Measured 0.0291 m (seed 1, 20 s); it was 1.41 m: the stereo initializer aligned
+    // Measured 0.0218 m, 69.8 % tracking (seed 1, 20 s; the mono scale gate of 3 % passes at
+    // 6.05 s; with 5 %: 0.0291 m, 78 %); it was 1.41 m: the stereo initializer aligned
     // constant-velocity guesses.
     let ate = r.ate_rmse_m.unwrap();
-    assert!(ate < 0.06, "{ate}");
-    assert!(r.tracking_fraction > 0.75, "{}", r.tracking_fraction);
+    assert!(ate < 0.04, "{ate}");
+    assert!(r.tracking_fraction > 0.65, "{}", r.tracking_fraction);
 }
 
 #[test]
