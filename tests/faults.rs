@@ -168,7 +168,8 @@ fn healthy_runs_raise_no_alarm() {
 /// A scenario without expectations still fails when the estimator never tracks: mono+IMU on a
 /// circle at constant speed facing along the tangent (the scale is not observable, so the
 /// initialization never passes its gate) gets the default bounds (ATE within
-/// max(0.5 m, 2 % of the path), tracking on half of the frames) and does not pass.
+/// max(0.5 m, 2 % of the path), tracking on half of the frames) and does not pass; one that
+/// expects the refusal passes.
 #[test]
 fn a_run_that_never_tracks_fails_on_the_default_expectations() {
     let text = scenarios::catalog::get("room_circle_stereo_imu")
@@ -194,6 +195,18 @@ fn a_run_that_never_tracks_fails_on_the_default_expectations() {
     assert_eq!(metrics, ["ate_rmse_m", "tracking_fraction"]);
     assert_eq!(r.tracking_fraction, 0.0);
     assert!(!r.passed);
+    // Expecting the refusal (`tracking_fraction = { max = 0 }`) passes, with no ATE bound.
+    let expecting = format!("{text}[expectations]\ntracking_fraction = {{ max = 0.0 }}\n");
+    let scenario = scenarios::spec::Scenario::parse(
+        "circle_mono_expecting_no_start",
+        scenarios::spec::Origin::Catalog,
+        &expecting,
+    )
+    .expect("valid");
+    let r = scenarios::report::build_report(&scenario, &output, &eval);
+    let metrics: Vec<&str> = r.expectations.iter().map(|e| e.metric).collect();
+    assert_eq!(metrics, ["tracking_fraction"]);
+    assert!(r.passed);
 }
 
 /// A 1 cm stereo baseline gives the stereo-inertial initialization depths too poor to hold the

@@ -47,7 +47,8 @@ pub fn error_at(errors: &[(f64, f64)], t_s: f64) -> Option<f64> {
 /// The default bounds of a scenario that sets none of its own on these metrics: the ATE within
 /// `max(0.5 m, 2 % of the ground-truth path)` and tracking on at least half of the frames. They
 /// catch divergence (metres of error, a lost track), not precision; a scenario states its own
-/// bounds for that.
+/// bounds for that. A scenario that expects no tracking (`tracking_fraction = { max = 0 }`) gets
+/// no ATE bound: there is no trajectory.
 pub fn default_bounds(path_length_m: f64) -> [(&'static str, Bound); 2] {
     [
         (
