@@ -7,7 +7,8 @@
 
 mod common;
 
-use common::run_catalog;
+use common::{run_catalog, run_scenario};
+use scenarios::spec::{Origin, Scenario};
 
 /// Shortened duration of the default test run (s).
 const SHORT_S: f64 = 20.0;
@@ -88,6 +89,39 @@ fn mono_imu_initializes_and_converges_on_room_figure8() {
         max_ate_m: 0.05,
     };
     assert_run_converges("room_figure8_mono_imu", Some(SHORT_S), want);
+}
+
+/// Mono+IMU from a static start: the default figure-eight after 3 s at rest and a 1 s ramp
+/// (seed 1, 20 s). Nothing can start at rest (no parallax); the rest frames then pin gravity,
+/// the velocities and the gyroscope bias in the visual-inertial alignment, and the scale passes
+/// its 3 % gate 0.65 s into the motion (measured: initialized at 3.65 s on seeds 1–3, tracking
+/// 81.8 %, ATE 0.0222 m; 60 s: 0.0162 / 0.0161 / 0.0147 m).
+#[test]
+fn mono_imu_initializes_soon_after_a_static_start() {
+    let text = scenarios::catalog::get("room_figure8_mono_imu")
+        .unwrap()
+        .text
+        .replace(
+            "figure_eight = {",
+            "static_start = { hold_s = 3.0, ramp_s = 1.0 }\nfigure_eight = {",
+        );
+    let scenario = Scenario::parse("mono_static_start", Origin::Catalog, &text).unwrap();
+    let done = run_scenario(scenario, Some(SHORT_S));
+    let r = &done.report;
+    let started: Vec<f64> = r
+        .events
+        .iter()
+        .filter(|e| e.kind == "status_change" && e.detail.ends_with("Tracking"))
+        .map(|e| e.t_s)
+        .collect();
+    assert_eq!(started.len(), 1, "{started:?}");
+    assert!(
+        (3.0..4.5).contains(&started[0]),
+        "started at {} s",
+        started[0]
+    );
+    assert!(r.ate_rmse_m.unwrap() < 0.03);
+    assert_eq!(r.resets, 0);
 }
 
 #[test]
