@@ -82,6 +82,19 @@ impl CalibrationGates {
     pub fn any_held(&self) -> bool {
         [self.rotation, self.translation, self.td].contains(&Gate::Held)
     }
+
+    /// The σ (rad, m) of the prior on each camera's extrinsic rotation and translation: the
+    /// configured one, or the hold ([`HOLD_FRACTION`] of it) while that part is held.
+    fn extrinsic_sigmas(&self, config: &EstimatorConfig) -> (f64, f64) {
+        let sigma = |gate: Gate, configured: f64| match gate {
+            Gate::Held => HOLD_FRACTION * configured,
+            _ => configured,
+        };
+        (
+            sigma(self.rotation, config.extrinsic_prior_sigma_deg.to_radians()),
+            sigma(self.translation, config.extrinsic_prior_sigma_m),
+        )
+    }
 }
 
 impl Window {
@@ -93,19 +106,10 @@ impl Window {
     /// - The time offset at its configured value while it is held.
     pub(super) fn add_calibration_priors(&self, built: &mut Built, config: &EstimatorConfig) {
         let gates = self.calibration;
-        let weight = |gate: Gate, sigma: f64| match gate {
-            Gate::Held => 1.0 / (HOLD_FRACTION * sigma),
-            _ => 1.0 / sigma,
-        };
-        let wr = weight(
-            gates.rotation,
-            config.extrinsic_prior_sigma_deg.to_radians(),
-        );
-        let wt = weight(gates.translation, config.extrinsic_prior_sigma_m);
-        let variable =
-            |built: &Built, r: BlockRef| built.block(r).filter(|b| !built.problem.is_constant(*b));
+        let (sigma_r, sigma_t) = gates.extrinsic_sigmas(config);
+        let (wr, wt) = (1.0 / sigma_r, 1.0 / sigma_t);
         for (i, camera) in config.cameras.iter().enumerate() {
-            let Some(b) = variable(built, BlockRef::Extrinsic(i)) else {
+            let Some(b) = built.variable_block(BlockRef::Extrinsic(i)) else {
                 continue;
             };
             let mut jac = vec![0.0; 36];
@@ -128,8 +132,8 @@ impl Window {
         if let Some(first) = config.cameras.first() {
             for (i, camera) in config.cameras.iter().enumerate().skip(1) {
                 let (Some(a), Some(b)) = (
-                    variable(built, BlockRef::Extrinsic(0)),
-                    variable(built, BlockRef::Extrinsic(i)),
+                    built.variable_block(BlockRef::Extrinsic(0)),
+                    built.variable_block(BlockRef::Extrinsic(i)),
                 ) else {
                     continue;
                 };
@@ -145,7 +149,7 @@ impl Window {
             }
         }
         if gates.td == Gate::Held
-            && let Some(b) = variable(built, BlockRef::Td)
+            && let Some(b) = built.variable_block(BlockRef::Td)
         {
             let prior = PriorFactor::new(
                 vec![Arc::new(Euclidean::new(1))],
@@ -187,29 +191,23 @@ fn free_sigmas(
     gates: CalibrationGates,
     config: &EstimatorConfig,
 ) -> Option<FreeSigmas> {
-    let variable = |r: BlockRef| built.block(r).filter(|b| !built.problem.is_constant(*b));
-    // Coordinates: every camera's extrinsic `[δp, δθ]`, then td; camera 0 first.
+    // Coordinates: every camera's extrinsic `[δp, δθ]`, then td; camera 0 first. The holds'
+    // information: what the prior the window was built with adds over the configured one.
     let mut coords = Vec::new();
     let mut held_info = Vec::new();
-    let extra = |gate: Gate, sigma: f64| match gate {
-        Gate::Held => (HOLD_FRACTION * sigma).powi(-2) - sigma.powi(-2),
-        _ => 0.0,
-    };
-    let rotation = extra(
-        gates.rotation,
-        config.extrinsic_prior_sigma_deg.to_radians(),
-    );
-    let translation = extra(gates.translation, config.extrinsic_prior_sigma_m);
-    let extrinsics = variable(BlockRef::Extrinsic(0)).is_some();
+    let (sigma_r, sigma_t) = gates.extrinsic_sigmas(config);
+    let rotation = sigma_r.powi(-2) - config.extrinsic_prior_sigma_deg.to_radians().powi(-2);
+    let translation = sigma_t.powi(-2) - config.extrinsic_prior_sigma_m.powi(-2);
+    let extrinsics = built.variable_block(BlockRef::Extrinsic(0)).is_some();
     for i in 0..config.cameras.len() {
-        let Some(b) = variable(BlockRef::Extrinsic(i)) else {
+        let Some(b) = built.variable_block(BlockRef::Extrinsic(i)) else {
             continue;
         };
         coords.extend((0..6).map(|k| (b, k)));
         held_info.extend([translation; 3]);
         held_info.extend([rotation; 3]);
     }
-    let td = variable(BlockRef::Td);
+    let td = built.variable_block(BlockRef::Td);
     if let Some(b) = td {
         coords.push((b, 0));
         held_info.push(match gates.td {
@@ -406,17 +404,7 @@ mod tests {
             .collect();
         let data = PriorFactor::new(manifolds, points, jac, vec![0.0; rank]).unwrap();
         problem.add_factor(Arc::new(data), None, &blocks).unwrap();
-        let mut built = Built {
-            problem,
-            refs,
-            landmarks: Vec::new(),
-            imu: Vec::new(),
-            visual: Vec::new(),
-            points: Vec::new(),
-            point_obs: Vec::new(),
-            frame_factors: Vec::new(),
-            prior: None,
-        };
+        let mut built = Built::new(problem, refs, Vec::new());
         window.add_calibration_priors(&mut built, &config);
         built
     }

@@ -35,9 +35,6 @@ pub(super) fn newest_covariance(
     interval_s: f64,
 ) -> Option<(DMatrix<f64>, Option<RelativePose>)> {
     let (newest, earlier) = frames.split_last()?;
-    let variable = |r: BlockRef| -> Option<BlockId> {
-        built.block(r).filter(|id| !built.problem.is_constant(*id))
-    };
     let mut coords = Vec::new();
     for r in [BlockRef::Pose(newest.seq), BlockRef::SpeedBias(newest.seq)] {
         let Some(id) = built.block(r) else { continue };
@@ -53,10 +50,12 @@ pub(super) fn newest_covariance(
     let target_ns = newest.t_ns - (interval_s * 1e9).round() as i64;
     let from = earlier
         .iter()
-        .filter(|f| variable(BlockRef::Pose(f.seq)).is_some())
+        .filter(|f| built.variable_block(BlockRef::Pose(f.seq)).is_some())
         .min_by_key(|f| ((f.t_ns - target_ns).abs(), f.seq));
     if let Some(a) = from {
-        let id = variable(BlockRef::Pose(a.seq)).expect("filtered above");
+        let id = built
+            .variable_block(BlockRef::Pose(a.seq))
+            .expect("filtered above");
         coords.extend(tangent(&built.problem, id));
     }
     let cov = lin.marginal_covariance(&coords)?;

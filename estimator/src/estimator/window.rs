@@ -93,9 +93,34 @@ impl Window {
 }
 
 impl Built {
+    /// A problem whose blocks are `refs` (and the persistent `points` among them), with no
+    /// factor recorded yet.
+    pub fn new(
+        problem: Problem,
+        refs: Vec<(BlockRef, BlockId)>,
+        points: Vec<(u64, BlockId)>,
+    ) -> Self {
+        Self {
+            problem,
+            refs,
+            landmarks: Vec::new(),
+            imu: Vec::new(),
+            visual: Vec::new(),
+            points,
+            point_obs: Vec::new(),
+            frame_factors: Vec::new(),
+            prior: None,
+        }
+    }
+
     /// The problem block of a window state, if it is in the problem.
     pub fn block(&self, r: BlockRef) -> Option<BlockId> {
         self.refs.iter().find(|(x, _)| *x == r).map(|(_, b)| *b)
+    }
+
+    /// The problem block of a window state if it is in the problem and not held constant.
+    pub fn variable_block(&self, r: BlockRef) -> Option<BlockId> {
+        self.block(r).filter(|b| !self.problem.is_constant(*b))
     }
 }
 
@@ -227,17 +252,7 @@ impl Window {
         // the IMU.
         problem.set_constant(td_block, !(self.calibration.td_variable() && imu_active));
         refs.push((BlockRef::Td, td_block));
-        let mut built = Built {
-            problem,
-            refs,
-            landmarks: Vec::new(),
-            imu: Vec::new(),
-            visual: Vec::new(),
-            points,
-            point_obs: Vec::new(),
-            frame_factors: Vec::new(),
-            prior: None,
-        };
+        let mut built = Built::new(problem, refs, points);
         self.add_calibration_priors(&mut built, config);
         if imu_active {
             self.add_alignment_block(&mut built);

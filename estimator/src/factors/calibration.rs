@@ -3,7 +3,7 @@
 use nalgebra::{Matrix3, SMatrix, Vector3};
 
 use crate::geometry::{Pose, quat_from_xyzw, right_jacobian_inv, skew, so3_log};
-use crate::problem::{Factor, rotation_matrix, write_row_major};
+use crate::problem::{Factor, write_row_major};
 
 /// The relative pose of two cameras of a rig, held near its configured value while both
 /// cameras' extrinsics `T_b_a`, `T_b_b` are estimated:
@@ -43,7 +43,11 @@ impl Factor for RelativePosePrior {
         jacobians: Option<&mut [Option<&mut [f64]>]>,
     ) -> bool {
         let (a, b) = (params[0], params[1]);
-        let (r_a, r_b) = (rotation_matrix(&a[3..7]), rotation_matrix(&b[3..7]));
+        let (q_a, q_b) = (quat_from_xyzw(&a[3..7]), quat_from_xyzw(&b[3..7]));
+        let (r_a, r_b) = (
+            q_a.to_rotation_matrix().into_inner(),
+            q_b.to_rotation_matrix().into_inner(),
+        );
         let (p_a, p_b) = (
             Vector3::new(a[0], a[1], a[2]),
             Vector3::new(b[0], b[1], b[2]),
@@ -51,8 +55,7 @@ impl Factor for RelativePosePrior {
         let (wt, wr) = (1.0 / self.sigma_m, 1.0 / self.sigma_rad);
         let x = r_a.transpose() * (p_b - p_a);
         let r_ab = r_a.transpose() * r_b;
-        let q_err =
-            self.T_a_b.q.inverse() * quat_from_xyzw(&a[3..7]).inverse() * quat_from_xyzw(&b[3..7]);
+        let q_err = self.T_a_b.q.inverse() * q_a.inverse() * q_b;
         let e = so3_log(&q_err);
         let rt = wt * (x - self.T_a_b.p);
         let rr = wr * e;
