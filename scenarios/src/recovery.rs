@@ -44,28 +44,32 @@ pub fn error_at(errors: &[(f64, f64)], t_s: f64) -> Option<f64> {
         .map(|(_, e)| *e)
 }
 
-/// The default bounds of a scenario that sets none of its own on these metrics: the ATE within
-/// `max(0.5 m, 2 % of the ground-truth path)` and tracking on at least half of the frames. They
-/// catch divergence (metres of error, a lost track), not precision; a scenario states its own
-/// bounds for that. A scenario that expects no tracking (`tracking_fraction = { max = 0 }`) gets
-/// no ATE bound: there is no trajectory.
-pub fn default_bounds(path_length_m: f64) -> [(&'static str, Bound); 2] {
-    [
-        (
-            "ate_rmse_m",
-            Bound {
-                min: None,
-                max: Some((0.02 * path_length_m).max(0.5)),
-            },
-        ),
-        (
-            "tracking_fraction",
-            Bound {
-                min: Some(0.5),
-                max: None,
-            },
-        ),
-    ]
+/// The default bounds a scenario with the bounds `stated` gets on top of them: for each of these
+/// metrics it sets no bound on, the ATE within `max(0.5 m, 2 % of the ground-truth path)` and
+/// tracking on at least half of the frames. They catch divergence (metres of error, a lost
+/// track), not precision; a scenario states its own bounds for that. A scenario that expects no
+/// tracking (`tracking_fraction = { max = 0 }`: the estimator must refuse to start) gets no ATE
+/// bound: there is no trajectory.
+pub fn default_bounds(
+    path_length_m: f64,
+    stated: &[(&'static str, Bound)],
+) -> Vec<(&'static str, Bound)> {
+    let expects_no_track = stated
+        .iter()
+        .any(|(m, b)| *m == "tracking_fraction" && b.max == Some(0.0));
+    let ate = Bound {
+        min: None,
+        max: Some((0.02 * path_length_m).max(0.5)),
+    };
+    let tracking = Bound {
+        min: Some(0.5),
+        max: None,
+    };
+    [("ate_rmse_m", ate), ("tracking_fraction", tracking)]
+        .into_iter()
+        .filter(|(metric, _)| !(expects_no_track && *metric == "ate_rmse_m"))
+        .filter(|(metric, _)| stated.iter().all(|(m, _)| m != metric))
+        .collect()
 }
 
 #[cfg(test)]

@@ -576,19 +576,8 @@ pub fn build_report_in(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> 
         .windows(2)
         .map(|w| (w[1].truth.pose.p - w[0].truth.pose.p).norm())
         .sum();
-    // A scenario that expects no tracking at all (`tracking_fraction = { max = 0 }`: the
-    // estimator must refuse to start) has no trajectory to bound.
-    let expects_no_track = bounds
-        .iter()
-        .any(|(m, b)| *m == "tracking_fraction" && b.max == Some(0.0));
-    for (metric, b) in recovery::default_bounds(path_m) {
-        if expects_no_track && metric == "ate_rmse_m" {
-            continue;
-        }
-        if bounds.iter().all(|(m, _)| *m != metric) {
-            bounds.push((metric, b));
-        }
-    }
+    let defaults = recovery::default_bounds(path_m, &bounds);
+    bounds.extend(defaults);
     report.expectations = bounds
         .into_iter()
         .map(|(metric, b)| {
