@@ -144,6 +144,8 @@ pub struct RunOutput {
     pub imu_samples_excluded: usize,
     /// IMU samples the estimator found on the sensor's range.
     pub imu_samples_saturated: usize,
+    /// Persistent points the estimator gave a new first estimate.
+    pub points_relinearized: usize,
     /// The graphics adapter of a rendered scenario (`None` for feature-level ones).
     pub renderer: Option<String>,
     /// The image front end's statistics against ground truth (rendered scenarios tracked by
@@ -172,6 +174,7 @@ impl RunOutput {
             suite_switches: 0,
             imu_samples_excluded: 0,
             imu_samples_saturated: 0,
+            points_relinearized: 0,
             renderer,
             frontend: None,
             batch_reference: None,
@@ -431,6 +434,7 @@ impl Recorder {
         mut truth: impl FnMut(&Estimate) -> Option<GroundTruth>,
     ) -> Result<(), RunError> {
         let out = &mut self.out;
+        out.points_relinearized = estimator.points_relinearized();
         for e in estimator.take_events() {
             let kind = match e.kind {
                 EstimatorEventKind::SuiteSwitch { from, to, reason } => {

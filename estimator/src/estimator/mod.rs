@@ -24,6 +24,7 @@ pub mod health;
 mod imu_buffer;
 mod init;
 mod marginalization;
+mod relinearization;
 mod stationary;
 mod time_offset;
 mod triangulation;
@@ -188,6 +189,8 @@ pub struct Estimator {
     imu_chi2_failures: usize,
     /// Events not yet taken.
     events: Vec<Event>,
+    /// Persistent points given a new first estimate so far (`relinearization.rs`).
+    points_relinearized: usize,
 }
 
 /// What one window solve produced, for the frame's [`Estimate`].
@@ -262,6 +265,7 @@ impl Estimator {
             frozen: frozen::FrozenMonitor::default(),
             rest_monitor: stationary::RestMonitor::default(),
             tracking_since: None,
+            points_relinearized: 0,
             imu_chi2_failures: 0,
             events: Vec::new(),
         })
@@ -299,6 +303,12 @@ impl Estimator {
     /// Current life-cycle status.
     pub fn status(&self) -> Status {
         self.status
+    }
+
+    /// How many times a persistent point got a new first estimate
+    /// ([`EstimatorConfig::point_relinearize_fraction`]).
+    pub fn points_relinearized(&self) -> usize {
+        self.points_relinearized
     }
 
     /// The sensors in use.
@@ -608,6 +618,11 @@ impl Estimator {
                 t_ns,
                 kind: EventKind::GnssAlignmentDropped,
             });
+        }
+        if imu_active && self.config.first_estimate_jacobians && self.config.first_estimate_points {
+            self.points_relinearized += self
+                .window
+                .relinearize_drifted_points(self.config.point_relinearize_fraction);
         }
         if imu_active && self.window.calibration.td_variable() {
             self.window.predict_image_velocities();

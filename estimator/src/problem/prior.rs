@@ -4,6 +4,7 @@ use std::sync::Arc;
 
 use faer::linalg::matmul::matmul;
 use faer::{Accum, MatMut, MatRef, Par};
+use nalgebra::DMatrix;
 
 use crate::problem::{Factor, Manifold};
 
@@ -155,6 +156,84 @@ impl PriorFactor {
     pub fn r0(&self) -> &[f64] {
         &self.r0
     }
+
+    /// The same prior with the linearization points of some blocks moved: `(k, x)` moves
+    /// block `k` to `x`, `r₀` becomes the residual there and `J` is kept. Exact on Euclidean
+    /// blocks (the prior is linear in them: the cost is unchanged everywhere); on others it
+    /// holds to first order, so move only Euclidean ones.
+    pub fn relinearized(&self, moves: &[(usize, &[f64])]) -> Result<Self, PriorError> {
+        let n = self.tangent_dim();
+        let mut r0 = self.r0.clone();
+        let mut points = self.linearization_points.clone();
+        let mut dx = [0.0; MAX_TANGENT];
+        for &(k, x) in moves {
+            let manifold = self.manifolds.get(k).ok_or_else(|| {
+                PriorError::Dimension(format!("block {k} of {}", self.manifolds.len()))
+            })?;
+            if x.len() != self.sizes[k] {
+                return Err(PriorError::Dimension(format!(
+                    "block {k}: {} values, manifold needs {}",
+                    x.len(),
+                    self.sizes[k]
+                )));
+            }
+            let (t, off) = (self.tangents[k], self.offsets[k]);
+            manifold.minus(x, &points[k], &mut dx[..t]);
+            for (r, value) in r0.iter_mut().enumerate() {
+                let row = &self.jacobian[r * n + off..r * n + off + t];
+                *value += row.iter().zip(&dx[..t]).map(|(a, b)| a * b).sum::<f64>();
+            }
+            points[k] = x.to_vec();
+        }
+        Self::new(self.manifolds.clone(), points, self.jacobian.clone(), r0)
+    }
+
+    /// The same prior with tangent directions `from` carried to `to` (each [`Self::tangent_dim`]
+    /// long, over all blocks in order), changing only the tangent coordinates marked in
+    /// `columns`: the least such change of `J` with `J' · to = J · from`,
+    /// `J' = J + J (F − T) (T_cᵀ T_c)⁻¹ T_cᵀ` (`T_c`: `to` with the other rows zeroed; its
+    /// columns must be independent). `r₀` and the linearization points stay. When linearization
+    /// points move, the unobservable directions of a problem move with them; carrying the
+    /// prior's along keeps it saying along the new ones exactly what it said along the old
+    /// ones (nothing, unless something observed them), as an observability-constrained
+    /// estimator does.
+    pub fn with_directions_moved(
+        &self,
+        from: &[Vec<f64>],
+        to: &[Vec<f64>],
+        columns: &[bool],
+    ) -> Result<Self, PriorError> {
+        let n = self.tangent_dim();
+        let m = self.r0.len();
+        if from.len() != to.len()
+            || from.iter().chain(to).any(|v| v.len() != n)
+            || columns.len() != n
+        {
+            return Err(PriorError::Dimension(format!(
+                "{} and {} directions and a column mask of {n} entries expected",
+                from.len(),
+                to.len()
+            )));
+        }
+        let k = to.len();
+        let target = DMatrix::from_fn(n, k, |i, j| if columns[i] { to[j][i] } else { 0.0 });
+        let change = DMatrix::from_fn(n, k, |i, j| from[j][i] - to[j][i]);
+        let gram_inv = (target.transpose() * &target)
+            .try_inverse()
+            .ok_or_else(|| PriorError::Dimension("target directions are dependent".into()))?;
+        let j = DMatrix::from_row_slice(m, n, &self.jacobian);
+        let moved = &j + (&j * change) * gram_inv * target.transpose();
+        let jacobian: Vec<f64> = (0..m)
+            .flat_map(|r| (0..n).map(move |c| (r, c)))
+            .map(|(r, c)| moved[(r, c)])
+            .collect();
+        Self::new(
+            self.manifolds.clone(),
+            self.linearization_points.clone(),
+            jacobian,
+            self.r0.clone(),
+        )
+    }
 }
 
 impl Factor for PriorFactor {
@@ -298,8 +377,9 @@ mod tests {
 
     /// `normal_equations` equals `JᵀJ`, `Jᵀr`, `‖r‖²` formed from `evaluate` away from the
     /// linearization point (rotation blocks with a non-identity minus-Jacobian included).
-    #[test]
-    fn normal_equations_match_evaluate() {
+    /// A 10-row prior over pose, point, pose, and a point `steps` away from its
+    /// linearization point.
+    fn test_prior(steps: [&[f64]; 3]) -> (PriorFactor, Vec<Vec<f64>>) {
         let manifolds: Vec<Arc<dyn Manifold>> = vec![
             Arc::new(PoseManifold),
             Arc::new(Euclidean::new(3)),
@@ -316,17 +396,17 @@ mod tests {
             .collect();
         let r0: Vec<f64> = (0..m).map(|i| 0.1 * i as f64 - 0.3).collect();
         let prior = PriorFactor::new(manifolds.clone(), x0.clone(), jac, r0).unwrap();
-        // A point away from x0.
         let mut x = x0.clone();
-        let steps = [
-            vec![0.01, 0.02, -0.03, 0.2, -0.1, 0.15],
-            vec![0.1, -0.1, 0.2],
-            vec![-0.02, 0.0, 0.01, -0.3, 0.05, 0.1],
-        ];
         for k in 0..3 {
-            manifolds[k].plus(&x0[k], &steps[k], &mut x[k]);
+            manifolds[k].plus(&x0[k], steps[k], &mut x[k]);
         }
+        (prior, x)
+    }
+
+    /// Residual and block Jacobians of `prior` at `x`.
+    fn evaluate_at(prior: &PriorFactor, x: &[Vec<f64>]) -> (Vec<f64>, Vec<Vec<f64>>) {
         let params: Vec<&[f64]> = x.iter().map(|v| v.as_slice()).collect();
+        let m = prior.residual_dim();
         let mut r = vec![0.0; m];
         let mut blocks: Vec<Vec<f64>> = [6, 3, 6].iter().map(|t| vec![0.0; m * t]).collect();
         {
@@ -334,6 +414,99 @@ mod tests {
                 blocks.iter_mut().map(|b| Some(b.as_mut_slice())).collect();
             assert!(prior.evaluate(&params, &mut r, Some(&mut js)));
         }
+        (r, blocks)
+    }
+
+    /// Moving a point's linearization point changes nothing the prior says: the residual and
+    /// the Jacobians agree everywhere (here at the old and the new point and a third), and a
+    /// wrong size or block is refused.
+    #[test]
+    fn relinearizing_a_point_is_exact() {
+        let (prior, x) = test_prior([&[0.0; 6], &[0.1, -0.1, 0.2], &[0.0; 6]]);
+        let moved = prior.relinearized(&[(1, &x[1])]).unwrap();
+        assert_eq!(moved.linearization_points()[1], x[1]);
+        let (_, far) = test_prior([
+            &[0.01, 0.02, -0.03, 0.2, -0.1, 0.15],
+            &[-0.3, 0.5, 0.05],
+            &[-0.02, 0.0, 0.01, -0.3, 0.05, 0.1],
+        ]);
+        let x0 = prior.linearization_points().to_vec();
+        for at in [&x0, &x, &far] {
+            let (r_old, j_old) = evaluate_at(&prior, at);
+            let (r_new, j_new) = evaluate_at(&moved, at);
+            for (a, b) in r_old.iter().zip(&r_new) {
+                assert!((a - b).abs() < 1e-12, "residual {a} vs {b}");
+            }
+            assert_eq!(j_old, j_new);
+        }
+        // The step moved r₀ (the test would pass vacuously if it had not).
+        assert!(
+            prior
+                .r0()
+                .iter()
+                .zip(moved.r0())
+                .any(|(a, b)| (a - b).abs() > 1e-3)
+        );
+        assert!(prior.relinearized(&[(1, &[1.0, 2.0])]).is_err());
+        assert!(prior.relinearized(&[(3, &x[1])]).is_err());
+    }
+
+    /// Carried directions: `J' · to = J · from` to round-off, the columns outside the mask
+    /// unchanged, the other columns changed (so the test cannot pass with `J' = J`), and bad
+    /// sizes refused.
+    #[test]
+    fn directions_are_carried_through_the_marked_columns_only() {
+        let (prior, _) = test_prior([&[0.0; 6], &[0.0; 3], &[0.0; 6]]);
+        let (m, n) = (prior.residual_dim(), prior.tangent_dim());
+        let direction = |seed: usize| -> Vec<f64> {
+            (0..n)
+                .map(|i| (((i + 3) * (seed + 5) * 31 % 17) as f64 - 8.0) / 5.0)
+                .collect()
+        };
+        let from: Vec<Vec<f64>> = (0..2).map(direction).collect();
+        let mut to = from.clone();
+        to[1][7] += 0.5; // a point coordinate moves, as a point's yaw direction does
+        // Columns: the first pose and the point.
+        let columns: Vec<bool> = (0..n).map(|i| i < 9).collect();
+        let moved = prior.with_directions_moved(&from, &to, &columns).unwrap();
+        let times =
+            |j: &[f64], v: &[f64], r: usize| -> f64 { (0..n).map(|c| j[r * n + c] * v[c]).sum() };
+        for (f, t) in from.iter().zip(&to) {
+            for r in 0..m {
+                let (want, got) = (times(prior.jacobian(), f, r), times(moved.jacobian(), t, r));
+                assert!((want - got).abs() < 1e-10, "row {r}: {got} vs {want}");
+            }
+        }
+        let (a, b) = (prior.jacobian(), moved.jacobian());
+        for r in 0..m {
+            for c in 9..n {
+                assert_eq!(a[r * n + c], b[r * n + c], "column {c} changed");
+            }
+        }
+        assert!((0..m).any(|r| (a[r * n + 7] - b[r * n + 7]).abs() > 1e-3));
+        assert!(
+            prior
+                .with_directions_moved(&from, &to[..1], &columns)
+                .is_err()
+        );
+        assert!(
+            prior
+                .with_directions_moved(&from, &to, &columns[1..])
+                .is_err()
+        );
+    }
+
+    #[test]
+    fn normal_equations_match_evaluate() {
+        // A point away from x0.
+        let (prior, x) = test_prior([
+            &[0.01, 0.02, -0.03, 0.2, -0.1, 0.15],
+            &[0.1, -0.1, 0.2],
+            &[-0.02, 0.0, 0.01, -0.3, 0.05, 0.1],
+        ]);
+        let (m, n) = (10, 15);
+        let params: Vec<&[f64]> = x.iter().map(|v| v.as_slice()).collect();
+        let (r, blocks) = evaluate_at(&prior, &x);
         // Full J (m × n) from the blocks.
         let mut full = vec![0.0; m * n];
         let mut off = 0;

@@ -369,6 +369,8 @@ pub struct Report {
     pub imu_samples_excluded: usize,
     /// IMU samples on the sensor's range (clipped; the intervals over them carry no IMU factor).
     pub imu_samples_saturated: usize,
+    /// Persistent points given a new first estimate (`point_relinearize_fraction`).
+    pub points_relinearized: usize,
     /// Final gyroscope bias error (rad/s).
     pub gyro_bias_error_rad_s: Option<f64>,
     /// Final accelerometer bias error (m/s²).
@@ -535,6 +537,7 @@ pub fn build_report_in(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> 
         suite_switches: run.suite_switches,
         imu_samples_excluded: run.imu_samples_excluded,
         imu_samples_saturated: run.imu_samples_saturated,
+        points_relinearized: run.points_relinearized,
         gyro_bias_error_rad_s: eval.gyro_bias_error_rad_s,
         accel_bias_error_m_s2: eval.accel_bias_error_m_s2,
         timing_ms,
