@@ -177,6 +177,11 @@ pub struct Preintegration {
     delta_r: Matrix3<f64>,
     bias_jacobian: BiasJacobian,
     covariance: Matrix15,
+    /// `(gyroscope rad/s, accelerometer m/s²)` ranges of a sensor that clips: see
+    /// [`Preintegration::clipping_at`].
+    clipping: Option<(f64, f64)>,
+    /// Steps integrated over a clipped reading.
+    clipped_steps: usize,
 }
 
 /// The block-structured error-state transition of one midpoint step.
@@ -272,6 +277,8 @@ impl Preintegration {
             delta_r: Matrix3::identity(),
             bias_jacobian: BiasJacobian::zeros(),
             covariance: Matrix15::zeros(),
+            clipping: None,
+            clipped_steps: 0,
         };
         s.reset_deltas();
         s.samples.push(first);
@@ -280,6 +287,7 @@ impl Preintegration {
 
     fn reset_deltas(&mut self) {
         self.sum_dt = 0.0;
+        self.clipped_steps = 0;
         self.delta_p = Vector3::zeros();
         self.delta_v = Vector3::zeros();
         self.delta_q = UnitQuaternion::identity();
@@ -289,6 +297,23 @@ impl Preintegration {
             .fixed_view_mut::<6, 6>(O_BA, 0)
             .fill_with_identity();
         self.covariance = Matrix15::zeros();
+    }
+
+    /// The same interval for a sensor that clips at `(gyroscope rad/s, accelerometer m/s²)`:
+    /// an axis reading at its range (in either sample of a step) is a bound, not a measurement,
+    /// so that step's noise on that axis gets the range itself as an extra standard deviation
+    /// (the true rate may be anywhere past it). The other axes keep their information, and so
+    /// does the interval's translation, as far as the attitude's uncertainty allows. Call it
+    /// before pushing samples.
+    pub fn clipping_at(mut self, range: (f64, f64)) -> Self {
+        self.clipping = Some(range);
+        self
+    }
+
+    /// Whether a step of the interval integrated a clipped reading (its deltas are then biased
+    /// towards the range; only the covariance accounts for it).
+    pub fn clipped(&self) -> bool {
+        self.clipped_steps > 0
     }
 
     /// Integrates one more sample (midpoint rule between the previous sample and this one).
@@ -338,8 +363,24 @@ impl Preintegration {
         let mut cov = tr.propagate_covariance(&self.covariance);
         let var_a = self.noise.accelerometer_noise_density.powi(2) / dt;
         let var_g = self.noise.gyroscope_noise_density.powi(2) / dt;
-        let wa = tr.ca_ba * tr.ca_ba.transpose() * var_a + tr.ca_bg * tr.ca_bg.transpose() * var_g;
-        let gb = tr.ca_bg * b.transpose() * var_g;
+        let (q_a, q_g) = self.clipped_noise(s0, s1, var_a, var_g);
+        let (wa, gb, r_r) = match (q_a, q_g) {
+            (None, None) => (
+                tr.ca_ba * tr.ca_ba.transpose() * var_a + tr.ca_bg * tr.ca_bg.transpose() * var_g,
+                tr.ca_bg * b.transpose() * var_g,
+                b * b.transpose() * var_g,
+            ),
+            (q_a, q_g) => {
+                self.clipped_steps += 1;
+                let q_a = q_a.unwrap_or_else(|| Matrix3::identity() * var_a);
+                let q_g = q_g.unwrap_or_else(|| Matrix3::identity() * var_g);
+                (
+                    tr.ca_ba * q_a * tr.ca_ba.transpose() + tr.ca_bg * q_g * tr.ca_bg.transpose(),
+                    tr.ca_bg * q_g * b.transpose(),
+                    b * q_g * b.transpose(),
+                )
+            }
+        };
         let dt2 = dt * dt;
         let add = |cov: &mut Matrix15, r: usize, c: usize, m: Matrix3<f64>| {
             let mut v = cov.fixed_view_mut::<3, 3>(r, c);
@@ -349,7 +390,7 @@ impl Preintegration {
         add(&mut cov, O_P, O_V, wa * (0.5 * dt2 * dt));
         add(&mut cov, O_V, O_P, wa * (0.5 * dt2 * dt));
         add(&mut cov, O_V, O_V, wa * dt2);
-        add(&mut cov, O_R, O_R, b * b.transpose() * var_g);
+        add(&mut cov, O_R, O_R, r_r);
         add(&mut cov, O_P, O_R, gb * (0.5 * dt2));
         add(&mut cov, O_R, O_P, gb.transpose() * (0.5 * dt2));
         add(&mut cov, O_V, O_R, gb * dt);
@@ -368,6 +409,37 @@ impl Preintegration {
         self.delta_q = q1;
         self.delta_r = r1;
         self.sum_dt += dt;
+    }
+
+    /// Per-axis noise covariances `(accelerometer, gyroscope)` of a step whose samples clip
+    /// (`None` for a sensor that does not, or a step that stays inside its range).
+    fn clipped_noise(
+        &self,
+        s0: &ImuSample,
+        s1: &ImuSample,
+        var_a: f64,
+        var_g: f64,
+    ) -> (Option<Matrix3<f64>>, Option<Matrix3<f64>>) {
+        let Some((gyro_range, accel_range)) = self.clipping else {
+            return (None, None);
+        };
+        // Clipped readings sit on the range; 1e-9 relative absorbs float round-off.
+        let at = |a: f64, b: f64, range: f64| {
+            let edge = range * (1.0 - 1e-9);
+            a.abs() >= edge || b.abs() >= edge
+        };
+        let per_axis = |x0: &Vector3<f64>, x1: &Vector3<f64>, range: f64, var: f64| {
+            let clipped: Vec<bool> = (0..3).map(|i| at(x0[i], x1[i], range)).collect();
+            clipped.iter().any(|c| *c).then(|| {
+                Matrix3::from_diagonal(&Vector3::from_fn(|i, _| {
+                    if clipped[i] { var + range * range } else { var }
+                }))
+            })
+        };
+        (
+            per_axis(&s0.accel, &s1.accel, accel_range, var_a),
+            per_axis(&s0.gyro, &s1.gyro, gyro_range, var_g),
+        )
     }
 
     /// Re-integrates every stored sample with new linearization biases (done when the

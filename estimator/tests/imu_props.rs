@@ -6,7 +6,7 @@ mod common;
 
 use common::Analytic;
 use estimator::geometry::so3_log;
-use estimator::imu::{ImuError, ImuNoise, ImuSample, Preintegration};
+use estimator::imu::{ImuError, ImuNoise, ImuSample, O_R, O_V, Preintegration};
 use nalgebra::{Matrix3, SMatrix, UnitQuaternion, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -289,4 +289,52 @@ fn bad_input_is_rejected() {
     // State is unchanged by rejected pushes.
     assert_eq!(p.end_ns(), last);
     let _ = Matrix3::<f64>::identity();
+}
+
+/// A clipping sensor: steps over a reading at the gyroscope's range get the range as an extra
+/// standard deviation on that axis only. A yaw rate of 2.5 rad/s read as 2.0 (clipped) over
+/// ten 5 ms steps: the deltas are those of the readings, the rotation variance about z grows
+/// by exactly 10 · (2.0 · 0.005)² (a rotation about z leaves the z variance alone) and the
+/// x and y rows stay as without clipping; readings inside the range change nothing at all.
+#[test]
+fn clipped_readings_widen_only_their_axis() {
+    let range = (2.0, 100.0);
+    let dt_ns = 5_000_000;
+    let sample = |k: i64, wz: f64| {
+        ImuSample::new(
+            k * dt_ns,
+            Vector3::new(0.0, 0.0, wz),
+            Vector3::new(0.3, -0.2, 9.81),
+        )
+        .unwrap()
+    };
+    let z = Vector3::zeros();
+    let build = |wz: f64, clipping: bool| {
+        let mut p = Preintegration::new(sample(0, wz), z, z, ImuNoise::euroc()).unwrap();
+        if clipping {
+            p = p.clipping_at(range);
+        }
+        for k in 1..=10 {
+            p.push(sample(k, wz)).unwrap();
+        }
+        p
+    };
+    let (plain, clipped) = (build(2.0, false), build(2.0, true));
+    assert!(clipped.clipped() && !plain.clipped());
+    assert_eq!(plain.delta_p(), clipped.delta_p());
+    assert_eq!(plain.delta_q(), clipped.delta_q());
+    let (cp, cc) = (plain.covariance(), clipped.covariance());
+    let extra = cc[(O_R + 2, O_R + 2)] - cp[(O_R + 2, O_R + 2)];
+    let want = 10.0 * (2.0_f64 * 0.005).powi(2);
+    assert!((extra - want).abs() < 1e-9 * want, "{extra} vs {want}");
+    for (i, j) in [(0, 0), (1, 1), (0, 1)] {
+        let (a, b) = (cp[(O_R + i, O_R + j)], cc[(O_R + i, O_R + j)]);
+        assert!((a - b).abs() <= 1e-12 * a.abs().max(1e-12), "({i}, {j})");
+    }
+    // The attitude's new uncertainty reaches the velocity through the specific force.
+    assert!(cc[(O_V, O_V)] > cp[(O_V, O_V)] * 1.01);
+    // Inside the range: bit for bit the plain interval.
+    let (inside, inside_clipping) = (build(1.5, false), build(1.5, true));
+    assert!(!inside_clipping.clipped());
+    assert_eq!(inside.covariance(), inside_clipping.covariance());
 }

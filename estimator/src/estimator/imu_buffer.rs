@@ -29,7 +29,8 @@ pub(super) struct ImuBuffer {
     /// Longest time between consecutive accepted samples that an interval may span (ns).
     max_gap_ns: i64,
     /// `(gyroscope rad/s, accelerometer m/s²)` ranges: a sample at a range on any axis is
-    /// saturated (clipped), and no interval is cut over it.
+    /// saturated (clipped), and an interval over it distrusts that axis
+    /// ([`Preintegration::clipping_at`]).
     range: Option<(f64, f64)>,
     /// Times of the accepted samples that are saturated, oldest first.
     saturated: VecDeque<i64>,
@@ -169,8 +170,9 @@ impl ImuBuffer {
     /// interpolated), then drops the samples no later interval needs (the last one at or before
     /// `t1` stays for the next interval's interpolation). `None` when the samples do not bracket
     /// both ends, when two consecutive samples over the interval are more than the buffer's
-    /// maximum gap apart (an IMU dropout: nothing is invented across it), or when a sample over
-    /// it is saturated (its reading is a bound, not a measurement).
+    /// maximum gap apart (an IMU dropout: nothing is invented across it). An interval over a
+    /// saturated sample takes the clipped axes as bounds, not measurements
+    /// ([`Preintegration::clipping_at`]).
     pub fn take_interval(
         &mut self,
         t0: i64,
@@ -197,13 +199,16 @@ impl ImuBuffer {
             self.samples[bracket_end].t_ns,
         );
         let clipped = self.saturated.iter().any(|&t| t >= lo && t <= hi);
-        if gap || clipped {
+        if gap {
             self.drop_before(t1);
             return None;
         }
         let first = at(&self.samples, t0)?;
         let last = at(&self.samples, t1)?;
         let mut p = Preintegration::new(first, ba, bg, noise).ok()?;
+        if clipped && let Some(range) = self.range {
+            p = p.clipping_at(range);
+        }
         for s in self.samples.iter().filter(|s| s.t_ns > t0 && s.t_ns < t1) {
             p.push(*s).ok()?;
         }

@@ -18,13 +18,15 @@ use crate::geometry::Pose;
 use crate::imu::Preintegration;
 
 /// The IMU intervals between consecutive window frames (each frame's from its predecessor);
-/// `None` when a frame has none (an IMU gap inside the window).
+/// `None` when a frame has none (an IMU gap inside the window) or one integrated a clipped
+/// reading: the alignments weigh every interval alike, so a biased one would bend gravity and
+/// the gyroscope bias (4.7° of tilt at the start of a fast rotation when they did).
 fn window_intervals(window: &Window) -> Option<Vec<&Preintegration>> {
     window
         .frames
         .iter()
         .skip(1)
-        .map(|f| f.preint.as_ref())
+        .map(|f| f.preint.as_ref().filter(|p| !p.clipped()))
         .collect()
 }
 
