@@ -29,6 +29,9 @@ pub const WRONG_TRACK_PX: f64 = 2.0;
 #[derive(Debug)]
 pub struct ImageFrontend {
     tracker: FeatureTracker,
+    /// The estimator's cameras: a rig's further cameras (a mono suite on a stereo rig) are
+    /// not tracked.
+    cameras: usize,
     gyro: GyroIntegrator,
     eval: TrackEvaluation,
 }
@@ -45,6 +48,7 @@ impl ImageFrontend {
     ) -> Result<Self, TrackerError> {
         let models = cameras.iter().map(|c| c.model.clone()).collect();
         Ok(Self {
+            cameras: cameras.len(),
             tracker: FeatureTracker::new(config, cameras)?,
             gyro: GyroIntegrator::default(),
             eval: TrackEvaluation::new(scene, models, true_T_b_c),
@@ -69,10 +73,11 @@ impl ImageFrontend {
         images: &ImageFrame,
         T_w_b_true: Option<&Pose>,
     ) -> Result<(FeatureFrame, f64), TrackerError> {
-        let views = image_views(images).map_err(|e| TrackerError::Config {
+        let mut views = image_views(images).map_err(|e| TrackerError::Config {
             field: "image",
             message: e.to_string(),
         })?;
+        views.retain(|v| v.cam_id < self.cameras);
         let rotation = self.gyro.take();
         let frame = self.tracker.track(&views, images.t_ns, rotation)?;
         let seconds = self.tracker.report().times.total_s;
