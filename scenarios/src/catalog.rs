@@ -56,6 +56,8 @@ const ENTRIES: &[Entry] = &[
     entry!("hall_ground_vehicle_mono_imu"),
     entry!("hall_ground_vehicle_wheel_mono_imu"),
     entry!("room_figure8_rendered_stereo_imu"),
+    entry!("room_figure8_left_camera_death_rendered"),
+    entry!("room_figure8_blackout_2s_rendered"),
     entry!("room_figure8_exposure_jump_rendered"),
     entry!("room_figure8_blur_rendered"),
     entry!("room_fast_rotation_rendered"),
