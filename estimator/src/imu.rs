@@ -134,6 +134,12 @@ impl ImuSample {
     }
 }
 
+/// Whether a reading sits on a sensor's range `range` (the sensor clipped it): clipped
+/// readings equal the range, and 1e-9 relative absorbs float round-off.
+pub fn at_range(reading: f64, range: f64) -> bool {
+    reading.abs() >= range * (1.0 - 1e-9)
+}
+
 /// Index of the position delta α in the 15-dimensional error state `[α, θ, β, ba, bg]`.
 pub const O_P: usize = 0;
 /// Index of the rotation delta θ.
@@ -423,14 +429,10 @@ impl Preintegration {
         let Some((gyro_range, accel_range)) = self.clipping else {
             return (None, None);
         };
-        // Clipped readings sit on the range; 1e-9 relative absorbs float round-off.
-        let at = |a: f64, b: f64, range: f64| {
-            let edge = range * (1.0 - 1e-9);
-            a.abs() >= edge || b.abs() >= edge
-        };
         let per_axis = |x0: &Vector3<f64>, x1: &Vector3<f64>, range: f64, var: f64| {
-            let clipped: Vec<bool> = (0..3).map(|i| at(x0[i], x1[i], range)).collect();
-            clipped.iter().any(|c| *c).then(|| {
+            let clipped: [bool; 3] =
+                std::array::from_fn(|i| at_range(x0[i], range) || at_range(x1[i], range));
+            clipped.contains(&true).then(|| {
                 Matrix3::from_diagonal(&Vector3::from_fn(|i, _| {
                     if clipped[i] { var + range * range } else { var }
                 }))

@@ -490,25 +490,12 @@ impl EstimatorConfig {
         positive("initial_ba_sigma", self.initial_ba_sigma)?;
         positive("initial_bg_sigma", self.initial_bg_sigma)?;
         // Infinite: no gauge prior (the gauge tests study the free window).
-        if self.gauge_sigma.is_nan() || self.gauge_sigma <= 0.0 {
-            return Err(ConfigError::new(
-                "gauge_sigma",
-                format!(
-                    "must be > 0 (infinite: no gauge prior), got {}",
-                    self.gauge_sigma
-                ),
-            ));
-        }
-        // Infinite: never relinearized.
-        if self.point_relinearize_fraction.is_nan() || self.point_relinearize_fraction <= 0.0 {
-            return Err(ConfigError::new(
-                "point_relinearize_fraction",
-                format!(
-                    "must be > 0 (inf: never), got {}",
-                    self.point_relinearize_fraction
-                ),
-            ));
-        }
+        positive_or_infinite("gauge_sigma", self.gauge_sigma, "no gauge prior")?;
+        positive_or_infinite(
+            "point_relinearize_fraction",
+            self.point_relinearize_fraction,
+            "never",
+        )?;
         if self.min_track_frames < 1 {
             return Err(ConfigError::new("min_track_frames", "must be ≥ 1"));
         }
@@ -638,6 +625,18 @@ impl ConfigError {
 }
 
 /// `Ok` if `v` is finite and > 0; else an error naming `field`.
+/// `v` > 0, infinity included (what infinity means: `infinite`).
+fn positive_or_infinite(field: &str, v: f64, infinite: &str) -> Result<(), ConfigError> {
+    if v > 0.0 {
+        Ok(())
+    } else {
+        Err(ConfigError::new(
+            field,
+            format!("must be > 0 (infinite: {infinite}), got {v}"),
+        ))
+    }
+}
+
 pub(super) fn positive(field: &str, v: f64) -> Result<(), ConfigError> {
     if v.is_finite() && v > 0.0 {
         Ok(())

@@ -4,7 +4,7 @@ use std::collections::VecDeque;
 
 use nalgebra::Vector3;
 
-use crate::imu::{ImuError, ImuNoise, ImuSample, Preintegration};
+use crate::imu::{ImuError, ImuNoise, ImuSample, Preintegration, at_range};
 
 /// Samples after a sample that a spike test needs.
 const LOOKAHEAD: usize = 2;
@@ -58,8 +58,7 @@ impl ImuBuffer {
     /// Accepts `s` into the samples intervals are cut from, noting whether it is saturated.
     fn accept(&mut self, s: ImuSample) {
         if let Some((gyro, accel)) = self.range {
-            // Clipped readings sit on the range; 1e-9 relative absorbs float round-off.
-            let at = |v: &Vector3<f64>, r: f64| v.iter().any(|x| x.abs() >= r * (1.0 - 1e-9));
+            let at = |v: &Vector3<f64>, r: f64| v.iter().any(|x| at_range(*x, r));
             if at(&s.gyro, gyro) || at(&s.accel, accel) {
                 self.saturated.push_back(s.t_ns);
                 self.saturated_new += 1;

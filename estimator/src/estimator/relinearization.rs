@@ -3,7 +3,7 @@
 //! With first-estimate Jacobians every factor of a persistent world point sees the point at
 //! the prior's linearization point of it. A point promoted with a poor depth then puts a wrong
 //! bearing into every later observation of it for as long as it is tracked, and the window's
-//! yaw follows those bearings: on the left-camera death (seed 1) six points promoted around
+//! yaw follows those bearings: on the left-camera death (seed 1) eight points promoted around
 //! the switch to mono+IMU drifted more than 10 % of their range from their first estimates
 //! within a second, and the yaw drifted about 1° (ATE 0.0289 m). Relinearizing every point at
 //! every solve instead gains information about yaw that no sensor gave, which shows on motions

@@ -223,10 +223,8 @@ impl PriorFactor {
             .ok_or_else(|| PriorError::Dimension("target directions are dependent".into()))?;
         let j = DMatrix::from_row_slice(m, n, &self.jacobian);
         let moved = &j + (&j * change) * gram_inv * target.transpose();
-        let jacobian: Vec<f64> = (0..m)
-            .flat_map(|r| (0..n).map(move |c| (r, c)))
-            .map(|(r, c)| moved[(r, c)])
-            .collect();
+        // Row-major: the column-major storage of the transpose.
+        let jacobian = moved.transpose().as_slice().to_vec();
         Self::new(
             self.manifolds.clone(),
             self.linearization_points.clone(),
@@ -375,8 +373,6 @@ mod tests {
     use super::*;
     use crate::problem::{Euclidean, PoseManifold};
 
-    /// `normal_equations` equals `JᵀJ`, `Jᵀr`, `‖r‖²` formed from `evaluate` away from the
-    /// linearization point (rotation blocks with a non-identity minus-Jacobian included).
     /// A 10-row prior over pose, point, pose, and a point `steps` away from its
     /// linearization point.
     fn test_prior(steps: [&[f64]; 3]) -> (PriorFactor, Vec<Vec<f64>>) {
@@ -496,6 +492,8 @@ mod tests {
         );
     }
 
+    /// `normal_equations` equals `JᵀJ`, `Jᵀr`, `‖r‖²` formed from `evaluate` away from the
+    /// linearization point (rotation blocks with a non-identity minus-Jacobian included).
     #[test]
     fn normal_equations_match_evaluate() {
         // A point away from x0.
