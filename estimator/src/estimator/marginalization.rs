@@ -97,7 +97,40 @@ pub(super) fn prior_without_second_newest(window: &Window, built: &Built) -> Opt
     if remove.is_empty() {
         return window.prior.clone();
     }
-    prior_from(built, &[r], &remove)
+    prior_alone_without(window, built, r, &remove)
+}
+
+/// The prior `r` with the blocks `remove` marginalized out of it alone. Where every block it
+/// keeps holds the prior's linearization point (first-estimate Jacobians) and is variable,
+/// this is [`PriorFactor::marginalized`] on its square-root form (nothing to relinearize);
+/// otherwise the general marginalization, which re-expresses the prior at the current values.
+fn prior_alone_without(
+    window: &Window,
+    built: &Built,
+    r: ResidualId,
+    remove: &[BlockId],
+) -> Option<Prior> {
+    let (factor, refs) = window.prior.as_ref()?;
+    let blocks = built.problem.residual_blocks(r);
+    let in_place = blocks.iter().all(|b| {
+        remove.contains(b)
+            || (!built.problem.is_constant(*b) && built.problem.linearization_point(*b).is_some())
+    });
+    if !in_place || blocks.len() != refs.len() {
+        return prior_from(built, &[r], remove);
+    }
+    let removed: Vec<usize> = (0..blocks.len())
+        .filter(|&k| remove.contains(&blocks[k]))
+        .collect();
+    let options = MarginalizationOptions::default();
+    let marginal = factor
+        .marginalized(&removed, options.eigen_threshold)
+        .ok()?;
+    let kept_refs: Vec<BlockRef> = (0..refs.len())
+        .filter(|k| !removed.contains(k))
+        .map(|k| refs[k])
+        .collect();
+    (!marginal.r0().is_empty()).then(|| (Arc::new(marginal), kept_refs))
 }
 
 /// The prior without the GNSS alignment (it is forgotten; see
@@ -110,7 +143,7 @@ pub(super) fn prior_without_alignment(window: &Window, built: &Built) -> Option<
     if !built.problem.residual_blocks(r).contains(&b) {
         return window.prior.clone();
     }
-    prior_from(built, &[r], &[b])
+    prior_alone_without(window, built, r, &[b])
 }
 
 /// Marginalizes `remove` out of `residuals`; `None` when that fails or leaves no information.

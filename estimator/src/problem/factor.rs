@@ -46,8 +46,9 @@ pub trait Factor: Send + Sync {
     /// `g = Jᵀr`, returning `‖r‖²`. Factors with many residual rows over many blocks (the
     /// marginalization prior) can do this far cheaper than the solver's `JᵀJ`. `r` is taken at
     /// `params`, `J` at `lin_params` (the first-estimate linearization points; the same
-    /// slices as `params` when there are none). `None` (the default) means "use `evaluate`".
-    /// Must agree with `evaluate` exactly up to round-off.
+    /// slices as `params` when there are none). An empty `h` asks for `g` and `‖r‖²` only.
+    /// `None` (the default) means "use `evaluate`". Must agree with `evaluate` exactly up to
+    /// round-off.
     fn normal_equations(
         &self,
         _params: &[&[f64]],

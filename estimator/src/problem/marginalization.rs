@@ -18,6 +18,9 @@
 
 use std::sync::Arc;
 
+use faer::Par;
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt_pivoting::factor as piv_llt;
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 
 use super::graph::{BlockId, BlockKind, Problem, ResidualId};
@@ -198,50 +201,51 @@ pub fn marginalize(
 /// Rank-revealing Cholesky with diagonal pivoting: `P A Pᵀ ≈ L Lᵀ` with `L` n × rank.
 /// Returns (perm, L, rank) where row i of L corresponds to original index `perm[i]`.
 fn pivoted_cholesky(a: &DMatrix<f64>, rel_tol: f64) -> (Vec<usize>, DMatrix<f64>, usize) {
-    // Left-looking form: column k of L is computed from A's pivot column and the previous
-    // columns (contiguous dot products over rows of a row-major L indexed by the original
-    // index), so no trailing matrix is updated or swapped: ≈ n·rank²/2 multiply-adds.
+    // faer's blocked, diagonally pivoted Cholesky (LAPACK's `dpstrf` scheme: the largest
+    // remaining diagonal is the next pivot; sequential, so deterministic).
+    // It stops at `n ε` of the largest diagonal; the pivots it takes never grow, so cutting
+    // the factor at the first pivot below `rel_tol` of the largest diagonal is the same rule
+    // applied to a stricter tolerance.
     let n = a.nrows();
-    let mut l = vec![0.0; n * n];
-    let mut d: Vec<f64> = (0..n).map(|i| a[(i, i)]).collect();
-    let mut used = vec![false; n];
-    let mut piv: Vec<usize> = Vec::with_capacity(n);
-    let max_diag = d.iter().copied().fold(0.0f64, f64::max);
-    let tol = rel_tol * max_diag.max(f64::MIN_POSITIVE);
-    for k in 0..n {
-        // Pivot: largest remaining diagonal (ties broken by index: deterministic).
-        let mut p = usize::MAX;
-        for i in 0..n {
-            if !used[i] && (p == usize::MAX || d[i] > d[p]) {
-                p = i;
-            }
-        }
-        if p == usize::MAX || d[p] <= tol {
-            break;
-        }
-        used[p] = true;
-        piv.push(p);
-        let lkk = d[p].sqrt();
-        l[p * n + k] = lkk;
-        let lp_row = p * n;
-        for i in 0..n {
-            if used[i] {
-                continue;
-            }
-            let mut s = 0.5 * (a[(i, p)] + a[(p, i)]);
-            let (ri, rp) = (&l[i * n..i * n + k], &l[lp_row..lp_row + k]);
-            for (x, y) in ri.iter().zip(rp) {
-                s -= x * y;
-            }
-            let lik = s / lkk;
-            l[i * n + k] = lik;
-            d[i] -= lik * lik;
+    if n == 0 {
+        return (Vec::new(), DMatrix::zeros(0, 0), 0);
+    }
+    // Symmetrized lower triangle, column-major (the factor reads only the lower triangle).
+    let mut m = faer::Mat::<f64>::zeros(n, n);
+    for j in 0..n {
+        for i in j..n {
+            m[(i, j)] = 0.5 * (a[(i, j)] + a[(j, i)]);
         }
     }
-    let rank = piv.len();
-    let mut perm = piv;
-    perm.extend((0..n).filter(|i| !used[*i]));
-    let lm = DMatrix::from_fn(n, n, |i, r| if r < rank { l[perm[i] * n + r] } else { 0.0 });
+    let max_diag = (0..n).map(|i| a[(i, i)]).fold(0.0f64, f64::max);
+    let tol = rel_tol * max_diag.max(f64::MIN_POSITIVE);
+    let (mut perm, mut perm_inv) = (vec![0usize; n], vec![0usize; n]);
+    let mut buf = MemBuffer::new(piv_llt::cholesky_in_place_scratch::<usize, f64>(
+        n,
+        Par::Seq,
+        Default::default(),
+    ));
+    let rank = match piv_llt::cholesky_in_place(
+        m.as_mut(),
+        &mut perm,
+        &mut perm_inv,
+        Par::Seq,
+        MemStack::new(&mut buf),
+        Default::default(),
+    ) {
+        Ok((info, _)) => (0..info.rank)
+            .find(|&k| {
+                (m[(k, k)] * m[(k, k)]).partial_cmp(&tol) != Some(std::cmp::Ordering::Greater)
+            })
+            .unwrap_or(info.rank),
+        // A negative or NaN diagonal: no information can be trusted.
+        Err(_) => 0,
+    };
+    let lm = DMatrix::from_fn(
+        n,
+        n,
+        |i, r| if r < rank && i >= r { m[(i, r)] } else { 0.0 },
+    );
     (perm, lm, rank)
 }
 
@@ -265,5 +269,20 @@ mod tests {
             }
         }
         assert!((&pl * pl.transpose() - a).norm() < 1e-9);
+    }
+
+    /// The rank stops at the first pivot below the relative tolerance, also where faer's own
+    /// (`n ε`) would go on: a direction with 1e-13 of the largest information is dropped at
+    /// 1e-12 and kept at 1e-14.
+    #[test]
+    fn pivoted_cholesky_cuts_at_the_relative_tolerance() {
+        // Orthonormal basis from a rotation, eigenvalues 1, 0.5, 1e-13.
+        let q = nalgebra::Rotation3::from_euler_angles(0.3, -0.2, 0.9).into_inner();
+        let q = DMatrix::from_fn(3, 3, |i, j| q[(i, j)]);
+        let d = DMatrix::from_diagonal(&DVector::from_vec(vec![1.0, 0.5, 1e-13]));
+        let a = &q * d * q.transpose();
+        assert_eq!(pivoted_cholesky(&a, 1e-12).2, 2);
+        assert_eq!(pivoted_cholesky(&a, 1e-14).2, 3);
+        assert_eq!(pivoted_cholesky(&DMatrix::zeros(2, 2), 1e-12).2, 0);
     }
 }

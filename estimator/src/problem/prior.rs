@@ -28,6 +28,23 @@ pub struct PriorFactor {
     r0_sq: f64,
 }
 
+/// Dot product with four partial sums (vectorizable, in a fixed order: deterministic).
+fn dot4(a: &[f64], b: &[f64]) -> f64 {
+    let (ac, ar) = a.as_chunks::<4>();
+    let (bc, br) = b[..a.len()].as_chunks::<4>();
+    let mut s = [0.0; 4];
+    for (x, y) in ac.iter().zip(bc) {
+        for k in 0..4 {
+            s[k] += x[k] * y[k];
+        }
+    }
+    let mut t = (s[0] + s[2]) + (s[1] + s[3]);
+    for (x, y) in ar.iter().zip(br) {
+        t += x * y;
+    }
+    t
+}
+
 /// Largest tangent size of a prior block (the evaluation uses fixed scratch buffers).
 pub const MAX_TANGENT: usize = 16;
 
@@ -155,6 +172,84 @@ impl PriorFactor {
     /// Residual at the linearization point.
     pub fn r0(&self) -> &[f64] {
         &self.r0
+    }
+
+    /// The same prior with the blocks `remove` (indices into its blocks) marginalized out:
+    /// Householder reflections on `[J_removed | J_kept | r₀]` zero the removed columns below
+    /// their leading rows, and the rows under them are the square-root form of the marginal
+    /// (the Schur complement `H_kk − H_km H_mm⁻¹ H_mk`, with its `b`), around the same
+    /// linearization points. Exact, as the prior is linear in `x ⊟ x̄`; no relinearization,
+    /// no eigen-decomposition: O(m n t) for `t` removed coordinates. A removed direction whose
+    /// remaining information (squared column norm) is at most `min_information` carries none
+    /// and is skipped, like the eigenvalue threshold of the general marginalization.
+    pub fn marginalized(&self, remove: &[usize], min_information: f64) -> Result<Self, PriorError> {
+        let (m, n) = (self.r0.len(), self.tangent_dim());
+        let nb = self.manifolds.len();
+        let removing: Vec<bool> = (0..nb).map(|k| remove.contains(&k)).collect();
+        // Columns: removed coordinates first, then kept ones in block order, then r₀.
+        let mut cols: Vec<usize> = Vec::with_capacity(n);
+        for pass in [true, false] {
+            for k in (0..nb).filter(|&k| removing[k] == pass) {
+                cols.extend(self.offsets[k]..self.offsets[k] + self.tangents[k]);
+            }
+        }
+        let nm: usize = (0..nb)
+            .filter(|&k| removing[k])
+            .map(|k| self.tangents[k])
+            .sum();
+        // Column-major working copy, m × (n + 1).
+        let mut a = vec![0.0; m * (n + 1)];
+        for (c, &src) in cols.iter().enumerate() {
+            for r in 0..m {
+                a[c * m + r] = self.jacobian[r * n + src];
+            }
+        }
+        a[n * m..].copy_from_slice(&self.r0);
+        let mut p = 0;
+        let mut v = vec![0.0; m];
+        for j in 0..nm {
+            if p == m {
+                break;
+            }
+            let x = &a[j * m + p..(j + 1) * m];
+            let norm_sq: f64 = x.iter().map(|v| v * v).sum();
+            if norm_sq <= min_information {
+                continue;
+            }
+            // v = x − α e₁ with α = −sign(x₀) ‖x‖ (no cancellation); H = I − 2 v vᵀ / vᵀv.
+            let alpha = if x[0] > 0.0 {
+                -norm_sq.sqrt()
+            } else {
+                norm_sq.sqrt()
+            };
+            let v = &mut v[..m - p];
+            v.copy_from_slice(x);
+            v[0] -= alpha;
+            let vtv: f64 = v.iter().map(|x| x * x).sum();
+            for c in j..=n {
+                let col = &mut a[c * m + p..(c + 1) * m];
+                let s = 2.0 * dot4(col, v) / vtv;
+                for (x, y) in col.iter_mut().zip(v.iter()) {
+                    *x -= s * y;
+                }
+            }
+            p += 1;
+        }
+        let (mk, nk) = (m - p, n - nm);
+        let mut jacobian = vec![0.0; mk * nk];
+        for c in 0..nk {
+            for r in 0..mk {
+                jacobian[r * nk + c] = a[(nm + c) * m + p + r];
+            }
+        }
+        let r0 = a[n * m + p..(n + 1) * m].to_vec();
+        let kept = (0..nb).filter(|&k| !removing[k]);
+        PriorFactor::new(
+            kept.clone().map(|k| self.manifolds[k].clone()).collect(),
+            kept.map(|k| self.linearization_points[k].clone()).collect(),
+            jacobian,
+            r0,
+        )
     }
 
     /// The same prior with the linearization points of some blocks moved: `(k, x)` moves
@@ -327,7 +422,10 @@ impl Factor for PriorFactor {
                 .map(|(di, (bi, hdi))| 2.0 * bi * di + di * hdi)
                 .sum::<f64>();
         let u: Vec<f64> = self.gradient.iter().zip(&hd).map(|(a, b)| a + b).collect();
-        h[..n * n].copy_from_slice(&self.hessian);
+        let with_hessian = !h.is_empty();
+        if with_hessian {
+            h[..n * n].copy_from_slice(&self.hessian);
+        }
         g[..n].copy_from_slice(&u);
         // Apply M on both sides, block by block (only non-identity blocks cost anything, and
         // only their trailing non-identity part: a pose's M is the identity on translation).
@@ -346,6 +444,9 @@ impl Factor for PriorFactor {
             seg[..tt].copy_from_slice(&g[t0..t0 + tt]);
             for c in 0..tt {
                 g[t0 + c] = (0..tt).map(|r| mm(r, c) * seg[r]).sum();
+            }
+            if !with_hessian {
+                continue;
             }
             // Columns of block k: H[:, k] ← H[:, k] M_k.
             for row in 0..n {
@@ -536,5 +637,59 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Marginalizing blocks out of a prior by reflections gives the Schur complement of its
+    /// information form (`H`, `b` and the constant `r₀ᵀr₀`), around the same points; a removed
+    /// coordinate without information (a zero column) is skipped and changes nothing.
+    #[test]
+    fn marginalizing_blocks_is_the_schur_complement() {
+        let manifolds: Vec<Arc<dyn Manifold>> = vec![
+            Arc::new(PoseManifold),
+            Arc::new(Euclidean::new(3)),
+            Arc::new(PoseManifold),
+        ];
+        let x0 = vec![
+            vec![0.1, -0.2, 0.3, 0.0, 0.0, 0.0, 1.0],
+            vec![1.0, 2.0, 3.0],
+            vec![0.5, 0.4, -0.1, 0.1, -0.2, 0.3, 0.927_361_849_549_570_4],
+        ];
+        let (m, n) = (18, 15);
+        let mut jac: Vec<f64> = (0..m * n)
+            .map(|i| (((i * 37 + i / 7) % 23) as f64 - 11.0) / 7.0)
+            .collect();
+        // Coordinate 7 (the point's y) carries no information.
+        for r in 0..m {
+            jac[r * n + 7] = 0.0;
+        }
+        let r0: Vec<f64> = (0..m).map(|i| 0.1 * i as f64 - 0.3).collect();
+        let prior = PriorFactor::new(manifolds, x0.clone(), jac, r0).unwrap();
+        let h = DMatrix::from_row_slice(n, n, &prior.hessian);
+        let b = nalgebra::DVector::from_column_slice(&prior.gradient);
+        // Remove the point (6..9, its y without information) and the first pose (0..6).
+        let removed: Vec<usize> = vec![0, 1, 2, 3, 4, 5, 6, 8];
+        let kept: Vec<usize> = (9..15).collect();
+        let pick = |rows: &[usize], cols: &[usize]| {
+            DMatrix::from_fn(rows.len(), cols.len(), |i, j| h[(rows[i], cols[j])])
+        };
+        let hmm_inv = pick(&removed, &removed).try_inverse().unwrap();
+        let hkm = pick(&kept, &removed);
+        let bm = nalgebra::DVector::from_fn(removed.len(), |i, _| b[removed[i]]);
+        let bk = nalgebra::DVector::from_fn(kept.len(), |i, _| b[kept[i]]);
+        let h_star = pick(&kept, &kept) - &hkm * &hmm_inv * hkm.transpose();
+        let b_star = bk - &hkm * &hmm_inv * &bm;
+        let c_star = prior.r0_sq - (bm.transpose() * &hmm_inv * &bm)[(0, 0)];
+
+        let marginal = prior.marginalized(&[0, 1], 1e-8).unwrap();
+        assert_eq!(marginal.linearization_points(), &x0[2..]);
+        assert_eq!(marginal.tangent_dim(), 6);
+        // 18 rows less the 8 informative removed directions.
+        assert_eq!(marginal.r0().len(), 10);
+        let h_new = DMatrix::from_row_slice(6, 6, &marginal.hessian);
+        assert!((&h_new - &h_star).abs().max() < 1e-9 * h_star.abs().max());
+        for i in 0..6 {
+            assert!((marginal.gradient[i] - b_star[i]).abs() < 1e-9 * b_star.abs().max());
+        }
+        assert!((marginal.r0_sq - c_star).abs() < 1e-9 * prior.r0_sq);
     }
 }

@@ -11,6 +11,21 @@ use super::normal_equations::linearize;
 use super::plan::{Layout, NONE};
 use crate::problem::graph::{BlockId, Problem};
 
+/// The scratch of a factorization and solve of size `n` with `cols` right-hand sides, kept
+/// (and reallocated when the sizes change) in `scratch`.
+fn scratch_for(
+    scratch: &mut Option<((usize, usize), MemBuffer)>,
+    n: usize,
+    cols: usize,
+) -> &mut MemBuffer {
+    if scratch.as_ref().is_none_or(|(m, _)| *m != (n, cols)) {
+        let req = llt::factor::cholesky_in_place_scratch::<f64>(n, Par::Seq, Default::default())
+            .or(llt::solve::solve_in_place_scratch::<f64>(n, cols, Par::Seq));
+        *scratch = Some(((n, cols), MemBuffer::new(req)));
+    }
+    &mut scratch.as_mut().expect("allocated above").1
+}
+
 /// Solves `A X = B` in place for a symmetric positive-definite row-major `n × n` matrix and
 /// `cols` right-hand sides (`b` column-major, `n × cols`) by faer's blocked Cholesky
 /// factorization (single-threaded: `Par::Seq`), overwriting `a` with the factor and `b` with
@@ -26,12 +41,7 @@ pub(crate) fn dense_cholesky_solve(
     if n == 0 {
         return true;
     }
-    if scratch.as_ref().is_none_or(|(m, _)| *m != (n, cols)) {
-        let req = llt::factor::cholesky_in_place_scratch::<f64>(n, Par::Seq, Default::default())
-            .or(llt::solve::solve_in_place_scratch::<f64>(n, cols, Par::Seq));
-        *scratch = Some(((n, cols), MemBuffer::new(req)));
-    }
-    let buf = &mut scratch.as_mut().expect("allocated above").1;
+    let buf = scratch_for(scratch, n, cols);
     let stack = MemStack::new(buf);
     let mut l = MatMut::from_column_major_slice_mut(a, n, n);
     if llt::factor::cholesky_in_place(
@@ -48,6 +58,23 @@ pub(crate) fn dense_cholesky_solve(
     let rhs = MatMut::from_column_major_slice_mut(b, n, cols);
     llt::solve::solve_in_place(l.rb(), rhs, Par::Seq, MemStack::new(buf));
     true
+}
+
+/// Solves `A x = b` in place with the factor `a` that [`dense_cholesky_solve`] left (one
+/// right-hand side, the same `scratch`).
+pub(crate) fn dense_cholesky_resolve(
+    a: &[f64],
+    n: usize,
+    b: &mut [f64],
+    scratch: &mut Option<((usize, usize), MemBuffer)>,
+) {
+    if n == 0 {
+        return;
+    }
+    let buf = scratch_for(scratch, n, 1);
+    let l = faer::MatRef::from_column_major_slice(a, n, n);
+    let rhs = MatMut::from_column_major_slice_mut(b, n, 1);
+    llt::solve::solve_in_place(l, rhs, Par::Seq, MemStack::new(buf));
 }
 
 /// The full normal equations `H = Σ JᵀJ`, `g = Σ Jᵀr` at the current values with every variable

@@ -214,37 +214,42 @@ impl NormalEquations {
         ok.then_some(0.5 * total)
     }
 
-    /// Evaluates one residual with Jacobians and adds its rows; returns its `ρ(‖r‖²)`.
-    fn accumulate(&mut self, problem: &Problem, p: &ResidualPlan) -> Option<f64> {
+    /// Evaluates one residual at `values` with its Jacobians into the scratch `r` and `jac`
+    /// (laid out by the plan's slots); returns its `ρ(‖r‖²)`. `self.rot` must hold the
+    /// rotations at `values`.
+    fn evaluate_jacobians(
+        &mut self,
+        problem: &Problem,
+        values: &[f64],
+        p: &ResidualPlan,
+    ) -> Option<f64> {
         let m = p.m;
         let slots = &self.slots[p.slots.0..p.slots.1];
         let nb = slots.len();
-        let rho;
-        {
-            let mut rest: &mut [f64] = &mut self.jac[..p.jlen];
-            let mut small: [Option<&mut [f64]>; 16] = Default::default();
-            let mut heap: Vec<Option<&mut [f64]>>;
-            let js: &mut [Option<&mut [f64]>] = if nb <= small.len() {
-                &mut small[..nb]
-            } else {
-                heap = (0..nb).map(|_| None).collect();
-                &mut heap
-            };
-            for (k, s) in slots.iter().enumerate() {
-                if s.jpos != NONE {
-                    let (head, tail) = std::mem::take(&mut rest).split_at_mut(m * s.t);
-                    js[k] = Some(head);
-                    rest = tail;
-                }
+        let mut rest: &mut [f64] = &mut self.jac[..p.jlen];
+        let mut small: [Option<&mut [f64]>; 16] = Default::default();
+        let mut heap: Vec<Option<&mut [f64]>>;
+        let js: &mut [Option<&mut [f64]>] = if nb <= small.len() {
+            &mut small[..nb]
+        } else {
+            heap = (0..nb).map(|_| None).collect();
+            &mut heap
+        };
+        for (k, s) in slots.iter().enumerate() {
+            if s.jpos != NONE {
+                let (head, tail) = std::mem::take(&mut rest).split_at_mut(m * s.t);
+                js[k] = Some(head);
+                rest = tail;
             }
-            rho = problem.evaluate_residual_with(
-                &problem.values,
-                Some(&self.rot),
-                p.ri,
-                &mut self.r[..m],
-                Some(js),
-            )?;
         }
+        problem.evaluate_residual_with(values, Some(&self.rot), p.ri, &mut self.r[..m], Some(js))
+    }
+
+    /// Evaluates one residual with Jacobians and adds its rows; returns its `ρ(‖r‖²)`.
+    fn accumulate(&mut self, problem: &Problem, p: &ResidualPlan) -> Option<f64> {
+        let rho = self.evaluate_jacobians(problem, &problem.values, p)?;
+        let m = p.m;
+        let slots = &self.slots[p.slots.0..p.slots.1];
         let r = &self.r[..m];
         let jac = &self.jac[..p.jlen];
         let n = self.n;
@@ -376,25 +381,43 @@ impl NormalEquations {
         Some(rho)
     }
 
-    /// Adds a factor's directly computed normal equations (see `Factor::normal_equations`);
-    /// `false` if the factor does not provide them.
-    fn accumulate_direct(&mut self, problem: &Problem, p: &ResidualPlan) -> bool {
+    /// A factor's directly computed normal equations at `values` (see
+    /// `Factor::normal_equations`) into the scratch `direct_h` (left empty without
+    /// `with_hessian`), `direct_g`; `false` if the factor does not provide them.
+    fn direct_normal_equations(
+        &mut self,
+        problem: &Problem,
+        values: &[f64],
+        p: &ResidualPlan,
+        with_hessian: bool,
+    ) -> bool {
         let res = &problem.residuals[p.ri];
         let slots = &self.slots[p.slots.0..p.slots.1];
         let total: usize = slots.iter().map(|s| s.t).sum();
         self.direct_h.clear();
-        self.direct_h.resize(total * total, 0.0);
+        if with_hessian {
+            self.direct_h.resize(total * total, 0.0);
+        }
         self.direct_g.clear();
         self.direct_g.resize(total, 0.0);
         let (h, g) = (&mut self.direct_h, &mut self.direct_g);
-        let direct = problem.with_residual_params(&problem.values, p.ri, |params| {
-            problem.with_linearization_params(&problem.values, p.ri, |lin_params| {
-                res.factor.normal_equations(params, lin_params, h, g)
+        problem
+            .with_residual_params(values, p.ri, |params| {
+                problem.with_linearization_params(values, p.ri, |lin_params| {
+                    res.factor.normal_equations(params, lin_params, h, g)
+                })
             })
-        });
-        if direct.is_none() {
+            .is_some()
+    }
+
+    /// Adds a factor's directly computed normal equations (see `Factor::normal_equations`);
+    /// `false` if the factor does not provide them.
+    fn accumulate_direct(&mut self, problem: &Problem, p: &ResidualPlan) -> bool {
+        if !self.direct_normal_equations(problem, &problem.values, p, true) {
             return false;
         }
+        let slots = &self.slots[p.slots.0..p.slots.1];
+        let total: usize = slots.iter().map(|s| s.t).sum();
         let (h, g, n) = (&self.direct_h, &self.direct_g, self.n);
         let mut la = 0;
         for sa in slots {
@@ -421,6 +444,78 @@ impl NormalEquations {
             la += ta;
         }
         true
+    }
+
+    /// The cost `½ Σ ρ` and the gradient (`g.dx` over the reduced states, `g.dl` over the
+    /// stacked landmarks) at `values`, without forming any second-order term: what a modified
+    /// Gauss–Newton step needs besides the factorized system of an earlier linearization.
+    /// The cost is summed as in [`Self::cost_at`] (bit-equal to it); `None` if a residual
+    /// cannot be evaluated.
+    pub(super) fn gradient_at(
+        &mut self,
+        problem: &Problem,
+        values: &[f64],
+        g: &mut Step,
+    ) -> Option<f64> {
+        g.dx.clear();
+        g.dx.resize(self.n, 0.0);
+        g.dl.clear();
+        g.dl.resize(self.gl.len(), 0.0);
+        problem.fill_rotations(values, &mut self.rot);
+        let (state_res, lm_res) = (
+            std::mem::take(&mut self.state_res),
+            std::mem::take(&mut self.lm_res),
+        );
+        let mut total = Some(0.0);
+        for p in state_res.iter().chain(&lm_res) {
+            let rho = if p.direct && self.direct_normal_equations(problem, values, p, false) {
+                let slots = &self.slots[p.slots.0..p.slots.1];
+                let mut la = 0;
+                for s in slots {
+                    if s.offset != NONE {
+                        for (d, v) in g.dx[s.offset..s.offset + s.t]
+                            .iter_mut()
+                            .zip(&self.direct_g[la..la + s.t])
+                        {
+                            *d += v;
+                        }
+                    }
+                    la += s.t;
+                }
+                self.evaluate_cost(problem, values, p)
+            } else {
+                self.evaluate_jacobians(problem, values, p).inspect(|_| {
+                    let (m, r) = (p.m, &self.r[..p.m]);
+                    let slots = &self.slots[p.slots.0..p.slots.1];
+                    for (k, s) in slots.iter().enumerate() {
+                        let dst = if s.offset != NONE {
+                            &mut g.dx[s.offset..s.offset + s.t]
+                        } else if k == p.landmark {
+                            let go = self.loff[p.lm];
+                            &mut g.dl[go..go + s.t]
+                        } else {
+                            continue;
+                        };
+                        let j = &self.jac[s.jpos..s.jpos + m * s.t];
+                        for (rr, rv) in r.iter().enumerate() {
+                            for (d, jv) in dst.iter_mut().zip(&j[rr * s.t..rr * s.t + s.t]) {
+                                *d += jv * rv;
+                            }
+                        }
+                    }
+                })
+            };
+            match (rho, total) {
+                (Some(rho), Some(t)) => total = Some(t + rho),
+                _ => {
+                    total = None;
+                    break;
+                }
+            }
+        }
+        self.state_res = state_res;
+        self.lm_res = lm_res;
+        total.map(|t| 0.5 * t)
     }
 
     /// `vᵀ H v` for a full-space vector (undamped Hessian).

@@ -9,7 +9,7 @@ use faer::linalg::matmul::matmul;
 use faer::{Accum, MatMut, MatRef, Par};
 use nalgebra::{DMatrix, DVector};
 
-use super::dense::dense_cholesky_solve;
+use super::dense::{dense_cholesky_resolve, dense_cholesky_solve};
 use super::normal_equations::{NormalEquations, linearize, mirror_upper};
 use super::plan::{Layout, NONE};
 use crate::problem::graph::{BlockId, Problem, ResidualId};
@@ -327,6 +327,10 @@ pub(crate) struct ReducedSystem {
     valid: Vec<bool>,
     scratch: Option<((usize, usize), MemBuffer)>,
     schur: SchurScratch,
+    /// Whether `a` and `cinv` hold the factorized system of the last successful
+    /// [`NormalEquations::solve_damped`], and its damping `(λ, min_diag)`.
+    factored: bool,
+    damping: (f64, f64),
 }
 
 impl NormalEquations {
@@ -364,24 +368,94 @@ impl NormalEquations {
         // The Cholesky reads the lower triangle: copy the upper (written above) onto it.
         mirror_upper(&mut sys.a, n);
         let mut dx = std::mem::take(&mut sys.rhs);
+        sys.factored = false;
         if !dense_cholesky_solve(&mut sys.a, n, &mut dx, 1, &mut sys.scratch) {
             return None;
         }
-        // Back-substitution: δl = C⁻¹ (−g_l − Wᵀ δx).
-        let mut dl = vec![0.0; self.gl.len()];
+        sys.factored = true;
+        sys.damping = (lambda, min_diag);
+        self.back_substitute(sys, dx, &self.gl)
+    }
+
+    /// The decrease `−(gᵀδ + ½ δᵀHδ)` of the undamped quadratic model along a step `δ` that
+    /// solves `(H + λD) δ = −g` with the system factorized in `sys`, in O(n) by the identity
+    /// `δᵀHδ = −gᵀδ − λ δᵀDδ`: `½ (λ δᵀDδ − gᵀδ)` (Madsen, Nielsen & Tingleff).
+    pub fn damped_model_decrease(
+        &self,
+        (gx, gl): (&[f64], &[f64]),
+        step: &Step,
+        sys: &ReducedSystem,
+    ) -> f64 {
+        let (lambda, min_diag) = sys.damping;
+        let n = self.n;
+        let mut ddd = 0.0;
+        for i in 0..n {
+            ddd += self.hxx[i * n + i].max(min_diag) * step.dx[i] * step.dx[i];
+        }
+        for l in 0..self.lt.len() {
+            let t = self.lt[l];
+            let (ho, go) = (self.lhoff[l], self.loff[l]);
+            for i in 0..t {
+                ddd += self.hll[ho + i * t + i].max(min_diag) * step.dl[go + i] * step.dl[go + i];
+            }
+        }
+        let gd: f64 = gx.iter().zip(&step.dx).map(|(a, b)| a * b).sum::<f64>()
+            + gl.iter().zip(&step.dl).map(|(a, b)| a * b).sum::<f64>();
+        0.5 * (lambda * ddd - gd)
+    }
+
+    /// Solves `(H + λD) δ = −g` for another gradient `g` with the system `sys` factorized by
+    /// the last successful [`Self::solve_damped`] of these normal equations (same `λ`): the
+    /// landmark terms fold into the right-hand side, one pair of triangular solves, the
+    /// back-substitution. `None` if `sys` holds no factorization.
+    pub fn solve_factored(&self, g: &Step, sys: &mut ReducedSystem) -> Option<Step> {
+        if !sys.factored {
+            return None;
+        }
+        // rhs = −g_x + W C⁻¹ g_l.
+        let mut dx: Vec<f64> = g.dx.iter().map(|v| -v).collect();
+        for l in 0..self.lt.len() {
+            let t = self.lt[l];
+            let (ho, go) = (self.lhoff[l], self.loff[l]);
+            let ci = &sys.cinv[ho..ho + t * t];
+            let mut v = [0.0; MAX_DENSE_LANDMARK];
+            let mut heap;
+            let v = if t <= MAX_DENSE_LANDMARK {
+                &mut v[..t]
+            } else {
+                heap = vec![0.0; t];
+                &mut heap[..]
+            };
+            for i in 0..t {
+                v[i] = dot(&ci[i * t..i * t + t], &g.dl[go..go + t]);
+            }
+            for c in &self.couplings[self.cstart[l]..self.cstart[l + 1]] {
+                for i in 0..c.t {
+                    dx[c.offset + i] += dot(&self.w[c.pos + i * t..c.pos + i * t + t], v);
+                }
+            }
+        }
+        dense_cholesky_resolve(&sys.a, self.n, &mut dx, &mut sys.scratch);
+        self.back_substitute(sys, dx, &g.dl)
+    }
+
+    /// Back-substitution of the landmarks, `δl = C⁻¹ (−g_l − Wᵀ δx)`, with `C⁻¹` from `sys`;
+    /// `None` if the step is not finite.
+    fn back_substitute(&self, sys: &ReducedSystem, dx: Vec<f64>, gl: &[f64]) -> Option<Step> {
+        let mut dl = vec![0.0; gl.len()];
         for l in 0..self.lt.len() {
             let t = self.lt[l];
             let (ho, go) = (self.lhoff[l], self.loff[l]);
             let cs = &self.couplings[self.cstart[l]..self.cstart[l + 1]];
             if t == 1 {
-                let mut rhs = -self.gl[go];
+                let mut rhs = -gl[go];
                 for c in cs {
                     rhs -= dot(&self.w[c.pos..c.pos + c.t], &dx[c.offset..c.offset + c.t]);
                 }
                 dl[go] = sys.cinv[ho] * rhs;
                 continue;
             }
-            let mut rhs: Vec<f64> = self.gl[go..go + t].iter().map(|g| -g).collect();
+            let mut rhs: Vec<f64> = gl[go..go + t].iter().map(|g| -g).collect();
             for c in cs {
                 for i in 0..c.t {
                     for j in 0..t {
@@ -524,21 +598,52 @@ mod tests {
             .flat_map(|d| [0.0, 1e-3, 10.0].map(|l| (d, l)))
         {
             eqs.dense_schur = dense_schur;
-            let step = eqs
-                .solve_damped(lambda, 1e-6, &mut ReducedSystem::default())
-                .unwrap();
+            let mut sys = ReducedSystem::default();
+            let step = eqs.solve_damped(lambda, 1e-6, &mut sys).unwrap();
             let d = DMatrix::from_diagonal(&h.diagonal().map(|v| v.max(1e-6)));
-            let dense = (&h + d * lambda).cholesky().unwrap().solve(&(-&g));
-            let ours: Vec<f64> = step.dx.iter().chain(&step.dl).copied().collect();
-            let err = ours
-                .iter()
-                .zip(dense.iter())
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max);
+            let damped = (&h + d * lambda).cholesky().unwrap();
+            let max_err = |s: &Step, dense: &DVector<f64>| {
+                let ours: Vec<f64> = s.dx.iter().chain(&s.dl).copied().collect();
+                let err = ours
+                    .iter()
+                    .zip(dense.iter())
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max);
+                err / dense.amax().max(1.0)
+            };
+            let dense = damped.solve(&(-&g));
+            let err = max_err(&step, &dense);
+            assert!(err < 1e-9, "dense_schur={dense_schur} λ={lambda}: {err:e}");
+            // The model decrease by the damping identity equals −(gᵀδ + ½ δᵀHδ).
+            let quadratic = -(g.dot(&dense) + 0.5 * dense.dot(&(&h * &dense)));
+            let identity = eqs.damped_model_decrease((&eqs.gx, &eqs.gl), &step, &sys);
             assert!(
-                err < 1e-9 * dense.amax().max(1.0),
-                "dense_schur={dense_schur} λ={lambda}: {err:e}"
+                (identity - quadratic).abs() < 1e-9 * quadratic.abs().max(1.0),
+                "dense_schur={dense_schur} λ={lambda}: {identity} against {quadratic}"
+            );
+            // Another gradient through the same factorization.
+            let g2: Vec<f64> = (0..g.len()).map(|_| lcg(&mut seed)).collect();
+            let nx = eqs.gx.len();
+            let other = Step {
+                dx: g2[..nx].to_vec(),
+                dl: g2[nx..].to_vec(),
+            };
+            let step2 = eqs.solve_factored(&other, &mut sys).unwrap();
+            let dense2 = damped.solve(&(-DVector::from_vec(g2)));
+            let err = max_err(&step2, &dense2);
+            assert!(
+                err < 1e-9,
+                "factored, dense_schur={dense_schur} λ={lambda}: {err:e}"
             );
         }
+        // Nothing factorized: no step.
+        let other = Step {
+            dx: eqs.gx.clone(),
+            dl: eqs.gl.clone(),
+        };
+        assert!(
+            eqs.solve_factored(&other, &mut ReducedSystem::default())
+                .is_none()
+        );
     }
 }
