@@ -68,20 +68,28 @@ pub(super) fn triangulate_tracks(window: &mut Window, config: &EstimatorConfig, 
 /// `outlier_reprojection_px`.
 pub(super) fn reject_outliers(window: &mut Window, config: &EstimatorConfig) {
     let mut bad = Vec::new();
+    // `T_c_w` of both cameras of every window frame, by frame sequence number.
+    let cameras = window.extrinsics.len();
+    let t_c_w: Vec<(u64, [Option<Pose>; 2])> = (0..window.frames.len())
+        .map(|fi| {
+            let cam = |c: usize| (c < cameras).then(|| window.camera_pose(fi, c).inverse());
+            (window.frames[fi].seq, [cam(0), cam(1)])
+        })
+        .collect();
     for (id, t) in &window.features.tracks {
         let Some(p_w) = window.track_world_point(*id) else {
             continue;
         };
         let (mut sum, mut n) = (0.0, 0);
         for o in &t.obs {
-            let Some(fi) = window.frame_index(o.seq) else {
+            let Some((_, poses)) = t_c_w.iter().find(|(seq, _)| *seq == o.seq) else {
                 continue;
             };
             for cam in 0..2 {
-                let (Some(uv), Some(_)) = (o.uv[cam], o.meas[cam]) else {
+                let (Some(uv), Some(_), Some(pose)) = (o.uv[cam], o.meas[cam], &poses[cam]) else {
                     continue;
                 };
-                let p_c = window.camera_pose(fi, cam).inverse().transform(&p_w);
+                let p_c = pose.transform(&p_w);
                 match config.cameras[cam].model.project(&p_c) {
                     Some(px) if p_c.z > 0.0 => sum += (px - uv).norm(),
                     _ => sum += 1e3,

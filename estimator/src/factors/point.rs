@@ -109,12 +109,26 @@ impl Factor for WorldPointProjection {
         residuals: &mut [f64],
         jacobians: Option<&mut [Option<&mut [f64]>]>,
     ) -> bool {
+        self.evaluate_with_rotations(params, &[None, None], residuals, jacobians)
+    }
+
+    fn evaluate_with_rotations(
+        &self,
+        params: &[&[f64]],
+        rotations: &[Option<&Matrix3<f64>>],
+        residuals: &mut [f64],
+        jacobians: Option<&mut [Option<&mut [f64]>]>,
+    ) -> bool {
         let t_w_b = Pose::from_slice(params[0]);
         let t_b_c = Pose::from_slice(params[1]);
         let x_w = Vector3::new(params[2][0], params[2][1], params[2][2]);
         let td = params[3][0];
-        let rb_t: Matrix3<f64> = t_w_b.q.to_rotation_matrix().into_inner().transpose();
-        let rc_t: Matrix3<f64> = t_b_c.q.to_rotation_matrix().into_inner().transpose();
+        let rotation = |k: usize, pose: &Pose| match rotations.get(k).copied().flatten() {
+            Some(r) => *r,
+            None => pose.q.to_rotation_matrix().into_inner(),
+        };
+        let rb_t: Matrix3<f64> = rotation(0, &t_w_b).transpose();
+        let rc_t: Matrix3<f64> = rotation(1, &t_b_c).transpose();
         let p_b = rb_t * (x_w - t_w_b.p);
         let p_c = rc_t * (p_b - t_b_c.p);
         if !(p_c.z.is_finite() && p_c.z > 1e-9) {

@@ -569,7 +569,19 @@ mod tests {
                     obs_b: obs_j,
                     weight: 300.0,
                 }),
-                vec![ea, eb, vec![0.4, 0.003, -0.002], vec![0.002]],
+                vec![
+                    ea.clone(),
+                    eb.clone(),
+                    vec![0.4, 0.003, -0.002],
+                    vec![0.002],
+                ],
+            ),
+            (
+                Box::new(crate::factors::WorldPointProjection {
+                    obs: obs_j,
+                    weight: 300.0,
+                }),
+                vec![pose(0.1), ea, vec![0.4, 0.3, 2.5], vec![0.002]],
             ),
         ];
         for (f, params) in &factors {

@@ -6,6 +6,10 @@ use nalgebra::Matrix3;
 
 use super::{Factor, LossFunction, Manifold, apply_loss, rotation_matrix};
 
+/// The rotation matrices of one evaluation pass: at the values ([`Problem::fill_rotations`])
+/// and where the Jacobians are taken ([`Problem::fill_linearization_rotations`]).
+pub(crate) type PassRotations<'a> = (&'a [Matrix3<f64>], &'a [Matrix3<f64>]);
+
 /// Handle of a parameter block in a [`Problem`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct BlockId(pub usize);
@@ -318,6 +322,22 @@ impl Problem {
         }
     }
 
+    /// [`Self::fill_rotations`] where the Jacobians are evaluated: at a block's first-estimate
+    /// linearization point where it has one (copied from `at_values` otherwise).
+    pub(crate) fn fill_linearization_rotations(
+        &self,
+        at_values: &[Matrix3<f64>],
+        out: &mut Vec<Matrix3<f64>>,
+    ) {
+        out.clear();
+        out.extend_from_slice(at_values);
+        for (b, blk) in self.blocks.iter().enumerate() {
+            if let (Some(o), Some(x0)) = (blk.rotation, &blk.lin_point) {
+                out[b] = rotation_matrix(&x0[o..o + 4]);
+            }
+        }
+    }
+
     /// Calls `f` with the value slices of residual `id`'s blocks taken from `values` (a full
     /// value vector); no allocation for residuals of up to 8 blocks (every factor but the
     /// marginalization prior, which allocates once per linearization).
@@ -383,8 +403,22 @@ impl Problem {
         r: &mut [f64],
         jacobians: Option<&mut [Option<&mut [f64]>]>,
     ) -> bool {
+        self.evaluate_factor_at(values, false, rotations, id, r, jacobians)
+    }
+
+    /// [`Self::evaluate_factor`], at the blocks' linearization points where they have one if
+    /// `first_estimates` (`rotations` then holds [`Self::fill_linearization_rotations`]).
+    fn evaluate_factor_at(
+        &self,
+        values: &[f64],
+        first_estimates: bool,
+        rotations: Option<&[Matrix3<f64>]>,
+        id: usize,
+        r: &mut [f64],
+        jacobians: Option<&mut [Option<&mut [f64]>]>,
+    ) -> bool {
         let res = &self.residuals[id];
-        self.with_residual_params(values, id, |params| match rotations {
+        self.with_params(values, id, first_estimates, |params| match rotations {
             Some(rot) if res.blocks.len() <= INLINE_BLOCKS => {
                 let mut rots: [Option<&Matrix3<f64>>; INLINE_BLOCKS] = [None; INLINE_BLOCKS];
                 for (k, b) in res.blocks.iter().enumerate() {
@@ -407,7 +441,7 @@ impl Problem {
     pub(crate) fn evaluate_residual_with(
         &self,
         values: &[f64],
-        rotations: Option<&[Matrix3<f64>]>,
+        rotations: Option<PassRotations<'_>>,
         id: usize,
         r: &mut [f64],
         jacobians: Option<&mut [Option<&mut [f64]>]>,
@@ -415,12 +449,15 @@ impl Problem {
         let res = &self.residuals[id];
         let has_j = jacobians.is_some();
         let mut jacobians = jacobians;
+        let (rotations, lin_rotations) = match rotations {
+            Some((at_values, at_lin)) => (Some(at_values), Some(at_lin)),
+            None => (None, None),
+        };
         let ok = match jacobians.as_deref_mut() {
             Some(js) if self.uses_linearization_points(id) => {
                 // Jacobians at the linearization points, then the residual at `values`.
-                self.with_linearization_params(values, id, |params| {
-                    res.factor.evaluate(params, r, Some(js))
-                }) && self.evaluate_factor(values, rotations, id, r, None)
+                self.evaluate_factor_at(values, true, lin_rotations, id, r, Some(js))
+                    && self.evaluate_factor(values, rotations, id, r, None)
             }
             js => self.evaluate_factor(values, rotations, id, r, js),
         };

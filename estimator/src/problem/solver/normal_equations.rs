@@ -49,6 +49,8 @@ pub(crate) struct NormalEquations {
     pub(super) slots: Vec<Slot>,
     /// Rotation matrices of the blocks at the values being evaluated (`Problem::fill_rotations`).
     pub(super) rot: Vec<nalgebra::Matrix3<f64>>,
+    /// The same where the Jacobians are evaluated (`Problem::fill_linearization_rotations`).
+    pub(super) rot_lin: Vec<nalgebra::Matrix3<f64>>,
     /// Scratch: residual, Jacobians, a factor's direct normal equations.
     pub(super) r: Vec<f64>,
     pub(super) jac: Vec<f64>,
@@ -141,15 +143,19 @@ impl NormalEquations {
         self.w.fill(0.0);
         let mut total = 0.0;
         problem.fill_rotations(&problem.values, &mut self.rot);
-        let plans = std::mem::take(&mut self.state_res);
+        problem.fill_linearization_rotations(&self.rot, &mut self.rot_lin);
+        let mut plans = std::mem::take(&mut self.state_res);
         let mut ok = true;
-        for p in &plans {
-            let rho = if p.direct && self.accumulate_direct(problem, p) {
-                // The cost as `evaluate` gives it (as `cost_at` computes it).
-                self.evaluate_cost(problem, &problem.values, p)
+        for p in &mut plans {
+            let direct = if p.direct {
+                self.accumulate_direct(problem, p)
             } else {
-                self.accumulate(problem, p)
+                None
             };
+            // A factor without direct normal equations is evaluated from now on (also by
+            // `cost_at` and `gradient_at`, so that every pass sums the same terms).
+            p.direct = direct.is_some();
+            let rho = direct.or_else(|| self.accumulate(problem, p));
             match rho {
                 Some(rho) => total += rho,
                 None => {
@@ -185,8 +191,15 @@ impl NormalEquations {
         values: &[f64],
         p: &ResidualPlan,
     ) -> Option<f64> {
+        if p.direct
+            && let Some(cost) = self.direct_normal_equations(problem, values, p, false)
+        {
+            // The cost as the normal equations give it (as `linearize` sums it).
+            return Some(cost);
+        }
         // `self.rot` holds the rotations at `values` (filled by the caller).
-        problem.evaluate_residual_with(values, Some(&self.rot), p.ri, &mut self.r[..p.m], None)
+        let rot = (&self.rot[..], &self.rot_lin[..]);
+        problem.evaluate_residual_with(values, Some(rot), p.ri, &mut self.r[..p.m], None)
     }
 
     /// Total cost `½ Σ ρ(‖r‖²)` of the planned residuals at `values`, summed in the order of
@@ -242,7 +255,8 @@ impl NormalEquations {
                 rest = tail;
             }
         }
-        problem.evaluate_residual_with(values, Some(&self.rot), p.ri, &mut self.r[..m], Some(js))
+        let rot = (&self.rot[..], &self.rot_lin[..]);
+        problem.evaluate_residual_with(values, Some(rot), p.ri, &mut self.r[..m], Some(js))
     }
 
     /// Evaluates one residual with Jacobians and adds its rows; returns its `ρ(‖r‖²)`.
@@ -383,14 +397,15 @@ impl NormalEquations {
 
     /// A factor's directly computed normal equations at `values` (see
     /// `Factor::normal_equations`) into the scratch `direct_h` (left empty without
-    /// `with_hessian`), `direct_g`; `false` if the factor does not provide them.
+    /// `with_hessian`), `direct_g`, returning its `‖r‖²`; `None` if the factor does not
+    /// provide them.
     fn direct_normal_equations(
         &mut self,
         problem: &Problem,
         values: &[f64],
         p: &ResidualPlan,
         with_hessian: bool,
-    ) -> bool {
+    ) -> Option<f64> {
         let res = &problem.residuals[p.ri];
         let slots = &self.slots[p.slots.0..p.slots.1];
         let total: usize = slots.iter().map(|s| s.t).sum();
@@ -401,21 +416,17 @@ impl NormalEquations {
         self.direct_g.clear();
         self.direct_g.resize(total, 0.0);
         let (h, g) = (&mut self.direct_h, &mut self.direct_g);
-        problem
-            .with_residual_params(values, p.ri, |params| {
-                problem.with_linearization_params(values, p.ri, |lin_params| {
-                    res.factor.normal_equations(params, lin_params, h, g)
-                })
+        problem.with_residual_params(values, p.ri, |params| {
+            problem.with_linearization_params(values, p.ri, |lin_params| {
+                res.factor.normal_equations(params, lin_params, h, g)
             })
-            .is_some()
+        })
     }
 
-    /// Adds a factor's directly computed normal equations (see `Factor::normal_equations`);
-    /// `false` if the factor does not provide them.
-    fn accumulate_direct(&mut self, problem: &Problem, p: &ResidualPlan) -> bool {
-        if !self.direct_normal_equations(problem, &problem.values, p, true) {
-            return false;
-        }
+    /// Adds a factor's directly computed normal equations (see `Factor::normal_equations`)
+    /// and returns its `‖r‖²`; `None` if the factor does not provide them.
+    fn accumulate_direct(&mut self, problem: &Problem, p: &ResidualPlan) -> Option<f64> {
+        let cost = self.direct_normal_equations(problem, &problem.values, p, true)?;
         let slots = &self.slots[p.slots.0..p.slots.1];
         let total: usize = slots.iter().map(|s| s.t).sum();
         let (h, g, n) = (&self.direct_h, &self.direct_g, self.n);
@@ -443,7 +454,7 @@ impl NormalEquations {
             }
             la += ta;
         }
-        true
+        Some(cost)
     }
 
     /// The cost `½ Σ ρ` and the gradient (`g.dx` over the reduced states, `g.dl` over the
@@ -462,13 +473,19 @@ impl NormalEquations {
         g.dl.clear();
         g.dl.resize(self.gl.len(), 0.0);
         problem.fill_rotations(values, &mut self.rot);
+        problem.fill_linearization_rotations(&self.rot, &mut self.rot_lin);
         let (state_res, lm_res) = (
             std::mem::take(&mut self.state_res),
             std::mem::take(&mut self.lm_res),
         );
         let mut total = Some(0.0);
         for p in state_res.iter().chain(&lm_res) {
-            let rho = if p.direct && self.direct_normal_equations(problem, values, p, false) {
+            let direct = if p.direct {
+                self.direct_normal_equations(problem, values, p, false)
+            } else {
+                None
+            };
+            let rho = if let Some(cost) = direct {
                 let slots = &self.slots[p.slots.0..p.slots.1];
                 let mut la = 0;
                 for s in slots {
@@ -482,7 +499,7 @@ impl NormalEquations {
                     }
                     la += s.t;
                 }
-                self.evaluate_cost(problem, values, p)
+                Some(cost)
             } else {
                 self.evaluate_jacobians(problem, values, p).inspect(|_| {
                     let (m, r) = (p.m, &self.r[..p.m]);

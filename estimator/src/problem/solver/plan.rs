@@ -307,6 +307,7 @@ impl NormalEquations {
             lm_res,
             slots,
             rot: Vec::new(),
+            rot_lin: Vec::new(),
             r: vec![0.0; max_m],
             jac: vec![0.0; max_j],
             direct_h: Vec::new(),
