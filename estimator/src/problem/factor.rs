@@ -58,6 +58,14 @@ pub trait Factor: Send + Sync {
     ) -> Option<f64> {
         None
     }
+
+    /// The `h` that [`Factor::normal_equations`] would write at `lin_params`, where the factor
+    /// holds it as a constant matrix (a linear prior at its own linearization points): the
+    /// solver then reads it in place instead of having it copied. `None` (the default)
+    /// otherwise.
+    fn constant_hessian(&self, _lin_params: &[&[f64]]) -> Option<&[f64]> {
+        None
+    }
 }
 
 /// Copies a column-major nalgebra matrix into a row-major buffer.

@@ -381,6 +381,26 @@ impl Factor for PriorFactor {
         residuals[..m].iter().all(|v| v.is_finite())
     }
 
+    /// `JᵀJ` itself where every block's minus-Jacobian at `lin_params` is the identity (the
+    /// prior's own linearization points, or Euclidean blocks).
+    fn constant_hessian(&self, lin_params: &[&[f64]]) -> Option<&[f64]> {
+        let mut b = [0.0; MAX_TANGENT * MAX_TANGENT];
+        for (k, manifold) in self.manifolds.iter().enumerate() {
+            let x0 = &self.linearization_points[k];
+            if lin_params[k] == &x0[..] {
+                continue;
+            }
+            let t = self.tangents[k];
+            manifold.minus_jacobian(lin_params[k], x0, &mut b[..t * t]);
+            let identity =
+                (0..t).all(|i| (0..t).all(|j| b[i * t + j] == if i == j { 1.0 } else { 0.0 }));
+            if !identity {
+                return None;
+            }
+        }
+        Some(&self.hessian)
+    }
+
     /// `‖r‖² = r₀ᵀr₀ + 2 bᵀd + dᵀHd`, `g = Mᵀ(b + H d)`, `JᵀJ = Mᵀ H M` with `d = x ⊟ x̄`,
     /// `H = JᵀJ`, `b = Jᵀr₀` precomputed and `M` the block-diagonal minus-Jacobian (identity for
     /// Euclidean blocks, `Jr⁻¹` for rotations) at `lin_params`: O(n²) instead of the O(m n²)
@@ -408,13 +428,7 @@ impl Factor for PriorFactor {
         }
         // u = b + H d, cost.
         let hd: Vec<f64> = (0..n)
-            .map(|i| {
-                self.hessian[i * n..(i + 1) * n]
-                    .iter()
-                    .zip(&d)
-                    .map(|(a, b)| a * b)
-                    .sum()
-            })
+            .map(|i| dot4(&self.hessian[i * n..(i + 1) * n], &d))
             .collect();
         let cost = self.r0_sq
             + d.iter()
@@ -691,5 +705,35 @@ mod tests {
             assert!((marginal.gradient[i] - b_star[i]).abs() < 1e-9 * b_star.abs().max());
         }
         assert!((marginal.r0_sq - c_star).abs() < 1e-9 * prior.r0_sq);
+    }
+
+    /// The constant Hessian is offered exactly where `normal_equations` writes `JᵀJ` unchanged:
+    /// at the prior's own points (or moved Euclidean blocks), not at a moved rotation.
+    #[test]
+    fn constant_hessian_only_at_identity_minus_jacobians() {
+        let (prior, x) = test_prior([
+            &[0.01, 0.02, -0.03, 0.2, -0.1, 0.15],
+            &[0.1, -0.1, 0.2],
+            &[-0.02, 0.0, 0.01, -0.3, 0.05, 0.1],
+        ]);
+        let x0 = prior.linearization_points().to_vec();
+        let at = |v: &[Vec<f64>]| v.iter().map(|b| b.to_vec()).collect::<Vec<_>>();
+        let n = 15;
+        let (mut h, mut g) = (vec![0.0; n * n], vec![0.0; n]);
+        let params: Vec<&[f64]> = x.iter().map(|v| v.as_slice()).collect();
+        // At x̄, and with only the point (Euclidean) moved.
+        let mut moved_point = at(&x0);
+        moved_point[1] = x[1].clone();
+        for lin in [at(&x0), moved_point] {
+            let lin: Vec<&[f64]> = lin.iter().map(|v| v.as_slice()).collect();
+            prior
+                .normal_equations(&params, &lin, &mut h, &mut g)
+                .unwrap();
+            assert_eq!(prior.constant_hessian(&lin), Some(&h[..]));
+        }
+        let mut moved_pose = at(&x0);
+        moved_pose[0] = x[0].clone();
+        let lin: Vec<&[f64]> = moved_pose.iter().map(|v| v.as_slice()).collect();
+        assert_eq!(prior.constant_hessian(&lin), None);
     }
 }

@@ -426,10 +426,14 @@ impl NormalEquations {
     /// Adds a factor's directly computed normal equations (see `Factor::normal_equations`)
     /// and returns its `‖r‖²`; `None` if the factor does not provide them.
     fn accumulate_direct(&mut self, problem: &Problem, p: &ResidualPlan) -> Option<f64> {
-        let cost = self.direct_normal_equations(problem, &problem.values, p, true)?;
+        let res = &problem.residuals[p.ri];
+        let constant = problem.with_linearization_params(&problem.values, p.ri, |lin_params| {
+            res.factor.constant_hessian(lin_params)
+        });
+        let cost = self.direct_normal_equations(problem, &problem.values, p, constant.is_none())?;
         let slots = &self.slots[p.slots.0..p.slots.1];
         let total: usize = slots.iter().map(|s| s.t).sum();
-        let (h, g, n) = (&self.direct_h, &self.direct_g, self.n);
+        let (h, g, n) = (constant.unwrap_or(&self.direct_h), &self.direct_g, self.n);
         let mut la = 0;
         for sa in slots {
             let (oa, ta) = (sa.offset, sa.t);
