@@ -190,9 +190,7 @@ pub fn marginalize(
         .iter()
         .map(|b| problem.blocks[b.0].manifold.clone())
         .collect();
-    // H* itself as the prior's JᵀJ (what J was factored from), read row-major: symmetric.
-    let hessian: Vec<f64> = h_star.transpose().as_slice().to_vec();
-    let factor = PriorFactor::with_hessian(manifolds, points, jac, r0, hessian)?;
+    let factor = PriorFactor::new(manifolds, points, jac, r0)?;
     Ok(MarginalPrior {
         factor,
         blocks: kept,

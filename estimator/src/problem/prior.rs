@@ -68,29 +68,6 @@ impl PriorFactor {
         jacobian: Vec<f64>,
         r0: Vec<f64>,
     ) -> Result<Self, PriorError> {
-        Self::build(manifolds, linearization_points, jacobian, r0, None)
-    }
-
-    /// [`Self::new`] with `JᵀJ` given (row-major `n × n`, symmetric up to round-off) instead of
-    /// formed: for a `J` just factored from that matrix (marginalization), where the product
-    /// would only give it back up to round-off and the directions the factorization dropped.
-    pub fn with_hessian(
-        manifolds: Vec<Arc<dyn Manifold>>,
-        linearization_points: Vec<Vec<f64>>,
-        jacobian: Vec<f64>,
-        r0: Vec<f64>,
-        hessian: Vec<f64>,
-    ) -> Result<Self, PriorError> {
-        Self::build(manifolds, linearization_points, jacobian, r0, Some(hessian))
-    }
-
-    fn build(
-        manifolds: Vec<Arc<dyn Manifold>>,
-        linearization_points: Vec<Vec<f64>>,
-        jacobian: Vec<f64>,
-        r0: Vec<f64>,
-        hessian_given: Option<Vec<f64>>,
-    ) -> Result<Self, PriorError> {
         if manifolds.len() != linearization_points.len() {
             return Err(PriorError::Dimension(format!(
                 "{} manifolds, {} linearization points",
@@ -142,19 +119,10 @@ impl PriorFactor {
                 gradient[i] += row[i] * r0[r];
             }
         }
+        // JᵀJ by one dense product (the prior is ~250 × 250 with persistent points: a naive
+        // triple loop cost more than the window solve's linearization).
         let mut hessian = vec![0.0; n * n];
-        if let Some(h) = hessian_given {
-            // Given (the marginal `J` was factored from it): exactly symmetric below.
-            if h.len() != n * n || h.iter().any(|v| !v.is_finite()) {
-                return Err(PriorError::Dimension(format!(
-                    "Hessian has {} entries, expected {n} × {n}",
-                    h.len()
-                )));
-            }
-            hessian = h;
-        } else if m > 0 && n > 0 {
-            // JᵀJ by one dense product (the prior is ~250 × 250 with persistent points: a
-            // naive triple loop cost more than the window solve's linearization).
+        if m > 0 && n > 0 {
             let j = MatRef::from_row_major_slice(&jacobian, m, n);
             matmul(
                 MatMut::from_column_major_slice_mut(&mut hessian, n, n),
