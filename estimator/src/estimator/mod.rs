@@ -25,6 +25,7 @@ mod imu_buffer;
 mod init;
 mod marginalization;
 mod relinearization;
+mod sliding;
 mod stationary;
 mod time_offset;
 mod triangulation;
@@ -516,35 +517,7 @@ impl Estimator {
         }
 
         // 3. Keyframe decision about the second-newest frame.
-        let n = self.window.frames.len();
-        let mono_waiting = self.mono_init_camera().is_some();
-        let keyframe = if mono_waiting && n >= 3 {
-            // A monocular window waiting for initialization spreads its keyframes evenly over
-            // `mono_init_window_s`: the alignment needs the acceleration to change within the
-            // window, or a constant acceleration passes for a tilt of gravity and the scale is
-            // lost.
-            let (a, b) = (&self.window.frames[n - 3], &self.window.frames[n - 2]);
-            let spacing = self.config.mono_init_window_s / self.config.init_frames as f64;
-            (b.t_ns - a.t_ns) as f64 * 1e-9 >= spacing
-        } else if n < 3 || continued < self.config.keyframe_min_tracked {
-            true
-        } else {
-            let a = self.window.frames[n - 3].seq;
-            let b = self.window.frames[n - 2].seq;
-            // Parallax in the lowest camera that delivered this frame (the left one while it
-            // works).
-            let cam = frame
-                .cameras
-                .iter()
-                .filter(|c| c.cam_id < self.config.cameras.len() && !c.features.is_empty())
-                .map(|c| c.cam_id)
-                .min()
-                .unwrap_or(0);
-            match self.window.features.parallax(a, b, cam) {
-                Some(p) => p * self.focal[0] >= self.config.keyframe_parallax_px,
-                None => true,
-            }
-        };
+        let keyframe = self.second_newest_is_keyframe(&frame, continued);
 
         // 4. Triangulate, solve, reject outliers, marginalize, slide.
         if self.pending_bias_prior {
@@ -656,40 +629,8 @@ impl Estimator {
         let newest_observations = self.window.newest_observations(&built);
         // The newest frame's state and (not yet merged) IMU interval, as solved.
         let newest = self.window.frames.back().expect("just pushed").clone();
-        let window_full = self.window.frames.len() > self.config.window_size;
         let marg_start = Instant::now();
-        if window_full {
-            let had_prior = self.window.prior.is_some();
-            let removed = if keyframe {
-                self.window.prior =
-                    marginalization::prior_without_oldest(&self.window, &built, imu_active);
-                // With a prior, the oldest frame's anchored landmarks and all their observations
-                // are now in it, so by default those tracks end here; re-anchoring and re-using
-                // the observations (VINS-Fusion's choice, `reuse_marginalized_tracks`) counts
-                // them twice. Without a prior (vision only, or during initialization) they are
-                // re-anchored in their next left view.
-                let in_prior = imu_active
-                    && self.window.prior.is_some()
-                    && !self.config.reuse_marginalized_tracks;
-                self.window.remove_oldest(in_prior, &self.config)
-            } else {
-                self.window.prior =
-                    marginalization::prior_without_second_newest(&self.window, &built);
-                self.window.remove_second_newest()
-            };
-            if self.status == Status::Tracking {
-                self.finalized.push((removed.t_ns, removed.pose));
-                if let Some(h) = self.history.as_mut().filter(|_| keyframe) {
-                    h.keyframes.push(removed.clone());
-                }
-            }
-            if had_prior && imu_active && self.window.prior.is_none() {
-                self.events.push(Event {
-                    t_ns,
-                    kind: EventKind::PriorDropped,
-                });
-            }
-        }
+        self.slide(&built, keyframe, imu_active, t_ns);
         let marginalization_s = marg_start.elapsed().as_secs_f64();
         triangulation::reject_outliers(&mut self.window, &self.config);
         self.window.drop_unused_points();
