@@ -292,7 +292,9 @@ pub fn solve_keeping_linearization(
             Method::Dogleg => -(e.gradient_dot(&step) + 0.5 * e.quadratic(&step)),
         };
         apply_step(problem, &layout, &step, &mut candidate);
-        let new_cost = if modified {
+        // The gradient only where a modified step may follow (the cap leaves room for one).
+        let with_gradient = modified && summary.iterations < options.max_iterations;
+        let new_cost = if with_gradient {
             e.gradient_at(problem, &candidate, &mut gradient)
         } else {
             e.cost_at(problem, &candidate)
@@ -315,7 +317,7 @@ pub fn solve_keeping_linearization(
                     .min(1e16);
                     decrease_factor = 2.0;
                     linearized = false;
-                    gradient_ready = modified;
+                    gradient_ready = with_gradient;
                     if rel < options.function_tolerance {
                         summary.termination = Termination::Converged;
                         break;
@@ -485,6 +487,19 @@ mod tests {
         // It is a different iteration (so the option is live), still monotone.
         assert_ne!(modified.iterations, full.iterations);
         assert!(modified.final_cost <= modified.initial_cost);
+        // With no room for a modified step, the same iteration bit for bit.
+        let one = |modified_newton| {
+            let (mut p, b) = rosenbrock();
+            let options = SolverOptions {
+                max_iterations: 1,
+                initial_trust_radius: 1.0,
+                modified_newton,
+                ..Default::default()
+            };
+            let summary = solve(&mut p, &options);
+            (summary.final_cost, p.values(b).to_vec())
+        };
+        assert_eq!(one(true), one(false));
     }
 
     #[test]
