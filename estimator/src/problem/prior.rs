@@ -6,6 +6,7 @@ use faer::linalg::matmul::matmul;
 use faer::{Accum, MatMut, MatRef, Par};
 use nalgebra::DMatrix;
 
+use crate::problem::solver::dot;
 use crate::problem::{Factor, Manifold};
 
 /// A linear(ized) prior `r(x) = r₀ + J · [x₁ ⊟ x̄₁, …, xₙ ⊟ x̄ₙ]` over parameter blocks.
@@ -28,21 +29,9 @@ pub struct PriorFactor {
     r0_sq: f64,
 }
 
-/// Dot product with four partial sums (vectorizable, in a fixed order: deterministic).
-fn dot4(a: &[f64], b: &[f64]) -> f64 {
-    let (ac, ar) = a.as_chunks::<4>();
-    let (bc, br) = b[..a.len()].as_chunks::<4>();
-    let mut s = [0.0; 4];
-    for (x, y) in ac.iter().zip(bc) {
-        for k in 0..4 {
-            s[k] += x[k] * y[k];
-        }
-    }
-    let mut t = (s[0] + s[2]) + (s[1] + s[3]);
-    for (x, y) in ar.iter().zip(br) {
-        t += x * y;
-    }
-    t
+/// Whether a row-major `t × t` matrix is exactly the identity.
+fn is_identity(b: &[f64], t: usize) -> bool {
+    (0..t).all(|i| (0..t).all(|j| b[i * t + j] == if i == j { 1.0 } else { 0.0 }))
 }
 
 /// Largest tangent size of a prior block (the evaluation uses fixed scratch buffers).
@@ -187,16 +176,13 @@ impl PriorFactor {
         let nb = self.manifolds.len();
         let removing: Vec<bool> = (0..nb).map(|k| remove.contains(&k)).collect();
         // Columns: removed coordinates first, then kept ones in block order, then r₀.
-        let mut cols: Vec<usize> = Vec::with_capacity(n);
-        for pass in [true, false] {
-            for k in (0..nb).filter(|&k| removing[k] == pass) {
-                cols.extend(self.offsets[k]..self.offsets[k] + self.tangents[k]);
-            }
-        }
-        let nm: usize = (0..nb)
+        let block_cols = |k: usize| self.offsets[k]..self.offsets[k] + self.tangents[k];
+        let mut cols: Vec<usize> = (0..nb)
             .filter(|&k| removing[k])
-            .map(|k| self.tangents[k])
-            .sum();
+            .flat_map(block_cols)
+            .collect();
+        let nm = cols.len();
+        cols.extend((0..nb).filter(|&k| !removing[k]).flat_map(block_cols));
         // Column-major working copy, m × (n + 1).
         let mut a = vec![0.0; m * (n + 1)];
         for (c, &src) in cols.iter().enumerate() {
@@ -228,7 +214,7 @@ impl PriorFactor {
             let vtv: f64 = v.iter().map(|x| x * x).sum();
             for c in j..=n {
                 let col = &mut a[c * m + p..(c + 1) * m];
-                let s = 2.0 * dot4(col, v) / vtv;
+                let s = 2.0 * dot(col, v) / vtv;
                 for (x, y) in col.iter_mut().zip(v.iter()) {
                     *x -= s * y;
                 }
@@ -392,9 +378,7 @@ impl Factor for PriorFactor {
             }
             let t = self.tangents[k];
             manifold.minus_jacobian(lin_params[k], x0, &mut b[..t * t]);
-            let identity =
-                (0..t).all(|i| (0..t).all(|j| b[i * t + j] == if i == j { 1.0 } else { 0.0 }));
-            if !identity {
+            if !is_identity(&b[..t * t], t) {
                 return None;
             }
         }
@@ -422,13 +406,11 @@ impl Factor for PriorFactor {
             manifold.minus(params[k], x0, &mut d[off..off + t]);
             let mut b = vec![0.0; t * t];
             manifold.minus_jacobian(lin_params[k], x0, &mut b);
-            let identity =
-                (0..t).all(|i| (0..t).all(|j| b[i * t + j] == if i == j { 1.0 } else { 0.0 }));
-            mj.push((!identity).then_some(b));
+            mj.push((!is_identity(&b, t)).then_some(b));
         }
         // u = b + H d, cost.
         let hd: Vec<f64> = (0..n)
-            .map(|i| dot4(&self.hessian[i * n..(i + 1) * n], &d))
+            .map(|i| dot(&self.hessian[i * n..(i + 1) * n], &d))
             .collect();
         let cost = self.r0_sq
             + d.iter()
@@ -488,9 +470,8 @@ mod tests {
     use super::*;
     use crate::problem::{Euclidean, PoseManifold};
 
-    /// A 10-row prior over pose, point, pose, and a point `steps` away from its
-    /// linearization point.
-    fn test_prior(steps: [&[f64]; 3]) -> (PriorFactor, Vec<Vec<f64>>) {
+    /// The blocks of the test priors: pose, point, pose, with their linearization points.
+    fn test_blocks() -> (Vec<Arc<dyn Manifold>>, Vec<Vec<f64>>) {
         let manifolds: Vec<Arc<dyn Manifold>> = vec![
             Arc::new(PoseManifold),
             Arc::new(Euclidean::new(3)),
@@ -501,6 +482,13 @@ mod tests {
             vec![1.0, 2.0, 3.0],
             vec![0.5, 0.4, -0.1, 0.1, -0.2, 0.3, 0.927_361_849_549_570_4],
         ];
+        (manifolds, x0)
+    }
+
+    /// A 10-row prior over pose, point, pose, and a point `steps` away from its
+    /// linearization point.
+    fn test_prior(steps: [&[f64]; 3]) -> (PriorFactor, Vec<Vec<f64>>) {
+        let (manifolds, x0) = test_blocks();
         let (m, n) = (10, 15);
         let jac: Vec<f64> = (0..m * n)
             .map(|i| ((i * 37 % 23) as f64 - 11.0) / 7.0)
@@ -658,16 +646,7 @@ mod tests {
     /// coordinate without information (a zero column) is skipped and changes nothing.
     #[test]
     fn marginalizing_blocks_is_the_schur_complement() {
-        let manifolds: Vec<Arc<dyn Manifold>> = vec![
-            Arc::new(PoseManifold),
-            Arc::new(Euclidean::new(3)),
-            Arc::new(PoseManifold),
-        ];
-        let x0 = vec![
-            vec![0.1, -0.2, 0.3, 0.0, 0.0, 0.0, 1.0],
-            vec![1.0, 2.0, 3.0],
-            vec![0.5, 0.4, -0.1, 0.1, -0.2, 0.3, 0.927_361_849_549_570_4],
-        ];
+        let (manifolds, x0) = test_blocks();
         let (m, n) = (18, 15);
         let mut jac: Vec<f64> = (0..m * n)
             .map(|i| (((i * 37 + i / 7) % 23) as f64 - 11.0) / 7.0)

@@ -21,10 +21,10 @@ use std::time::{Duration, Instant};
 pub(crate) use dense::dense_cholesky_solve;
 pub use dense::dense_normal_equations;
 pub use linearization::Linearization;
-use normal_equations::NormalEquations;
+use normal_equations::{NormalEquations, max_abs};
 pub(crate) use plan::{Layout, NONE};
 pub use schur::schur_complement_system;
-pub(crate) use schur::{ReducedSystem, Step};
+pub(crate) use schur::{ReducedSystem, Step, dot};
 
 use super::graph::Problem;
 
@@ -225,8 +225,7 @@ pub fn solve_keeping_linearization(
         first = false;
         if std::mem::take(&mut gradient_ready) {
             summary.iterations += 1;
-            let g_max = gradient.dx.iter().chain(&gradient.dl);
-            if g_max.fold(0.0f64, |a, v| a.max(v.abs())) <= options.gradient_tolerance {
+            if max_abs(&gradient) <= options.gradient_tolerance {
                 summary.termination = Termination::Converged;
                 break;
             }

@@ -568,8 +568,7 @@ impl NormalEquations {
     }
 
     pub(super) fn gradient_dot(&self, v: &Step) -> f64 {
-        let s: f64 = self.gx.iter().zip(&v.dx).map(|(a, b)| a * b).sum();
-        s + self.gl.iter().zip(&v.dl).map(|(a, b)| a * b).sum::<f64>()
+        split_dot((&self.gx, &self.gl), v)
     }
 
     pub(super) fn gradient_max_norm(&self) -> f64 {
@@ -585,6 +584,17 @@ impl NormalEquations {
             dl: self.gl.iter().map(|g| -g).collect(),
         }
     }
+}
+
+/// `gᵀv` for a full-space gradient given as its state and landmark parts.
+pub(super) fn split_dot((gx, gl): (&[f64], &[f64]), v: &Step) -> f64 {
+    let s: f64 = gx.iter().zip(&v.dx).map(|(a, b)| a * b).sum();
+    s + gl.iter().zip(&v.dl).map(|(a, b)| a * b).sum::<f64>()
+}
+
+/// `max |v|` over a full-space vector.
+pub(super) fn max_abs(v: &Step) -> f64 {
+    v.dx.iter().chain(&v.dl).fold(0.0f64, |a, x| a.max(x.abs()))
 }
 
 /// Plans and evaluates the normal equations of `residual_ids` (all if `None`) at the current

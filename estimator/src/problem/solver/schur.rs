@@ -10,7 +10,7 @@ use faer::{Accum, MatMut, MatRef, Par};
 use nalgebra::{DMatrix, DVector};
 
 use super::dense::{dense_cholesky_resolve, dense_cholesky_solve};
-use super::normal_equations::{NormalEquations, linearize, mirror_upper};
+use super::normal_equations::{NormalEquations, linearize, mirror_upper, split_dot};
 use super::plan::{Layout, NONE};
 use crate::problem::graph::{BlockId, Problem, ResidualId};
 
@@ -295,7 +295,7 @@ pub(crate) fn small_spd_inverse(a: &[f64], t: usize) -> Option<Vec<f64>> {
 /// Dot product with four independent partial sums (vectorizable; a fixed summation order, so
 /// results are deterministic).
 #[inline(always)]
-pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
+pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     let b = &b[..a.len()];
     let (ac, ar) = a.as_chunks::<4>();
     let (bc, br) = b.as_chunks::<4>();
@@ -399,9 +399,7 @@ impl NormalEquations {
                 ddd += self.hll[ho + i * t + i].max(min_diag) * step.dl[go + i] * step.dl[go + i];
             }
         }
-        let gd: f64 = gx.iter().zip(&step.dx).map(|(a, b)| a * b).sum::<f64>()
-            + gl.iter().zip(&step.dl).map(|(a, b)| a * b).sum::<f64>();
-        0.5 * (lambda * ddd - gd)
+        0.5 * (lambda * ddd - split_dot((gx, gl), step))
     }
 
     /// Solves `(H + λD) δ = −g` for another gradient `g` with the system `sys` factorized by
