@@ -190,12 +190,43 @@ pub fn marginalize(
         .iter()
         .map(|b| problem.blocks[b.0].manifold.clone())
         .collect();
-    let factor = PriorFactor::new(manifolds, points, jac, r0)?;
+    let hessian = information_of_factor(&h_star, &perm, &l, rank);
+    let factor = PriorFactor::with_hessian(manifolds, points, jac, r0, hessian)?;
     Ok(MarginalPrior {
         factor,
         blocks: kept,
         rank,
     })
+}
+
+/// `J*ᵀJ*` of the factor that [`pivoted_cholesky`] cut at `rank` from `h`, without the dense
+/// product: with `P h Pᵀ = [L₁; L₂][L₁; L₂]ᵀ + [0 0; 0 S]`, it is `h − Pᵀ [0 0; 0 S] P`, where
+/// the trailing Schur complement `S = (P h Pᵀ)₂₂ − L₂ L₂ᵀ` holds the directions cut (gauge
+/// directions: a few). `None` (form the product) when more than a quarter of them are cut.
+fn information_of_factor(
+    h: &DMatrix<f64>,
+    perm: &[usize],
+    l: &DMatrix<f64>,
+    rank: usize,
+) -> Option<Vec<f64>> {
+    let n = h.nrows();
+    if 4 * (n - rank) > n {
+        return None;
+    }
+    let mut out = vec![0.0; n * n];
+    for i in 0..n {
+        for j in 0..n {
+            out[i * n + j] = 0.5 * (h[(i, j)] + h[(j, i)]);
+        }
+    }
+    for i in rank..n {
+        for j in rank..n {
+            let l2: f64 = (0..rank).map(|r| l[(i, r)] * l[(j, r)]).sum();
+            let (pi, pj) = (perm[i], perm[j]);
+            out[pi * n + pj] = l2;
+        }
+    }
+    Some(out)
 }
 
 /// Rank-revealing Cholesky with diagonal pivoting: `P A Pᵀ ≈ L Lᵀ` with `L` n × rank.
@@ -269,6 +300,36 @@ mod tests {
             }
         }
         assert!((&pl * pl.transpose() - a).norm() < 1e-9);
+    }
+
+    /// The information handed to the prior is the cut factor's own `L Lᵀ` (what `JᵀJ` would
+    /// give), not the matrix it came from: the cut directions' remainder is taken out. More
+    /// than a quarter cut: left to the product.
+    #[test]
+    fn information_of_a_cut_factor_is_its_product() {
+        // A = B Bᵀ + 1e-13 (on a cut direction) with B 10×8: rank 8 at 1e-12.
+        let b = DMatrix::from_fn(10, 8, |i, j| {
+            ((i * 7 + j * 3) % 11) as f64 - 5.0 + 0.1 * (i * j) as f64
+        });
+        let mut a = &b * b.transpose();
+        let null = DMatrix::from_fn(10, 1, |i, _| if i % 2 == 0 { 1.0 } else { -1.0 });
+        let null = &null - &b * b.clone().pseudo_inverse(1e-12).unwrap() * &null;
+        a += 1e-13 * a.abs().max() * &null * null.transpose() / null.norm_squared();
+        let (perm, l, rank) = pivoted_cholesky(&a, 1e-12);
+        assert_eq!(rank, 8);
+        let h = information_of_factor(&a, &perm, &l, rank).unwrap();
+        let mut pl = DMatrix::zeros(10, rank);
+        for i in 0..10 {
+            for r in 0..rank {
+                pl[(perm[i], r)] = l[(i, r)];
+            }
+        }
+        let llt = &pl * pl.transpose();
+        let h = DMatrix::from_row_slice(10, 10, &h);
+        assert!((&h - &llt).abs().max() < 1e-12 * llt.abs().max());
+        assert!((&h - &a).abs().max() > 0.0);
+        let (perm, l, _) = pivoted_cholesky(&a, 1e-12);
+        assert!(information_of_factor(&a, &perm, &l, 7).is_none());
     }
 
     /// The rank stops at the first pivot below the relative tolerance, also where faer's own

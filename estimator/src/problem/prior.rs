@@ -57,6 +57,20 @@ impl PriorFactor {
         jacobian: Vec<f64>,
         r0: Vec<f64>,
     ) -> Result<Self, PriorError> {
+        Self::with_hessian(manifolds, linearization_points, jacobian, r0, None)
+    }
+
+    /// [`Self::new`] with `JᵀJ` (row-major, n × n) handed in where the caller already has it
+    /// at no cost (a marginalization's Schur complement, a moved linearization point), instead
+    /// of the dense product: `None` computes it. The caller answers for `hessian = JᵀJ` to
+    /// round-off; it is symmetrized here.
+    pub(crate) fn with_hessian(
+        manifolds: Vec<Arc<dyn Manifold>>,
+        linearization_points: Vec<Vec<f64>>,
+        jacobian: Vec<f64>,
+        r0: Vec<f64>,
+        hessian: Option<Vec<f64>>,
+    ) -> Result<Self, PriorError> {
         if manifolds.len() != linearization_points.len() {
             return Err(PriorError::Dimension(format!(
                 "{} manifolds, {} linearization points",
@@ -108,10 +122,17 @@ impl PriorFactor {
                 gradient[i] += row[i] * r0[r];
             }
         }
+        if hessian.as_ref().is_some_and(|h| h.len() != n * n) {
+            return Err(PriorError::Dimension(format!(
+                "Hessian has {} entries, expected {n} × {n}",
+                hessian.as_ref().map_or(0, |h| h.len())
+            )));
+        }
         // JᵀJ by one dense product (the prior is ~250 × 250 with persistent points: a naive
         // triple loop cost more than the window solve's linearization).
-        let mut hessian = vec![0.0; n * n];
-        if m > 0 && n > 0 {
+        let given = hessian.is_some();
+        let mut hessian = hessian.unwrap_or_else(|| vec![0.0; n * n]);
+        if !given && m > 0 && n > 0 {
             let j = MatRef::from_row_major_slice(&jacobian, m, n);
             matmul(
                 MatMut::from_column_major_slice_mut(&mut hessian, n, n),
@@ -122,11 +143,21 @@ impl PriorFactor {
                 Par::Seq,
             );
         }
-        // Exactly symmetric (the product is, up to the order of its sums).
+        // Exactly symmetric (the product is, up to the order of its sums; a given Hessian up to
+        // round-off).
         for i in 0..n {
             for j in 0..i {
-                hessian[i * n + j] = hessian[j * n + i];
+                let v = if given {
+                    0.5 * (hessian[i * n + j] + hessian[j * n + i])
+                } else {
+                    hessian[j * n + i]
+                };
+                hessian[i * n + j] = v;
+                hessian[j * n + i] = v;
             }
+        }
+        if !hessian.iter().all(|v| v.is_finite()) {
+            return Err(PriorError::NonFinite);
         }
         let r0_sq = r0.iter().map(|v| v * v).sum();
         Ok(Self {
@@ -229,12 +260,26 @@ impl PriorFactor {
             }
         }
         let r0 = a[n * m + p..(n + 1) * m].to_vec();
+        // JᵀJ of the rows left, without forming it: the reflections keep [J_m J_k]ᵀ[J_m J_k],
+        // so H_kk = TᵀT + J'ᵀJ' with T the leading p rows of the kept columns (O(p n²)).
+        let mut hessian = vec![0.0; nk * nk];
+        for i in 0..nk {
+            let ti = &a[(nm + i) * m..(nm + i) * m + p];
+            let src = cols[nm + i] * n;
+            for j in i..nk {
+                let tj = &a[(nm + j) * m..(nm + j) * m + p];
+                let h = self.hessian[src + cols[nm + j]] - dot(ti, tj);
+                hessian[i * nk + j] = h;
+                hessian[j * nk + i] = h;
+            }
+        }
         let kept = (0..nb).filter(|&k| !removing[k]);
-        PriorFactor::new(
+        PriorFactor::with_hessian(
             kept.clone().map(|k| self.manifolds[k].clone()).collect(),
             kept.map(|k| self.linearization_points[k].clone()).collect(),
             jacobian,
             r0,
+            Some(hessian),
         )
     }
 
@@ -266,7 +311,14 @@ impl PriorFactor {
             }
             points[k] = x.to_vec();
         }
-        Self::new(self.manifolds.clone(), points, self.jacobian.clone(), r0)
+        // `J` is kept, and with it `JᵀJ`.
+        Self::with_hessian(
+            self.manifolds.clone(),
+            points,
+            self.jacobian.clone(),
+            r0,
+            Some(self.hessian.clone()),
+        )
     }
 
     /// The same prior with tangent directions `from` carried to `to` (each [`Self::tangent_dim`]
@@ -680,6 +732,11 @@ mod tests {
         assert_eq!(marginal.r0().len(), 10);
         let h_new = DMatrix::from_row_slice(6, 6, &marginal.hessian);
         assert!((&h_new - &h_star).abs().max() < 1e-9 * h_star.abs().max());
+        // The Hessian it carries (from the reflections, not a product) is its own J'ᵀJ'.
+        let j_new = DMatrix::from_row_slice(10, 6, marginal.jacobian());
+        let jtj = j_new.transpose() * &j_new;
+        assert!((&h_new - &jtj).abs().max() < 1e-12 * jtj.abs().max());
+        assert_eq!(h_new, h_new.transpose());
         for i in 0..6 {
             assert!((marginal.gradient[i] - b_star[i]).abs() < 1e-9 * b_star.abs().max());
         }

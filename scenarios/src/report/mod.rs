@@ -33,9 +33,11 @@
 //!   stamps, so `evo_ape tum groundtruth.tum estimate.tum` associates exactly);
 //! - `report.json`: the fields below ([`Report`]);
 //! - `trajectory.png`: top view of ground truth vs the aligned estimate, and the position error
-//!   over time ([`crate::plot`]).
+//!   over time ([`crate::plot`]);
+//! - with `--batch-reference`, `batch.tum` (the batch solution over the keyframes) and
+//!   `window.tum` (every frame's pose as it left the window), unaligned like `estimate.tum`.
 //!
-//! Both TUM files are written by [`crate::dataset::write_tum`].
+//! The TUM files are written by [`crate::dataset::write_tum`].
 
 use crate::replay_report::ReplayReport;
 use std::path::Path;
@@ -696,6 +698,19 @@ pub fn write_outputs_in(
     }
     if ctx.ground_truth {
         dataset::write_tum(dir.join("groundtruth.tum"), &gt).map_err(|e| e.to_string())?;
+    }
+    if let Some(reference) = &run.batch_reference {
+        // Frames leave the window out of time order (a non-keyframe before older keyframes).
+        let stamped = |poses: &[(i64, Pose)]| -> Vec<StampedPose> {
+            let mut out: Vec<StampedPose> =
+                poses.iter().map(|&(t, p)| StampedPose::new(t, p)).collect();
+            out.sort_by_key(|s| s.t_ns);
+            out
+        };
+        dataset::write_tum(dir.join("batch.tum"), &stamped(&reference.batch))
+            .map_err(|e| e.to_string())?;
+        dataset::write_tum(dir.join("window.tum"), &stamped(&reference.finalized))
+            .map_err(|e| e.to_string())?;
     }
     let write = |name: &str, text: &str| {
         let p = dir.join(name);
