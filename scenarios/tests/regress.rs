@@ -43,11 +43,12 @@ fn a_degraded_setting_fails_naming_the_metric() {
     let xml = std::fs::read_to_string(&junit).unwrap();
     assert!(xml.contains("tests=\"7\" failures=\"0\""), "{xml}");
 
-    // A window of three keyframes cannot hold the initialization: nothing tracks.
+    // A frame must see more observations than any frame has to be called tracked: nothing
+    // tracks.
     write(
         &catalog,
         "short.toml",
-        &(text + "\n[estimator]\nwindow_size = 3\n"),
+        &(text + "\n[estimator]\nmin_tracking_observations = 100000\n"),
     );
     let out = vio(&[
         "regress",

@@ -91,6 +91,12 @@ fn every_estimator_setting_is_reachable_and_unset_keys_keep_the_defaults() {
 fn estimator_errors_name_the_key_and_line() {
     let cases = [
         ("window_size = 1000", "estimator.window_size", "3 to 100"),
+        // Below the default `init_frames` (10): the initialization would never run.
+        (
+            "window_size = 8",
+            "estimator.window_size",
+            "set window_size ≥ init_frames",
+        ),
         (
             "window_size = \"ten\"",
             "estimator.window_size",

@@ -42,6 +42,10 @@ impl Estimator {
         let history = self.history.as_ref()?;
         let tracking = self.status == Status::Tracking;
         let window = self.window.frames.iter().filter(|_| tracking);
+        // A run that never tracked has nothing to solve.
+        if history.keyframes.is_empty() && !tracking {
+            return None;
+        }
         Some(self.solve_batch(history, history.keyframes.iter().chain(window), options))
     }
 

@@ -75,7 +75,7 @@ pub struct EstimatorConfig {
     /// [`CameraConfig::pixel_sigma`] (the estimator applies it when built); `None`: each
     /// camera's.
     pub pixel_sigma_px: Option<f64>,
-    /// Keyframes kept in the window (the newest frame comes on top).
+    /// Keyframes kept in the window (the newest frame comes on top); at least `init_frames`.
     pub window_size: usize,
     /// Average parallax (px) between the second- and third-newest frames that makes the
     /// second-newest a keyframe.
@@ -136,7 +136,8 @@ pub struct EstimatorConfig {
     pub calibration_release_sigma_m: f64,
     /// A held time offset is released once, free, its marginal σ would be at most this (ms).
     pub calibration_release_sigma_ms: f64,
-    /// Frames collected for the visual-inertial alignment before IMU factors are used.
+    /// Frames collected for the visual-inertial alignment before IMU factors are used (at most
+    /// `window_size`).
     pub init_frames: usize,
     /// Mono+IMU initialization: the mean parallax (px) between the structure-from-motion
     /// reference frame and the newest frame (VINS-Mono: 30 px). Until some window frame has
@@ -427,6 +428,18 @@ impl EstimatorConfig {
                 format!(
                     "expected 4 to {MAX_WINDOW_SIZE} frames, got {}",
                     self.init_frames
+                ),
+            ));
+        }
+        // The initialization waits for `init_frames` frames in the window: a smaller window
+        // never holds them, and nothing would ever be tracked.
+        if self.window_size < self.init_frames {
+            return Err(ConfigError::new(
+                "window_size",
+                format!(
+                    "{} keyframes cannot hold the {} frames the initialization needs \
+                     (init_frames); set window_size ≥ init_frames",
+                    self.window_size, self.init_frames
                 ),
             ));
         }

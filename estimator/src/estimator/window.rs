@@ -259,10 +259,10 @@ impl Window {
         }
         if !imu_active {
             // Vision only: the oldest pose fixes the gauge.
-            let b = built
-                .block(BlockRef::Pose(self.frames[0].seq))
-                .expect("exists");
-            built.problem.set_constant(b, true);
+            let oldest = self.frames.front().map(|f| f.seq);
+            if let Some(b) = oldest.and_then(|seq| built.block(BlockRef::Pose(seq))) {
+                built.problem.set_constant(b, true);
+            }
         }
 
         // Prior.
