@@ -20,7 +20,9 @@ use std::sync::Arc;
 
 use faer::Par;
 use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor as llt;
 use faer::linalg::cholesky::llt_pivoting::factor as piv_llt;
+use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 
 use super::graph::{BlockId, BlockKind, Problem, ResidualId};
@@ -169,7 +171,9 @@ pub fn marginalize(
     };
 
     // 4. Square-root form by pivoted Cholesky.
-    let (perm, l, rank) = pivoted_cholesky(&h_star, options.relative_rank_threshold);
+    let kept_sizes: Vec<usize> = kept.iter().map(tangent).collect();
+    let (perm, l, rank) =
+        rank_revealing_cholesky(&h_star, &kept_sizes, options.relative_rank_threshold);
     // J* = (P L)ᵀ: row r, column perm[i] holds L[i][r].
     let mut jac = vec![0.0; rank * nk];
     for i in 0..nk {
@@ -229,9 +233,117 @@ fn information_of_factor(
     Some(out)
 }
 
+/// Coordinates at the end of a [`rank_revealing_cholesky`] kept for the pivoted part besides
+/// the singular blocks: room for directions without information that involve every block
+/// (the gauge of visual-inertial odometry: 4).
+const TAIL_SLACK: usize = 16;
+
+/// [`pivoted_cholesky`]'s factorization (same form, same tolerance) at the speed of a blocked
+/// one where the directions it cuts are few or confined to a few blocks, as in a window's
+/// prior (the gauge, and new persistent points seen from one frame): the blocks of
+/// `block_sizes` whose own diagonal block is singular at the tolerance, and the last
+/// [`TAIL_SLACK`] coordinates, go to a tail; the rest is factored by faer's blocked Cholesky,
+/// and only the tail's Schur complement by the pivoted one. Falls back to the pivoted
+/// factorization of the whole matrix when the leading part has a pivot at or below the
+/// tolerance or the tail is more than half of it.
+fn rank_revealing_cholesky(
+    a: &DMatrix<f64>,
+    block_sizes: &[usize],
+    rel_tol: f64,
+) -> (Vec<usize>, DMatrix<f64>, usize) {
+    let n = a.nrows();
+    let max_diag = (0..n).map(|i| a[(i, i)]).fold(0.0f64, f64::max);
+    let tol = rel_tol * max_diag.max(f64::MIN_POSITIVE);
+    let sym = |i: usize, j: usize| 0.5 * (a[(i, j)] + a[(j, i)]);
+    // Blocks by their own diagonal block: singular ones to the tail.
+    let (mut lead, mut tail) = (Vec::new(), Vec::new());
+    let mut singular = Vec::with_capacity(block_sizes.len());
+    let mut off = 0;
+    for &t in block_sizes {
+        let block = DMatrix::from_fn(t, t, |i, j| sym(off + i, off + j));
+        singular.push(pivoted_cholesky_at(&block, tol).2 < t);
+        off += t;
+    }
+    if off != n {
+        return pivoted_cholesky(a, rel_tol);
+    }
+    let mut slack = 0;
+    let mut in_tail = singular.clone();
+    for k in (0..block_sizes.len()).rev() {
+        if slack >= TAIL_SLACK {
+            break;
+        }
+        if !in_tail[k] {
+            in_tail[k] = true;
+            slack += block_sizes[k];
+        }
+    }
+    let mut off = 0;
+    for (k, &t) in block_sizes.iter().enumerate() {
+        let to = if in_tail[k] { &mut tail } else { &mut lead };
+        to.extend(off..off + t);
+        off += t;
+    }
+    let (k, s) = (lead.len(), tail.len());
+    if k == 0 || 2 * s > n {
+        return pivoted_cholesky(a, rel_tol);
+    }
+    // L₁₁ by the blocked Cholesky; every pivot must clear the tolerance.
+    let mut l11 = faer::Mat::<f64>::from_fn(k, k, |i, j| sym(lead[i], lead[j]));
+    let mut buf = MemBuffer::new(llt::cholesky_in_place_scratch::<f64>(
+        k,
+        Par::Seq,
+        Default::default(),
+    ));
+    let factored = llt::cholesky_in_place(
+        l11.as_mut(),
+        Default::default(),
+        Par::Seq,
+        MemStack::new(&mut buf),
+        Default::default(),
+    );
+    if factored.is_err() || (0..k).any(|i| l11[(i, i)] * l11[(i, i)] <= tol) {
+        return pivoted_cholesky(a, rel_tol);
+    }
+    // L₂₁ᵀ = L₁₁⁻¹ A₁₂, and the tail's Schur complement A₂₂ − L₂₁ L₂₁ᵀ, factored with pivots.
+    let mut l21t = faer::Mat::<f64>::from_fn(k, s, |i, j| sym(lead[i], tail[j]));
+    solve_lower_triangular_in_place(l11.as_ref(), l21t.as_mut(), Par::Seq);
+    let cols: Vec<Vec<f64>> = (0..s)
+        .map(|j| (0..k).map(|r| l21t[(r, j)]).collect())
+        .collect();
+    let schur = DMatrix::from_fn(s, s, |i, j| {
+        sym(tail[i], tail[j]) - crate::problem::solver::dot(&cols[i], &cols[j])
+    });
+    let (perm_s, ls, rank_s) = pivoted_cholesky_at(&schur, tol);
+    let mut perm = lead;
+    perm.extend(perm_s.iter().map(|&q| tail[q]));
+    let mut l = DMatrix::zeros(n, n);
+    for r in 0..k {
+        for i in r..k {
+            l[(i, r)] = l11[(i, r)];
+        }
+    }
+    for (q, &ts) in perm_s.iter().enumerate() {
+        for r in 0..k {
+            l[(k + q, r)] = l21t[(r, ts)];
+        }
+        for r in 0..rank_s {
+            l[(k + q, k + r)] = ls[(q, r)];
+        }
+    }
+    (perm, l, k + rank_s)
+}
+
 /// Rank-revealing Cholesky with diagonal pivoting: `P A Pᵀ ≈ L Lᵀ` with `L` n × rank.
 /// Returns (perm, L, rank) where row i of L corresponds to original index `perm[i]`.
 fn pivoted_cholesky(a: &DMatrix<f64>, rel_tol: f64) -> (Vec<usize>, DMatrix<f64>, usize) {
+    let n = a.nrows();
+    let max_diag = (0..n).map(|i| a[(i, i)]).fold(0.0f64, f64::max);
+    pivoted_cholesky_at(a, rel_tol * max_diag.max(f64::MIN_POSITIVE))
+}
+
+/// [`pivoted_cholesky`] with an absolute tolerance on the pivots.
+fn pivoted_cholesky_at(a: &DMatrix<f64>, tol: f64) -> (Vec<usize>, DMatrix<f64>, usize) {
     // faer's blocked, diagonally pivoted Cholesky (LAPACK's `dpstrf` scheme: the largest
     // remaining diagonal is the next pivot; sequential, so deterministic).
     // It stops at `n ε` of the largest diagonal; the pivots it takes never grow, so cutting
@@ -248,8 +360,6 @@ fn pivoted_cholesky(a: &DMatrix<f64>, rel_tol: f64) -> (Vec<usize>, DMatrix<f64>
             m[(i, j)] = 0.5 * (a[(i, j)] + a[(j, i)]);
         }
     }
-    let max_diag = (0..n).map(|i| a[(i, i)]).fold(0.0f64, f64::max);
-    let tol = rel_tol * max_diag.max(f64::MIN_POSITIVE);
     let (mut perm, mut perm_inv) = (vec![0usize; n], vec![0usize; n]);
     let mut buf = MemBuffer::new(piv_llt::cholesky_in_place_scratch::<usize, f64>(
         n,
@@ -330,6 +440,52 @@ mod tests {
         assert!((&h - &a).abs().max() > 0.0);
         let (perm, l, _) = pivoted_cholesky(&a, 1e-12);
         assert!(information_of_factor(&a, &perm, &l, 7).is_none());
+    }
+
+    /// The blocked factorization cuts what the pivoted one cuts: a direction without
+    /// information spread over every block (a gauge) and one inside a block (a point seen from
+    /// one frame) leave the same rank and `L Lᵀ = A`; a singular leading part falls back.
+    #[test]
+    fn blocked_rank_revealing_cholesky_matches_the_pivoted_one() {
+        let sizes = [6, 3, 3, 6, 3, 3, 6, 3, 9, 6];
+        let n: usize = sizes.iter().sum();
+        // B: (n − 5) × n with column 8 (the third of the block at 6..9) = columns 6 + 2·7:
+        // A = BᵀB has one null direction inside that block and four in general position.
+        let mut b = DMatrix::from_fn(n - 5, n, |i, j| {
+            ((i * 13 + j * 7 + i * j) % 19) as f64 - 9.0 + if i == j { 20.0 } else { 0.0 }
+        });
+        for i in 0..n - 5 {
+            b[(i, 8)] = b[(i, 6)] + 2.0 * b[(i, 7)];
+        }
+        let a = b.transpose() * &b;
+        let reconstruct = |(perm, l, rank): &(Vec<usize>, DMatrix<f64>, usize)| {
+            let mut pl = DMatrix::zeros(n, *rank);
+            for i in 0..n {
+                for r in 0..*rank {
+                    pl[(perm[i], r)] = l[(i, r)];
+                }
+            }
+            &pl * pl.transpose()
+        };
+        let pivoted = pivoted_cholesky(&a, 1e-12);
+        let blocked = rank_revealing_cholesky(&a, &sizes, 1e-12);
+        assert_eq!(pivoted.2, n - 5);
+        assert_eq!(blocked.2, n - 5);
+        // The blocked one kept the first blocks in order (it did not fall back).
+        assert_eq!(&blocked.0[..6], &[0, 1, 2, 3, 4, 5]);
+        for f in [&pivoted, &blocked] {
+            assert!((reconstruct(f) - &a).abs().max() < 1e-10 * a.abs().max());
+        }
+        // Its leading rows are lower triangular, as the solve for r* needs.
+        for i in 0..blocked.2 {
+            for r in i + 1..blocked.2 {
+                assert_eq!(blocked.1[(i, r)], 0.0);
+            }
+        }
+        // Block sizes that do not cover the matrix: the pivoted factorization.
+        let fallback = rank_revealing_cholesky(&a, &[6, 3], 1e-12);
+        assert_eq!(fallback.0, pivoted.0);
+        assert_eq!(fallback.2, pivoted.2);
     }
 
     /// The rank stops at the first pivot below the relative tolerance, also where faer's own
