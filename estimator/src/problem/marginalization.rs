@@ -18,11 +18,12 @@
 
 use std::sync::Arc;
 
-use faer::Par;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor as llt;
 use faer::linalg::cholesky::llt_pivoting::factor as piv_llt;
+use faer::linalg::matmul::matmul;
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
+use faer::{Accum, MatMut, MatRef, Par};
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 
 use super::graph::{BlockId, BlockKind, Problem, ResidualId};
@@ -120,27 +121,38 @@ pub fn marginalize(
 
     // 3. Remove the state blocks with an eigen-thresholded pseudo-inverse.
     let nk = n - nm;
-    let hmm = hm.view((0, 0), (nm, nm)).into_owned();
-    let hmk = hm.view((0, nm), (nm, nk)).into_owned();
-    let hkk = hm.view((nm, nm), (nk, nk)).into_owned();
-    let gm = g.rows(0, nm).into_owned();
-    let gk = g.rows(nm, nk).into_owned();
-    let (h_star, g_star) = if nm > 0 {
-        let eig = SymmetricEigen::new(0.5 * (&hmm + hmm.transpose()));
-        let inv_vals = eig.eigenvalues.map(|v| {
-            if v > options.eigen_threshold {
-                1.0 / v
-            } else {
-                0.0
-            }
+    let mut h_star = hm.view((nm, nm), (nk, nk)).into_owned();
+    let mut g_star = g.rows(nm, nk).into_owned();
+    if nm > 0 {
+        let hmm = hm.view((0, 0), (nm, nm));
+        let hmk = hm.view((0, nm), (nm, nk));
+        let eig = SymmetricEigen::new(0.5 * (hmm + hmm.transpose()));
+        // H_km H_mm⁺ H_mk = (Λ^-½ Vᵀ H_mk)ᵀ (Λ^-½ Vᵀ H_mk) over the kept eigenvalues: one
+        // product of the thin factor with itself, exactly symmetric.
+        let kept_eig: Vec<usize> = (0..nm)
+            .filter(|&i| eig.eigenvalues[i] > options.eigen_threshold)
+            .collect();
+        let scaled = DMatrix::from_fn(nm, kept_eig.len(), |r, c| {
+            eig.eigenvectors[(r, kept_eig[c])] / eig.eigenvalues[kept_eig[c]].sqrt()
         });
-        let hmm_pinv =
-            &eig.eigenvectors * DMatrix::from_diagonal(&inv_vals) * eig.eigenvectors.transpose();
-        let kt = hmk.transpose() * &hmm_pinv;
-        (&hkk - &kt * &hmk, &gk - &kt * &gm)
-    } else {
-        (hkk, gk)
-    };
+        let f = scaled.transpose() * hmk;
+        let fg = scaled.transpose() * g.rows(0, nm);
+        matmul(
+            MatMut::from_column_major_slice_mut(h_star.as_mut_slice(), nk, nk),
+            Accum::Add,
+            MatRef::from_column_major_slice(f.as_slice(), f.nrows(), nk).transpose(),
+            MatRef::from_column_major_slice(f.as_slice(), f.nrows(), nk),
+            -1.0,
+            Par::Seq,
+        );
+        g_star.gemv_tr(-1.0, &f, &fg, 1.0);
+    }
+    // Exactly symmetric from here on (the blocked product need not be, in the last bit).
+    for j in 0..nk {
+        for i in j + 1..nk {
+            h_star[(j, i)] = h_star[(i, j)];
+        }
+    }
 
     // Blocks with a first-estimate linearization point keep it in the new prior: the system
     // above is a model in `δ = x ⊟ x_now` with Jacobians at that point, re-expressed in
@@ -175,20 +187,23 @@ pub fn marginalize(
     let (perm, l, rank) =
         rank_revealing_cholesky(&h_star, &kept_sizes, options.relative_rank_threshold);
     // J* = (P L)ᵀ: row r, column perm[i] holds L[i][r].
+    // (L is column-major: both loops run down its columns.)
     let mut jac = vec![0.0; rank * nk];
-    for i in 0..nk {
-        for r in 0..rank {
-            jac[r * nk + perm[i]] = l[(i, r)];
+    for r in 0..rank {
+        let (row, col) = (&mut jac[r * nk..(r + 1) * nk], l.column(r));
+        for i in r..nk {
+            row[perm[i]] = col[i];
         }
     }
-    // r* from L₁ r* = (Pᵀ g*)₁ (first `rank` rows, forward substitution).
-    let mut r0 = vec![0.0; rank];
-    for r in 0..rank {
-        let mut s = g_star[perm[r]];
-        for c in 0..r {
-            s -= l[(r, c)] * r0[c];
+    // r* from L₁ r* = (Pᵀ g*)₁ (first `rank` rows, forward substitution by columns).
+    let mut r0: Vec<f64> = (0..rank).map(|r| g_star[perm[r]]).collect();
+    for c in 0..rank {
+        let col = l.column(c);
+        r0[c] /= col[c];
+        let v = r0[c];
+        for r in c + 1..rank {
+            r0[r] -= col[r] * v;
         }
-        r0[r] = s / l[(r, r)];
     }
     let manifolds: Vec<Arc<dyn Manifold>> = kept
         .iter()
@@ -206,7 +221,8 @@ pub fn marginalize(
 /// `J*ᵀJ*` of the factor that [`pivoted_cholesky`] cut at `rank` from `h`, without the dense
 /// product: with `P h Pᵀ = [L₁; L₂][L₁; L₂]ᵀ + [0 0; 0 S]`, it is `h − Pᵀ [0 0; 0 S] P`, where
 /// the trailing Schur complement `S = (P h Pᵀ)₂₂ − L₂ L₂ᵀ` holds the directions cut (gauge
-/// directions: a few). `None` (form the product) when more than a quarter of them are cut.
+/// directions: a few). `h` must be exactly symmetric. `None` (form the product) when more than
+/// a quarter of them are cut.
 fn information_of_factor(
     h: &DMatrix<f64>,
     perm: &[usize],
@@ -217,12 +233,8 @@ fn information_of_factor(
     if 4 * (n - rank) > n {
         return None;
     }
-    let mut out = vec![0.0; n * n];
-    for i in 0..n {
-        for j in 0..n {
-            out[i * n + j] = 0.5 * (h[(i, j)] + h[(j, i)]);
-        }
-    }
+    // `h` is exactly symmetric: its column-major buffer is the row-major one.
+    let mut out = h.as_slice().to_vec();
     for i in rank..n {
         for j in rank..n {
             let l2: f64 = (0..rank).map(|r| l[(i, r)] * l[(j, r)]).sum();
@@ -245,7 +257,7 @@ const TAIL_SLACK: usize = 16;
 /// [`TAIL_SLACK`] coordinates, go to a tail; the rest is factored by faer's blocked Cholesky,
 /// and only the tail's Schur complement by the pivoted one. Falls back to the pivoted
 /// factorization of the whole matrix when the leading part has a pivot at or below the
-/// tolerance or the tail is more than half of it.
+/// tolerance or the tail is more than half of it. `a` must be exactly symmetric.
 fn rank_revealing_cholesky(
     a: &DMatrix<f64>,
     block_sizes: &[usize],
@@ -254,7 +266,8 @@ fn rank_revealing_cholesky(
     let n = a.nrows();
     let max_diag = (0..n).map(|i| a[(i, i)]).fold(0.0f64, f64::max);
     let tol = rel_tol * max_diag.max(f64::MIN_POSITIVE);
-    let sym = |i: usize, j: usize| 0.5 * (a[(i, j)] + a[(j, i)]);
+    // `a` is exactly symmetric: read it as it is stored.
+    let sym = |i: usize, j: usize| a[(i, j)];
     // Blocks by their own diagonal block: singular ones to the tail.
     let (mut lead, mut tail) = (Vec::new(), Vec::new());
     let mut singular = Vec::with_capacity(block_sizes.len());
@@ -425,6 +438,7 @@ mod tests {
         let null = DMatrix::from_fn(10, 1, |i, _| if i % 2 == 0 { 1.0 } else { -1.0 });
         let null = &null - &b * b.clone().pseudo_inverse(1e-12).unwrap() * &null;
         a += 1e-13 * a.abs().max() * &null * null.transpose() / null.norm_squared();
+        let a = 0.5 * (&a + a.transpose());
         let (perm, l, rank) = pivoted_cholesky(&a, 1e-12);
         assert_eq!(rank, 8);
         let h = information_of_factor(&a, &perm, &l, rank).unwrap();
@@ -458,6 +472,7 @@ mod tests {
             b[(i, 8)] = b[(i, 6)] + 2.0 * b[(i, 7)];
         }
         let a = b.transpose() * &b;
+        let a = 0.5 * (&a + a.transpose());
         let reconstruct = |(perm, l, rank): &(Vec<usize>, DMatrix<f64>, usize)| {
             let mut pl = DMatrix::zeros(n, *rank);
             for i in 0..n {

@@ -63,7 +63,7 @@ impl PriorFactor {
     /// [`Self::new`] with `JᵀJ` (row-major, n × n) handed in where the caller already has it
     /// at no cost (a marginalization's Schur complement, a moved linearization point), instead
     /// of the dense product: `None` computes it. The caller answers for `hessian = JᵀJ` to
-    /// round-off; it is symmetrized here.
+    /// round-off, and for its exact symmetry.
     pub(crate) fn with_hessian(
         manifolds: Vec<Arc<dyn Manifold>>,
         linearization_points: Vec<Vec<f64>>,
@@ -143,17 +143,15 @@ impl PriorFactor {
                 Par::Seq,
             );
         }
-        // Exactly symmetric (the product is, up to the order of its sums; a given Hessian up to
-        // round-off).
-        for i in 0..n {
-            for j in 0..i {
-                let v = if given {
-                    0.5 * (hessian[i * n + j] + hessian[j * n + i])
-                } else {
-                    hessian[j * n + i]
-                };
-                hessian[i * n + j] = v;
-                hessian[j * n + i] = v;
+        // Exactly symmetric: the product is up to the order of its sums (mirror its upper
+        // triangle); a given Hessian must already be.
+        if given {
+            debug_assert!((0..n).all(|i| (0..i).all(|j| hessian[i * n + j] == hessian[j * n + i])));
+        } else {
+            for i in 0..n {
+                for j in 0..i {
+                    hessian[i * n + j] = hessian[j * n + i];
+                }
             }
         }
         if !hessian.iter().all(|v| v.is_finite()) {

@@ -538,8 +538,9 @@ pub fn schur_complement_system(
     let ids: Vec<usize> = residual_ids.iter().map(|r| r.0).collect();
     let eqs = linearize(problem, &layout, Some(&ids))?;
     let (h, neg_g) = eqs.undamped_reduced();
+    // Mirrored, so exactly symmetric: the row-major buffer is the column-major one.
     Some((
-        DMatrix::from_row_slice(n, n, &h),
+        DMatrix::from_vec(n, n, h),
         DVector::from_iterator(n, neg_g.iter().map(|v| -v)),
     ))
 }
