@@ -239,6 +239,54 @@ fn unknown_scenario_name_exits_2() {
     assert!(stderr.contains("no_such_scenario") && stderr.contains("room_figure8_stereo_imu"));
 }
 
+/// `--batch-reference` writes the batch and the frames as they left the window as TUM files in
+/// time order (frames leave out of order), and a run that never tracked has no batch instead
+/// of a panic.
+#[test]
+fn batch_reference_writes_its_trajectories() {
+    let dir = scratch("batch");
+    let file = write(&dir, "short.toml", &default_text(3.0));
+    let out_dir = dir.join("out");
+    let out = vio(&[
+        "run",
+        file.to_str().unwrap(),
+        "--batch-reference",
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{stdout}");
+    assert!(stdout.contains("batch ref"), "{stdout}");
+    let stamps = |name: &str| -> Vec<f64> {
+        std::fs::read_to_string(out_dir.join(name))
+            .unwrap()
+            .lines()
+            .filter(|l| !l.starts_with('#'))
+            .map(|l| l.split_whitespace().next().unwrap().parse().unwrap())
+            .collect()
+    };
+    let (batch, window) = (stamps("batch.tum"), stamps("window.tum"));
+    // 3 s: some keyframes have left the window, and the batch holds them and the window's.
+    assert!(
+        window.len() >= 10 && batch.len() > 10,
+        "{window:?} {batch:?}"
+    );
+    for t in [&batch, &window] {
+        assert!(t.windows(2).all(|w| w[0] < w[1]), "{t:?}");
+    }
+    // Initialization takes 0.45 s: 0.3 s never tracks, and the batch reference is absent.
+    let never = write(&dir, "never.toml", &default_text(0.3));
+    let out = vio(&[
+        "run",
+        never.to_str().unwrap(),
+        "--batch-reference",
+        "--out",
+        dir.join("never").to_str().unwrap(),
+    ]);
+    assert_ne!(out.status.code(), Some(101), "{out:?}");
+    assert!(!dir.join("never/batch.tum").exists());
+}
+
 #[test]
 fn run_writes_the_report_files_and_exits_by_expectations() {
     let dir = scratch("run");

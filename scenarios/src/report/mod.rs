@@ -699,7 +699,8 @@ pub fn write_outputs_in(
     if ctx.ground_truth {
         dataset::write_tum(dir.join("groundtruth.tum"), &gt).map_err(|e| e.to_string())?;
     }
-    if let Some(reference) = &run.batch_reference {
+    // Only where a batch was solved (a run that never tracked has none).
+    if let Some(reference) = run.batch_reference.as_ref().filter(|r| r.summary.is_some()) {
         // Frames leave the window out of time order (a non-keyframe before older keyframes).
         let stamped = |poses: &[(i64, Pose)]| -> Vec<StampedPose> {
             let mut out: Vec<StampedPose> =
