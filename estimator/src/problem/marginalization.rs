@@ -218,7 +218,7 @@ pub fn marginalize(
     })
 }
 
-/// `J*ᵀJ*` of the factor that [`pivoted_cholesky`] cut at `rank` from `h`, without the dense
+/// `J*ᵀJ*` of the factor that [`rank_revealing_cholesky`] cut at `rank` from `h`, without the dense
 /// product: with `P h Pᵀ = [L₁; L₂][L₁; L₂]ᵀ + [0 0; 0 S]`, it is `h − Pᵀ [0 0; 0 S] P`, where
 /// the trailing Schur complement `S = (P h Pᵀ)₂₂ − L₂ L₂ᵀ` holds the directions cut (gauge
 /// directions: a few). `h` must be exactly symmetric. `None` (form the product) when more than
@@ -266,22 +266,19 @@ fn rank_revealing_cholesky(
     let n = a.nrows();
     let max_diag = (0..n).map(|i| a[(i, i)]).fold(0.0f64, f64::max);
     let tol = rel_tol * max_diag.max(f64::MIN_POSITIVE);
-    // `a` is exactly symmetric: read it as it is stored.
-    let sym = |i: usize, j: usize| a[(i, j)];
-    // Blocks by their own diagonal block: singular ones to the tail.
-    let (mut lead, mut tail) = (Vec::new(), Vec::new());
-    let mut singular = Vec::with_capacity(block_sizes.len());
+    // Blocks by their own diagonal block: singular ones to the tail (`a` is exactly
+    // symmetric, so it is read as stored).
+    let mut in_tail = Vec::with_capacity(block_sizes.len());
     let mut off = 0;
     for &t in block_sizes {
-        let block = DMatrix::from_fn(t, t, |i, j| sym(off + i, off + j));
-        singular.push(pivoted_cholesky_at(&block, tol).2 < t);
+        let block = DMatrix::from_fn(t, t, |i, j| a[(off + i, off + j)]);
+        in_tail.push(pivoted_cholesky_at(&block, tol).2 < t);
         off += t;
     }
     if off != n {
         return pivoted_cholesky(a, rel_tol);
     }
     let mut slack = 0;
-    let mut in_tail = singular.clone();
     for k in (0..block_sizes.len()).rev() {
         if slack >= TAIL_SLACK {
             break;
@@ -291,6 +288,7 @@ fn rank_revealing_cholesky(
             slack += block_sizes[k];
         }
     }
+    let (mut lead, mut tail) = (Vec::new(), Vec::new());
     let mut off = 0;
     for (k, &t) in block_sizes.iter().enumerate() {
         let to = if in_tail[k] { &mut tail } else { &mut lead };
@@ -302,7 +300,7 @@ fn rank_revealing_cholesky(
         return pivoted_cholesky(a, rel_tol);
     }
     // L₁₁ by the blocked Cholesky; every pivot must clear the tolerance.
-    let mut l11 = faer::Mat::<f64>::from_fn(k, k, |i, j| sym(lead[i], lead[j]));
+    let mut l11 = faer::Mat::<f64>::from_fn(k, k, |i, j| a[(lead[i], lead[j])]);
     let mut buf = MemBuffer::new(llt::cholesky_in_place_scratch::<f64>(
         k,
         Par::Seq,
@@ -319,13 +317,13 @@ fn rank_revealing_cholesky(
         return pivoted_cholesky(a, rel_tol);
     }
     // L₂₁ᵀ = L₁₁⁻¹ A₁₂, and the tail's Schur complement A₂₂ − L₂₁ L₂₁ᵀ, factored with pivots.
-    let mut l21t = faer::Mat::<f64>::from_fn(k, s, |i, j| sym(lead[i], tail[j]));
+    let mut l21t = faer::Mat::<f64>::from_fn(k, s, |i, j| a[(lead[i], tail[j])]);
     solve_lower_triangular_in_place(l11.as_ref(), l21t.as_mut(), Par::Seq);
     let cols: Vec<Vec<f64>> = (0..s)
         .map(|j| (0..k).map(|r| l21t[(r, j)]).collect())
         .collect();
     let schur = DMatrix::from_fn(s, s, |i, j| {
-        sym(tail[i], tail[j]) - crate::problem::solver::dot(&cols[i], &cols[j])
+        a[(tail[i], tail[j])] - crate::problem::solver::dot(&cols[i], &cols[j])
     });
     let (perm_s, ls, rank_s) = pivoted_cholesky_at(&schur, tol);
     let mut perm = lead;
@@ -407,6 +405,18 @@ fn pivoted_cholesky_at(a: &DMatrix<f64>, tol: f64) -> (Vec<usize>, DMatrix<f64>,
 mod tests {
     use super::*;
 
+    /// `P L` of a factorization (row `perm[i]` holds row `i` of `L`), its first `rank` columns:
+    /// `(P L)(P L)ᵀ` is what the factor says the matrix is.
+    fn permuted_factor(perm: &[usize], l: &DMatrix<f64>, rank: usize) -> DMatrix<f64> {
+        let mut pl = DMatrix::zeros(perm.len(), rank);
+        for (i, &p) in perm.iter().enumerate() {
+            for r in 0..rank {
+                pl[(p, r)] = l[(i, r)];
+            }
+        }
+        pl
+    }
+
     #[test]
     fn pivoted_cholesky_reconstructs_a_rank_deficient_matrix() {
         // A = B Bᵀ with B 6×4: rank 4.
@@ -416,12 +426,7 @@ mod tests {
         let a = &b * b.transpose();
         let (perm, l, rank) = pivoted_cholesky(&a, 1e-12);
         assert_eq!(rank, 4);
-        let mut pl = DMatrix::zeros(6, rank);
-        for i in 0..6 {
-            for r in 0..rank {
-                pl[(perm[i], r)] = l[(i, r)];
-            }
-        }
+        let pl = permuted_factor(&perm, &l, rank);
         assert!((&pl * pl.transpose() - a).norm() < 1e-9);
     }
 
@@ -442,12 +447,7 @@ mod tests {
         let (perm, l, rank) = pivoted_cholesky(&a, 1e-12);
         assert_eq!(rank, 8);
         let h = information_of_factor(&a, &perm, &l, rank).unwrap();
-        let mut pl = DMatrix::zeros(10, rank);
-        for i in 0..10 {
-            for r in 0..rank {
-                pl[(perm[i], r)] = l[(i, r)];
-            }
-        }
+        let pl = permuted_factor(&perm, &l, rank);
         let llt = &pl * pl.transpose();
         let h = DMatrix::from_row_slice(10, 10, &h);
         assert!((&h - &llt).abs().max() < 1e-12 * llt.abs().max());
@@ -474,12 +474,7 @@ mod tests {
         let a = b.transpose() * &b;
         let a = 0.5 * (&a + a.transpose());
         let reconstruct = |(perm, l, rank): &(Vec<usize>, DMatrix<f64>, usize)| {
-            let mut pl = DMatrix::zeros(n, *rank);
-            for i in 0..n {
-                for r in 0..*rank {
-                    pl[(perm[i], r)] = l[(i, r)];
-                }
-            }
+            let pl = permuted_factor(perm, l, *rank);
             &pl * pl.transpose()
         };
         let pivoted = pivoted_cholesky(&a, 1e-12);

@@ -537,6 +537,13 @@ mod tests {
 
     /// A 10-row prior over pose, point, pose, and a point `steps` away from its
     /// linearization point.
+    /// Steps from x̄ to a point away from it in every block (rotations included).
+    const AWAY: [&[f64]; 3] = [
+        &[0.01, 0.02, -0.03, 0.2, -0.1, 0.15],
+        &[0.1, -0.1, 0.2],
+        &[-0.02, 0.0, 0.01, -0.3, 0.05, 0.1],
+    ];
+
     fn test_prior(steps: [&[f64]; 3]) -> (PriorFactor, Vec<Vec<f64>>) {
         let (manifolds, x0) = test_blocks();
         let (m, n) = (10, 15);
@@ -650,11 +657,7 @@ mod tests {
     #[test]
     fn normal_equations_match_evaluate() {
         // A point away from x0.
-        let (prior, x) = test_prior([
-            &[0.01, 0.02, -0.03, 0.2, -0.1, 0.15],
-            &[0.1, -0.1, 0.2],
-            &[-0.02, 0.0, 0.01, -0.3, 0.05, 0.1],
-        ]);
+        let (prior, x) = test_prior(AWAY);
         let (m, n) = (10, 15);
         let params: Vec<&[f64]> = x.iter().map(|v| v.as_slice()).collect();
         let (r, blocks) = evaluate_at(&prior, &x);
@@ -745,11 +748,7 @@ mod tests {
     /// at the prior's own points (or moved Euclidean blocks), not at a moved rotation.
     #[test]
     fn constant_hessian_only_at_identity_minus_jacobians() {
-        let (prior, x) = test_prior([
-            &[0.01, 0.02, -0.03, 0.2, -0.1, 0.15],
-            &[0.1, -0.1, 0.2],
-            &[-0.02, 0.0, 0.01, -0.3, 0.05, 0.1],
-        ]);
+        let (prior, x) = test_prior(AWAY);
         let x0 = prior.linearization_points().to_vec();
         let at = |v: &[Vec<f64>]| v.iter().map(|b| b.to_vec()).collect::<Vec<_>>();
         let n = 15;
