@@ -54,13 +54,23 @@ pub(super) fn prior_without_oldest(
             .map(|(r, _)| *r),
     );
     // Persistent points: their observations in the oldest frame go into the prior; a point
-    // observed in no later window frame leaves with it.
+    // observed in no later window frame leaves with it (one that nothing observes and the
+    // prior does not hold has nothing to marginalize: it is simply forgotten).
+    let held = |b: &BlockId| {
+        built
+            .prior
+            .is_some_and(|r| built.problem.residual_blocks(r).contains(b))
+    };
     for (key, b) in &built.points {
         let later = built
             .point_obs
             .iter()
             .any(|(_, k, seq)| k == key && *seq != oldest);
-        if !later {
+        let here = built
+            .point_obs
+            .iter()
+            .any(|(_, k, seq)| k == key && *seq == oldest);
+        if !later && (here || held(b)) {
             remove.push(*b);
         }
     }
