@@ -56,20 +56,24 @@ pub(super) fn prior_without_oldest(
     // Persistent points: their observations in the oldest frame go into the prior; a point
     // observed in no later window frame leaves with it (one that nothing observes and the
     // prior does not hold has nothing to marginalize: it is simply forgotten).
+    // Per point: (observed in the oldest frame, observed later); `built.points` is sorted by key.
+    debug_assert!(built.points.windows(2).all(|w| w[0].0 < w[1].0));
+    let mut seen = vec![(false, false); built.points.len()];
+    for (_, key, seq) in &built.point_obs {
+        if let Ok(i) = built.points.binary_search_by_key(key, |(k, _)| *k) {
+            if *seq == oldest {
+                seen[i].0 = true;
+            } else {
+                seen[i].1 = true;
+            }
+        }
+    }
     let held = |b: &BlockId| {
         built
             .prior
             .is_some_and(|r| built.problem.residual_blocks(r).contains(b))
     };
-    for (key, b) in &built.points {
-        let later = built
-            .point_obs
-            .iter()
-            .any(|(_, k, seq)| k == key && *seq != oldest);
-        let here = built
-            .point_obs
-            .iter()
-            .any(|(_, k, seq)| k == key && *seq == oldest);
+    for ((_, b), (here, later)) in built.points.iter().zip(seen) {
         if !later && (here || held(b)) {
             remove.push(*b);
         }
