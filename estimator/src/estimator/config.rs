@@ -192,7 +192,7 @@ pub struct EstimatorConfig {
     /// anchor. Each point adds 3 coordinates to the dense reduced system. 0: none. Measured
     /// on the default figure-eight (60 s, seeds 1 / 2 / 3): 30 (the default) window/batch ATE
     /// ratio 2.06 / 2.97 / 1.36 at 2.8 ms per frame; 60: 1.05 / 2.22 / 1.26 at 3.7 ms; 100:
-    /// 1.12 / 1.23 / 1.16 at 5.4 ms (README, "How many persistent points").
+    /// 1.12 / 1.23 / 1.16 at 5.1–5.3 ms (README, "How many persistent points").
     pub max_persistent_points: usize,
     /// First-estimate Jacobians: every factor's Jacobians with respect to a state in the
     /// marginalization prior are evaluated at the prior's linearization point of that state
