@@ -53,7 +53,9 @@ use crate::aiding::{AidingError, GnssSample, WheelSample};
 use crate::frontend::FeatureFrame;
 use crate::geometry::Pose;
 use crate::imu::{ImuError, ImuSample};
-use crate::problem::{HuberLoss, LossFunction, SolverSummary, solve_keeping_linearization};
+use crate::problem::{
+    HuberLoss, LossFunction, SolverSummary, SolverWorkspace, solve_keeping_linearization_in,
+};
 
 /// Where the estimator is in its life cycle, and what carries the newest estimate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -192,6 +194,8 @@ pub struct Estimator {
     events: Vec<Event>,
     /// Persistent points given a new first estimate so far (`relinearization.rs`).
     points_relinearized: usize,
+    /// The window solve's scratch, reused from frame to frame (no state).
+    workspace: SolverWorkspace,
 }
 
 /// What one window solve produced, for the frame's [`Estimate`].
@@ -269,6 +273,7 @@ impl Estimator {
             points_relinearized: 0,
             imu_chi2_failures: 0,
             events: Vec::new(),
+            workspace: SolverWorkspace::default(),
         })
     }
 
@@ -601,8 +606,11 @@ impl Estimator {
             self.window.predict_image_velocities();
         }
         let mut built = self.window.build(&self.problem_settings(), imu_active);
-        let (summary, linearization) =
-            solve_keeping_linearization(&mut built.problem, &self.config.solver);
+        let (summary, linearization) = solve_keeping_linearization_in(
+            &mut built.problem,
+            &self.config.solver,
+            &mut self.workspace,
+        );
         self.window.write_back(&built, &self.config);
         let failure = self.window_failure(&built, &summary, &predicted.pose, imu_active);
         if was_tracking && let Some(reason) = failure {

@@ -333,6 +333,13 @@ pub(crate) struct ReducedSystem {
     damping: (f64, f64),
 }
 
+impl ReducedSystem {
+    /// Marks the buffers as holding no factorization (a new solve reuses them).
+    pub(crate) fn forget_factorization(&mut self) {
+        self.factored = false;
+    }
+}
+
 impl NormalEquations {
     /// Solves `(H + λD) δ = −g` by eliminating landmarks, with `D = diag(max(H, min_diag))`;
     /// `None` if the reduced matrix is not positive definite.
