@@ -53,31 +53,18 @@ pub(super) fn prior_without_oldest(
             .filter(|(_, id)| anchored.binary_search(id).is_ok())
             .map(|(r, _)| *r),
     );
-    // Persistent points: their observations in the oldest frame go into the prior; a point
-    // observed in no later window frame leaves with it (one that nothing observes and the
-    // prior does not hold has nothing to marginalize: it is simply forgotten).
-    // Per point: (observed in the oldest frame, observed later); `built.points` is sorted by key.
-    debug_assert!(built.points.windows(2).all(|w| w[0].0 < w[1].0));
-    let mut seen = vec![(false, false); built.points.len()];
-    for (_, key, seq) in &built.point_obs {
-        if let Ok(i) = built.points.binary_search_by_key(key, |(k, _)| *k) {
-            if *seq == oldest {
-                seen[i].0 = true;
-            } else {
-                seen[i].1 = true;
-            }
-        }
-    }
+    // Persistent points: their observations in the oldest frame go into the prior.
     let held = |b: &BlockId| {
         built
             .prior
             .is_some_and(|r| built.problem.residual_blocks(r).contains(b))
     };
-    for ((_, b), (here, later)) in built.points.iter().zip(seen) {
-        if !later && (here || held(b)) {
-            remove.push(*b);
-        }
-    }
+    remove.extend(points_leaving(
+        &built.points,
+        &built.point_obs,
+        oldest,
+        held,
+    ));
     residuals.extend(
         built
             .point_obs
@@ -94,6 +81,38 @@ pub(super) fn prior_without_oldest(
     }
     residuals.sort();
     prior_from(built, &residuals, &remove)
+}
+
+/// The persistent points (`points`: key and block, sorted by key) that leave with the oldest
+/// frame `oldest`: those observed in no later window frame (`point_obs`: residual, point key,
+/// frame seq), provided there is something to marginalize — an observation in the oldest
+/// frame, or a place in the prior (`held`). A point that nothing observes and the prior does
+/// not hold is left out: `marginalize` rejects a block no residual touches, which would lose
+/// the whole prior.
+fn points_leaving(
+    points: &[(u64, BlockId)],
+    point_obs: &[(ResidualId, u64, u64)],
+    oldest: u64,
+    held: impl Fn(&BlockId) -> bool,
+) -> Vec<BlockId> {
+    debug_assert!(points.windows(2).all(|w| w[0].0 < w[1].0));
+    // Per point: (observed in the oldest frame, observed later).
+    let mut seen = vec![(false, false); points.len()];
+    for (_, key, seq) in point_obs {
+        if let Ok(i) = points.binary_search_by_key(key, |(k, _)| *k) {
+            if *seq == oldest {
+                seen[i].0 = true;
+            } else {
+                seen[i].1 = true;
+            }
+        }
+    }
+    points
+        .iter()
+        .zip(seen)
+        .filter(|((_, b), (here, later))| !later && (*here || held(b)))
+        .map(|((_, b), _)| *b)
+        .collect()
 }
 
 /// The prior when the second-newest frame is dropped (not a keyframe): only the prior itself
@@ -176,4 +195,38 @@ fn prior_from(built: &Built, residuals: &[ResidualId], remove: &[BlockId]) -> Op
         .collect::<Option<Vec<_>>>()
         .unwrap_or_default();
     (refs.len() == mp.blocks.len() && mp.rank > 0).then(|| (Arc::new(mp.factor), refs))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Points 1–4 against oldest frame 7: 1 is seen only there (leaves), 2 also later
+    /// (stays), 3 nowhere but in the prior (leaves: the prior holds it), 4 nowhere and not
+    /// in the prior (left out: nothing to marginalize).
+    #[test]
+    fn points_leaving_are_those_with_something_to_marginalize() {
+        let points = [
+            (1, BlockId(10)),
+            (2, BlockId(11)),
+            (3, BlockId(12)),
+            (4, BlockId(13)),
+        ];
+        let obs = [
+            (ResidualId(0), 1, 7),
+            (ResidualId(1), 2, 7),
+            (ResidualId(2), 2, 8),
+            (ResidualId(3), 9, 8),
+        ];
+        let held = |b: &BlockId| *b == BlockId(12);
+        assert_eq!(
+            points_leaving(&points, &obs, 7, held),
+            vec![BlockId(10), BlockId(12)]
+        );
+        // Without a prior, point 3 has nothing to marginalize either.
+        assert_eq!(
+            points_leaving(&points, &obs, 7, |_| false),
+            vec![BlockId(10)]
+        );
+    }
 }
