@@ -260,14 +260,15 @@ pub fn solve_keeping_linearization_in(
                 let g = (&gradient.dx[..], &gradient.dl[..]);
                 let model_decrease = e.damped_model_decrease(g, &step, sys);
                 apply_step(problem, &layout, &step, &mut candidate);
-                let nc = e.cost_at(problem, &candidate)?;
-                (model_decrease > 0.0 && (cost - nc) / model_decrease > 1e-3).then(|| {
-                    let rel = (cost - nc) / cost.max(f64::MIN_POSITIVE);
-                    std::mem::swap(&mut problem.values, &mut candidate);
-                    cost = nc;
-                    summary.successful_steps += 1;
-                    rel < options.function_tolerance
-                })
+                let nc = e.cost_at(problem, &candidate);
+                accept(
+                    problem,
+                    &mut candidate,
+                    (&mut cost, &mut summary),
+                    nc,
+                    model_decrease,
+                )
+                .map(|(_, rel)| rel < options.function_tolerance)
             });
             if converged == Some(true) {
                 summary.termination = Termination::Converged;
@@ -322,37 +323,31 @@ pub fn solve_keeping_linearization_in(
         } else {
             e.cost_at(problem, &candidate)
         };
-        let accepted = match new_cost {
-            Some(nc) if model_decrease > 0.0 => {
-                let rho = (cost - nc) / model_decrease;
-                if rho > 1e-3 {
-                    let rel = (cost - nc) / cost.max(f64::MIN_POSITIVE);
-                    std::mem::swap(&mut problem.values, &mut candidate);
-                    cost = nc;
-                    summary.successful_steps += 1;
-                    radius = match options.method {
-                        Method::LevenbergMarquardt => {
-                            radius / (1.0f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3))
-                        }
-                        Method::Dogleg if rho > 0.75 => radius.max(3.0 * step_norm),
-                        Method::Dogleg => radius,
-                    }
-                    .min(1e16);
-                    decrease_factor = 2.0;
-                    linearized = false;
-                    gradient_ready = with_gradient;
-                    if rel < options.function_tolerance {
-                        summary.termination = Termination::Converged;
-                        break;
-                    }
-                    true
-                } else {
-                    false
+        let accepted = accept(
+            problem,
+            &mut candidate,
+            (&mut cost, &mut summary),
+            new_cost,
+            model_decrease,
+        );
+        if let Some((rho, rel)) = accepted {
+            radius = match options.method {
+                Method::LevenbergMarquardt => {
+                    radius / (1.0f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3))
                 }
+                Method::Dogleg if rho > 0.75 => radius.max(3.0 * step_norm),
+                Method::Dogleg => radius,
             }
-            _ => false,
-        };
-        if !accepted {
+            .min(1e16);
+            decrease_factor = 2.0;
+            linearized = false;
+            gradient_ready = with_gradient;
+            if rel < options.function_tolerance {
+                summary.termination = Termination::Converged;
+                break;
+            }
+        }
+        if accepted.is_none() {
             radius /= decrease_factor;
             decrease_factor *= 2.0;
             if radius < 1e-32 {
@@ -364,6 +359,27 @@ pub fn solve_keeping_linearization_in(
     summary.final_cost = cost;
     summary.time = start.elapsed();
     (summary, Some(Linearization::new(e, layout)))
+}
+
+/// The trust-region acceptance test shared by full and modified steps: a step whose cost
+/// `new_cost` realizes more than 10⁻³ of the model's predicted `model_decrease` is taken (the
+/// candidate values become current, its cost the current cost, one more successful step).
+/// Returns the gain ratio `ρ` and the relative cost decrease; `None` (nothing changes) for a
+/// rejected step, a non-positive predicted decrease or an unevaluable candidate.
+fn accept(
+    problem: &mut Problem,
+    candidate: &mut Vec<f64>,
+    (cost, summary): (&mut f64, &mut SolverSummary),
+    new_cost: Option<f64>,
+    model_decrease: f64,
+) -> Option<(f64, f64)> {
+    let nc = new_cost.filter(|_| model_decrease > 0.0)?;
+    let rho = Some((*cost - nc) / model_decrease).filter(|rho| *rho > 1e-3)?;
+    let rel = (*cost - nc) / cost.max(f64::MIN_POSITIVE);
+    std::mem::swap(&mut problem.values, candidate);
+    *cost = nc;
+    summary.successful_steps += 1;
+    Some((rho, rel))
 }
 
 /// Powell's dogleg step within `radius` (full-space Euclidean norm of the tangent step).
