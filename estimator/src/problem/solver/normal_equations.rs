@@ -116,6 +116,23 @@ fn add_jtj(
     }
 }
 
+/// Adds a factor's directly computed gradient `g_direct` (its blocks' tangent coordinates in
+/// slot order) to the reduced gradient `dst` at its variable state blocks.
+fn add_direct_gradient(slots: &[Slot], g_direct: &[f64], dst: &mut [f64]) {
+    let mut la = 0;
+    for s in slots {
+        if s.offset != NONE {
+            for (d, v) in dst[s.offset..s.offset + s.t]
+                .iter_mut()
+                .zip(&g_direct[la..la + s.t])
+            {
+                *d += v;
+            }
+        }
+        la += s.t;
+    }
+}
+
 /// Copies the upper triangle of a row-major square matrix onto its lower triangle.
 pub(crate) fn mirror_upper(h: &mut [f64], n: usize) {
     for i in 0..n {
@@ -433,14 +450,12 @@ impl NormalEquations {
         let cost = self.direct_normal_equations(problem, &problem.values, p, constant.is_none())?;
         let slots = &self.slots[p.slots.0..p.slots.1];
         let total: usize = slots.iter().map(|s| s.t).sum();
-        let (h, g, n) = (constant.unwrap_or(&self.direct_h), &self.direct_g, self.n);
+        add_direct_gradient(slots, &self.direct_g, &mut self.gx);
+        let (h, n) = (constant.unwrap_or(&self.direct_h), self.n);
         let mut la = 0;
         for sa in slots {
             let (oa, ta) = (sa.offset, sa.t);
             if oa != NONE {
-                for i in 0..ta {
-                    self.gx[oa + i] += g[la + i];
-                }
                 let mut lb = 0;
                 for sb in slots {
                     let (ob, tb) = (sb.offset, sb.t);
@@ -491,18 +506,7 @@ impl NormalEquations {
             };
             let rho = if let Some(cost) = direct {
                 let slots = &self.slots[p.slots.0..p.slots.1];
-                let mut la = 0;
-                for s in slots {
-                    if s.offset != NONE {
-                        for (d, v) in g.dx[s.offset..s.offset + s.t]
-                            .iter_mut()
-                            .zip(&self.direct_g[la..la + s.t])
-                        {
-                            *d += v;
-                        }
-                    }
-                    la += s.t;
-                }
+                add_direct_gradient(slots, &self.direct_g, &mut g.dx);
                 Some(cost)
             } else {
                 self.evaluate_jacobians(problem, values, p).inspect(|_| {
