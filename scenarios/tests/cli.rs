@@ -8,6 +8,18 @@ use std::path::{Path, PathBuf};
 
 use common::{assert_bad, default_text, scratch, vio, write};
 
+/// `vio run FILE --out OUT` with `extra` arguments after them.
+fn run_file(file: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec![
+        "run",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    vio(&args)
+}
+
 fn evo_dir(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests/fixtures/evo")
@@ -247,13 +259,7 @@ fn batch_reference_writes_its_trajectories() {
     let dir = scratch("batch");
     let file = write(&dir, "short.toml", &default_text(3.0));
     let out_dir = dir.join("out");
-    let out = vio(&[
-        "run",
-        file.to_str().unwrap(),
-        "--batch-reference",
-        "--out",
-        out_dir.to_str().unwrap(),
-    ]);
+    let out = run_file(&file, &out_dir, &["--batch-reference"]);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert_eq!(out.status.code(), Some(0), "{stdout}");
     assert!(stdout.contains("batch ref"), "{stdout}");
@@ -276,13 +282,7 @@ fn batch_reference_writes_its_trajectories() {
     }
     // Initialization takes 0.45 s: 0.3 s never tracks, and the batch reference is absent.
     let never = write(&dir, "never.toml", &default_text(0.3));
-    let out = vio(&[
-        "run",
-        never.to_str().unwrap(),
-        "--batch-reference",
-        "--out",
-        dir.join("never").to_str().unwrap(),
-    ]);
+    let out = run_file(&never, &dir.join("never"), &["--batch-reference"]);
     assert_ne!(out.status.code(), Some(101), "{out:?}");
     assert!(!dir.join("never/batch.tum").exists());
 }
@@ -293,12 +293,7 @@ fn run_writes_the_report_files_and_exits_by_expectations() {
     // Passing expectations: exit 0 and every file.
     let ok = write(&dir, "short.toml", &default_text(3.0));
     let out_ok = dir.join("ok");
-    let out = vio(&[
-        "run",
-        ok.to_str().unwrap(),
-        "--out",
-        out_ok.to_str().unwrap(),
-    ]);
+    let out = run_file(&ok, &out_ok, &[]);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert_eq!(
         out.status.code(),
@@ -350,14 +345,7 @@ fn run_writes_the_report_files_and_exits_by_expectations() {
         default_text(3.0).replace("ate_rmse_m = { max = 0.15 }", "ate_rmse_m = { max = 1e-9 }");
     let bad = write(&dir, "strict.toml", &strict);
     let out_bad = dir.join("bad");
-    let out = vio(&[
-        "run",
-        bad.to_str().unwrap(),
-        "--out",
-        out_bad.to_str().unwrap(),
-        "--seed",
-        "7",
-    ]);
+    let out = run_file(&bad, &out_bad, &["--seed", "7"]);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert_eq!(out.status.code(), Some(1), "{stdout}");
     assert!(stdout.contains("FAIL"), "{stdout}");
