@@ -30,6 +30,7 @@ const ENTRIES: &[Entry] = &[
     entry!("room_replay_v2_02_glitchy_stereo_imu"),
     entry!("room_figure8_mono_imu"),
     entry!("room_replay_v2_02_mono_imu"),
+    entry!("room_replay_v1_01_mono_imu"),
     entry!("room_figure8_blackout_stereo_imu"),
     entry!("room_figure8_left_camera_death_stereo_imu"),
     entry!("room_figure8_right_camera_death_stereo_imu"),
@@ -75,6 +76,10 @@ const DATA: &[(&str, &[u8])] = &[
     (
         "data/euroc_V2_02_medium_20s_glitchy.txt",
         include_bytes!("../catalog/data/euroc_V2_02_medium_20s_glitchy.txt"),
+    ),
+    (
+        "data/euroc_V1_01_easy_20s.txt",
+        include_bytes!("../catalog/data/euroc_V1_01_easy_20s.txt"),
     ),
 ];
 

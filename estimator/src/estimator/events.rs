@@ -93,7 +93,8 @@ pub enum EventKind {
         detail: String,
     },
     /// The solved window failed a health check (see [`super::health`]) and was discarded; the
-    /// estimator restarted from the last good state.
+    /// estimator restarted from the last good state, or initializes again when no state had
+    /// passed (the first solve after an initialization is checked too).
     Reset {
         /// What failed.
         reason: String,

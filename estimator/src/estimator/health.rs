@@ -269,15 +269,17 @@ impl Estimator {
     /// Discards the failed window and restarts from `last_good` (the newest state that passed
     /// the checks), keeping the world frame: the next frame starts at that pose, velocity and
     /// biases with the initial prior around them, the way [`Estimator::start_from`] does.
-    /// Without a good state the estimator initializes again from the data. Records a
-    /// [`EventKind::Reset`] at `t_ns`.
+    /// Without a good state (a rejected initialization) the estimator initializes again from
+    /// the data. Records a [`EventKind::Reset`] at `t_ns`.
     pub(super) fn reset(&mut self, t_ns: i64, reason: FailureReason) {
         self.imu_chi2_failures = 0;
+        let reason = match self.last_good {
+            Some(_) => reason.to_string(),
+            None => format!("{reason}; no state passed the checks: initializing again"),
+        };
         self.events.push(Event {
             t_ns,
-            kind: EventKind::Reset {
-                reason: reason.to_string(),
-            },
+            kind: EventKind::Reset { reason },
         });
         // Estimated extrinsics return to their configured values: a failure may come from them.
         let extrinsics = if self.config.estimate_extrinsics {

@@ -612,8 +612,18 @@ impl Estimator {
             &mut self.workspace,
         );
         self.window.write_back(&built, &self.config);
-        let failure = self.window_failure(&built, &summary, &predicted.pose, imu_active);
-        if was_tracking && let Some(reason) = failure {
+        // The frame that initialized is judged too (a wrong initialization shows in its first
+        // solve: implausible biases, IMU factors no state explains), but not against its
+        // prediction, which lives in the world frame before the initialization.
+        let just_initialized = imu_active && !was_tracking;
+        let reference = match self.window.frames.back() {
+            Some(newest) if just_initialized => newest.pose,
+            _ => predicted.pose,
+        };
+        let failure = self.window_failure(&built, &summary, &reference, imu_active);
+        if (was_tracking || just_initialized)
+            && let Some(reason) = failure
+        {
             self.reset(t_ns, reason);
             return self.estimate(&predicted, keyframe, start, None);
         }
