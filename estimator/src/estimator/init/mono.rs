@@ -28,6 +28,9 @@ pub enum MonoInitFailure {
     /// exceeds `mono_init_max_scale_sigma` (too little or too uniform acceleration, which the
     /// accelerometer bias can absorb).
     ScaleUnobservable,
+    /// The alignment's whitened residual exceeds `mono_init_max_chi2_per_dof` times its
+    /// degrees of freedom: the IMU deltas and the visual trajectory contradict each other.
+    Inconsistent,
 }
 
 /// Initializes the window from camera `cam` alone and the IMU. On success the frames carry
@@ -107,6 +110,9 @@ pub(in crate::estimator) fn initialize_mono_inertial(
     .ok_or(MonoInitFailure::Alignment)?;
     if aligned.scale_rel_sigma > config.mono_init_max_scale_sigma {
         return Err(MonoInitFailure::ScaleUnobservable);
+    }
+    if aligned.chi2_per_dof.is_nan() || aligned.chi2_per_dof > config.mono_init_max_chi2_per_dof {
+        return Err(MonoInitFailure::Inconsistent);
     }
     let (vel, g, s, ba) = (
         &aligned.velocities,
