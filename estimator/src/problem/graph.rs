@@ -455,8 +455,14 @@ impl Problem {
         };
         let ok = match jacobians.as_deref_mut() {
             Some(js) if self.uses_linearization_points(id) => {
-                // Jacobians at the linearization points, then the residual at `values`.
-                self.evaluate_factor_at(values, true, lin_rotations, id, r, Some(js))
+                // Jacobians at the linearization points, then the residual at `values`. Where
+                // the factor cannot be evaluated at the linearization points but can at
+                // `values` (a wide-angle camera's point whose first estimate lies behind the
+                // image plane while its estimate does not), its Jacobians come from `values`:
+                // this one residual loses its first-estimate Jacobians instead of failing the
+                // whole linearization.
+                (self.evaluate_factor_at(values, true, lin_rotations, id, r, Some(&mut *js))
+                    || self.evaluate_factor(values, rotations, id, r, Some(js)))
                     && self.evaluate_factor(values, rotations, id, r, None)
             }
             js => self.evaluate_factor(values, rotations, id, r, js),
@@ -527,5 +533,64 @@ impl Problem {
             total += self.evaluate_residual(values, i, r, None)?;
         }
         Some(0.5 * total)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::problem::{Euclidean, SolverOptions, Termination, solve};
+
+    /// `r = √x − 3`, defined for `x > 0` only (like a projection behind the camera).
+    struct SqrtFactor;
+
+    impl Factor for SqrtFactor {
+        fn residual_dim(&self) -> usize {
+            1
+        }
+        fn parameter_block_sizes(&self) -> &[usize] {
+            &[1]
+        }
+        fn parameter_tangent_sizes(&self) -> &[usize] {
+            &[1]
+        }
+        fn evaluate(
+            &self,
+            params: &[&[f64]],
+            residuals: &mut [f64],
+            jacobians: Option<&mut [Option<&mut [f64]>]>,
+        ) -> bool {
+            let x = params[0][0];
+            if x <= 0.0 {
+                return false;
+            }
+            residuals[0] = x.sqrt() - 3.0;
+            if let Some(j) = jacobians.and_then(|js| js[0].as_deref_mut()) {
+                j[0] = 0.5 / x.sqrt();
+            }
+            true
+        }
+    }
+
+    /// A factor that cannot be evaluated at its block's first estimate (x̄ = −1) but can at
+    /// the current value takes its Jacobian there: the solve converges to √x = 3 instead of
+    /// failing its first linearization (which reset the whole window).
+    #[test]
+    fn a_first_estimate_the_factor_cannot_evaluate_falls_back_to_the_current_value() {
+        let mut problem = Problem::new();
+        let x = problem
+            .add_block(&[4.0], Arc::new(Euclidean::new(1)), BlockKind::State)
+            .unwrap();
+        problem.set_linearization_point(x, &[-1.0]).unwrap();
+        problem
+            .add_factor(Arc::new(SqrtFactor), None, &[x])
+            .unwrap();
+        let summary = solve(&mut problem, &SolverOptions::default());
+        assert_eq!(summary.termination, Termination::Converged, "{summary:?}");
+        assert!(
+            (problem.values(x)[0] - 9.0).abs() < 1e-6,
+            "{:?}",
+            problem.values(x)
+        );
     }
 }

@@ -47,25 +47,28 @@ pub(in crate::estimator) fn initialize_mono_inertial(
     if window_intervals(window).is_none() {
         return Err(MonoInitFailure::MissingImu);
     }
-    let tracks: Vec<Vec<(usize, FeatureMeasurement)>> = window
+    // Each view with its weight (the camera model's magnification there over the pixel σ).
+    type Views = Vec<(usize, FeatureMeasurement)>;
+    let (tracks, weights): (Vec<Views>, Vec<Vec<f64>>) = window
         .features
         .tracks
         .values()
         .map(|t| {
             t.obs
                 .iter()
-                .filter_map(|o| Some((window.frame_index(o.seq)?, o.meas[cam]?)))
-                .collect::<Vec<_>>()
+                .filter_map(|o| Some(((window.frame_index(o.seq)?, o.meas[cam]?), o.weight[cam])))
+                .unzip::<_, _, Vec<_>, Vec<_>>()
         })
-        .filter(|t| t.len() >= 2)
-        .collect();
+        .filter(|(t, _)| t.len() >= 2)
+        .unzip();
     let settings = SfmSettings {
         focal: focal[cam],
         pixel_sigma: config.cameras[cam].pixel_sigma,
         min_parallax_px: config.mono_init_parallax_px,
         td: window.td,
     };
-    let sfm = solve_sfm(&tracks, window.frames.len(), &settings).map_err(MonoInitFailure::Sfm)?;
+    let sfm = solve_sfm(&tracks, Some(&weights), window.frames.len(), &settings)
+        .map_err(MonoInitFailure::Sfm)?;
     let t_b_c = window.extrinsics[cam];
     // Body attitudes in the SfM world: R_w_b = R_w_c R_b_cᵀ.
     let body_q: Vec<UnitQuaternion<f64>> =

@@ -65,9 +65,14 @@ pub enum SfmFailure {
 }
 
 /// Solves the camera poses of `frames` window frames from `tracks`: each track lists its
-/// `(frame index, measurement)` observations in frame order (one camera).
+/// `(frame index, measurement)` observations in frame order (one camera). `weights`, shaped
+/// like `tracks`, holds each observation's square-root information on the normalized plane
+/// (the camera model's local magnification over the pixel σ) for the bundle adjustment and
+/// its covariance; `None`: `focal / pixel_sigma` for all (a pinhole's on-axis value, which
+/// overstates the information of a wide-angle camera's off-axis features).
 pub fn solve_sfm(
     tracks: &[Vec<(usize, FeatureMeasurement)>],
+    weights: Option<&[Vec<f64>]>,
     frames: usize,
     settings: &SfmSettings,
 ) -> Result<SfmSolution, SfmFailure> {
@@ -137,8 +142,9 @@ pub fn solve_sfm(
             points[i] = triangulate(&views).filter(|p| in_front(&views, p));
         }
     }
-    let (poses, position_covariance) = bundle_adjust(tracks, poses, &points, l, newest, settings)
-        .ok_or(SfmFailure::BundleAdjustment)?;
+    let (poses, position_covariance) =
+        bundle_adjust(tracks, weights, poses, &points, (l, newest), settings)
+            .ok_or(SfmFailure::BundleAdjustment)?;
     Ok(SfmSolution {
         poses,
         position_covariance,
@@ -261,10 +267,10 @@ fn pnp(
 /// translation direction with its error. Returns the poses and their position covariance.
 fn bundle_adjust(
     tracks: &[Vec<(usize, FeatureMeasurement)>],
+    weights: Option<&[Vec<f64>]>,
     poses: Vec<Pose>,
     points: &[Option<Vector3<f64>>],
-    reference: usize,
-    newest: usize,
+    (reference, newest): (usize, usize),
     settings: &SfmSettings,
 ) -> Option<(Vec<Pose>, DMatrix<f64>)> {
     let mut problem = Problem::new();
@@ -294,9 +300,9 @@ fn bundle_adjust(
         .add_factor(Arc::new(gauge), None, &[ids[newest]])
         .ok()?;
     let loss: Arc<dyn LossFunction> = Arc::new(HuberLoss { delta: 1.5 });
-    let weight = settings.focal / settings.pixel_sigma;
+    let uniform = settings.focal / settings.pixel_sigma;
     let point_m = Arc::new(Euclidean::new(3));
-    for (t, p) in tracks.iter().zip(points) {
+    for (i, (t, p)) in tracks.iter().zip(points).enumerate() {
         let Some(p) = p else { continue };
         let in_front = t
             .iter()
@@ -307,10 +313,10 @@ fn bundle_adjust(
         let lm = problem
             .add_block(p.as_slice(), point_m.clone(), BlockKind::Landmark)
             .ok()?;
-        for &(k, m) in t {
+        for (j, &(k, m)) in t.iter().enumerate() {
             let f = PointProjection {
                 obs: m.point_at_td(settings.td),
-                weight,
+                weight: weights.map_or(uniform, |w| w[i][j]),
             };
             problem
                 .add_factor(Arc::new(f), Some(loss.clone()), &[ids[k], lm])
@@ -393,7 +399,7 @@ mod tests {
             min_parallax_px: 30.0,
             td: 0.0,
         };
-        let sol = solve_sfm(&tracks, 10, &settings).expect("sfm");
+        let sol = solve_sfm(&tracks, None, 10, &settings).expect("sfm");
         // Express the truth in the reference camera's frame, scaled to unit newest distance.
         let l = sol
             .poses
