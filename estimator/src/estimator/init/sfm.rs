@@ -359,6 +359,16 @@ mod tests {
     /// each camera's position error in the SfM's gauge and units, its rotation error (deg),
     /// the SfM's position covariance and the true reference-to-newest distance (m).
     fn arc_run(noise_px: f64, seed: u64) -> (Vec<Vector3<f64>>, Vec<f64>, DMatrix<f64>, f64) {
+        arc_run_weighted(noise_px, seed, None)
+    }
+
+    /// [`arc_run`] with every view weighted by `weight_scale` × `focal / pixel_sigma` (`None`:
+    /// no per-view weights).
+    fn arc_run_weighted(
+        noise_px: f64,
+        seed: u64,
+        weight_scale: Option<f64>,
+    ) -> (Vec<Vector3<f64>>, Vec<f64>, DMatrix<f64>, f64) {
         let focal = 460.0;
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut u = || (rng.next_u64() as f64 / u64::MAX as f64) * 2.0 - 1.0;
@@ -399,7 +409,11 @@ mod tests {
             min_parallax_px: 30.0,
             td: 0.0,
         };
-        let sol = solve_sfm(&tracks, None, 10, &settings).expect("sfm");
+        let weights: Option<Vec<Vec<f64>>> = weight_scale.map(|k| {
+            let w = k * settings.focal / settings.pixel_sigma;
+            tracks.iter().map(|t| vec![w; t.len()]).collect()
+        });
+        let sol = solve_sfm(&tracks, weights.as_deref(), 10, &settings).expect("sfm");
         // Express the truth in the reference camera's frame, scaled to unit newest distance.
         let l = sol
             .poses
@@ -467,5 +481,19 @@ mod tests {
     fn sfm_recovers_a_camera_arc_up_to_scale() {
         let (p, r) = arc_errors(1.0);
         assert!(p < 0.017 && r < 0.4, "{p} m, {r}°");
+    }
+
+    /// The per-view weights are what the covariance stands on: the uniform weight given per
+    /// view reproduces the unweighted solve bit for bit, and halving every weight (twice the
+    /// pixel σ) multiplies the camera positions' covariance by 4 (measured 3.83; bounds
+    /// 3.6–4.4: the Huber loss cuts fewer residuals at the lower weight).
+    #[test]
+    fn per_view_weights_set_the_position_covariance() {
+        let (_, _, plain, _) = arc_run(1.0, 3);
+        let (_, _, same, _) = arc_run_weighted(1.0, 3, Some(1.0));
+        assert_eq!(plain, same);
+        let (_, _, half, _) = arc_run_weighted(1.0, 3, Some(0.5));
+        let ratio = half.trace() / plain.trace();
+        assert!((3.6..4.4).contains(&ratio), "covariance ratio {ratio}");
     }
 }
