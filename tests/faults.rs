@@ -345,3 +345,33 @@ fn a_wrong_initialization_fails_its_first_health_check() {
     let ate = d.report.ate_rmse_m.unwrap();
     assert!(ate < 0.012, "ATE {ate} m (measured 0.0076)");
 }
+
+/// With the time offset estimated, a frame's IMU time `t + td` can fall before the newest IMU
+/// sample (`td` slightly negative): the sensor monitor judged at that earlier time and called
+/// the dead camera back, three switches within 10 ms (silent, back, silent at 20.45 / 20.45 /
+/// 20.46 s). Its clock never runs backwards now: one switch, as with `td` fixed.
+#[test]
+fn a_dead_camera_stays_dead_with_the_time_offset_estimated() {
+    let text = format!(
+        "{}\n[estimator]\nestimate_td = true\n",
+        scenarios::catalog::get("room_figure8_right_camera_death_stereo_imu")
+            .unwrap()
+            .text
+    );
+    let scenario =
+        scenarios::spec::Scenario::parse("td_death", scenarios::spec::Origin::Catalog, &text)
+            .unwrap();
+    let d = common::run_scenario(scenario, None);
+    let switches: Vec<_> = d
+        .report
+        .events
+        .iter()
+        .filter(|e| e.kind == "suite_switch")
+        .map(|e| (e.t_s, e.detail.as_str()))
+        .collect();
+    assert_eq!(switches.len(), 1, "{switches:?}");
+    assert!(
+        switches[0].1.starts_with("stereo_imu -> mono_imu(cam0)"),
+        "{switches:?}"
+    );
+}

@@ -209,6 +209,10 @@ impl Estimator {
     /// Re-evaluates which sensors deliver at time `now_ns` (a sensor silent for longer than
     /// `sensor_timeout_s` is out) and reports a switch when that changed.
     pub(super) fn monitor_sensors(&mut self, now_ns: i64) {
+        // A monotonic clock: a frame pushed at IMU time `t + td` may lie before the newest IMU
+        // sample (`td < 0`), and judging at that earlier time would call a silent camera back.
+        let now_ns = self.monitor_t.map_or(now_ns, |t| t.max(now_ns));
+        self.monitor_t = Some(now_ns);
         let timeout = (self.config.sensor_timeout_s * 1e9) as i64;
         let first = *self.first_t.get_or_insert(now_ns);
         let fresh = |t: Option<i64>| now_ns - t.unwrap_or(first) <= timeout;

@@ -180,6 +180,9 @@ pub struct Estimator {
     /// Time of the first measurement (a sensor that has not delivered yet is silent only
     /// `sensor_timeout_s` after it).
     first_t: Option<i64>,
+    /// The latest time the sensor monitor has judged at: its clock never runs backwards (a
+    /// frame's IMU time `t + td` can fall before the newest IMU sample when `td < 0`).
+    monitor_t: Option<i64>,
     /// Which sensors deliver now (cameras 0 and 1, IMU); the live suite is made of them.
     live_cameras: [bool; 2],
     live_imu: bool,
@@ -265,6 +268,7 @@ impl Estimator {
             last_features_t: [None; 2],
             last_imu_t: None,
             first_t: None,
+            monitor_t: None,
             live_cameras: [true, n_cameras > 1],
             live_imu,
             frozen: frozen::FrozenMonitor::default(),
