@@ -9,7 +9,11 @@ use common::run_catalog;
 /// The scenario's expectations all hold, and its suite switches are exactly `switches`
 /// (`"from -> to"` at the given times, seconds, ±0.1 s).
 fn assert_fault_scenario(name: &str, switches: &[(f64, &str)]) {
-    let d = run_catalog(name, None);
+    assert_fault_run(name, &run_catalog(name, None), switches);
+}
+
+/// [`assert_fault_scenario`] on a finished run `d` of scenario `name`.
+fn assert_fault_run(name: &str, d: &common::Done, switches: &[(f64, &str)]) {
     let r = &d.report;
     let failed: Vec<_> = r.expectations.iter().filter(|e| !e.passed).collect();
     assert!(failed.is_empty(), "{name}: failed expectations {failed:?}");
@@ -34,6 +38,17 @@ fn assert_fault_scenario(name: &str, switches: &[(f64, &str)]) {
         r.events.iter().all(|e| e.kind != "prior_dropped"),
         "{name}: the prior was dropped"
     );
+}
+
+/// Catalog scenario `name` with `[estimator]` settings appended, run at its full length.
+fn run_catalog_with(name: &str, settings: &str) -> common::Done {
+    let text = format!(
+        "{}\n[estimator]\n{settings}\n",
+        scenarios::catalog::get(name).unwrap().text
+    );
+    let scenario =
+        scenarios::spec::Scenario::parse(name, scenarios::spec::Origin::Catalog, &text).unwrap();
+    common::run_scenario(scenario, None)
 }
 
 #[test]
@@ -263,18 +278,16 @@ fn assert_plausible_biases(d: &common::Done) {
     }
 }
 
-/// `room_replay_v1_01_mono_imu` with `[estimator]` settings appended.
-fn v1_01_mono_with(settings: &str) -> common::Done {
-    let text = format!(
-        "{}\n[estimator]\n{settings}\n",
-        scenarios::catalog::get("room_replay_v1_01_mono_imu")
-            .unwrap()
-            .text
+/// No reset, the window started after the wrong 4.45 s initialization (at 4.85 s), and every
+/// frame reported as tracking has a plausible accelerometer bias.
+fn assert_started_after_the_wrong_initialization(d: &common::Done) {
+    assert_eq!(d.report.resets, 0);
+    let started = initialized_at(d);
+    assert!(
+        started.is_some_and(|t| t > 4.5),
+        "initialized at {started:?}"
     );
-    let scenario =
-        scenarios::spec::Scenario::parse("v1_01_mono", scenarios::spec::Origin::Catalog, &text)
-            .unwrap();
-    common::run_scenario(scenario, None)
+    assert_plausible_biases(d);
 }
 
 /// The time of the first `Initializing -> Tracking` event.
@@ -299,13 +312,7 @@ fn a_take_off_from_rest_initializes_once_the_motion_determines_it() {
     let r = &d.report;
     let failed: Vec<_> = r.expectations.iter().filter(|e| !e.passed).collect();
     assert!(failed.is_empty(), "failed expectations {failed:?}");
-    assert_eq!(r.resets, 0);
-    let started = initialized_at(&d);
-    assert!(
-        started.is_some_and(|t| t > 4.5),
-        "initialized at {started:?}"
-    );
-    assert_plausible_biases(&d);
+    assert_started_after_the_wrong_initialization(&d);
 }
 
 /// With the scale gate relaxed to 10 %, the wrong 4.45 s initialization passes it; the
@@ -313,14 +320,11 @@ fn a_take_off_from_rest_initializes_once_the_motion_determines_it() {
 /// starts at 4.85 s as with the default gate, with no reset.
 #[test]
 fn an_inconsistent_mono_alignment_is_refused() {
-    let d = v1_01_mono_with("mono_init_max_scale_sigma = 0.1");
-    assert_eq!(d.report.resets, 0);
-    let started = initialized_at(&d);
-    assert!(
-        started.is_some_and(|t| t > 4.5),
-        "initialized at {started:?}"
+    let d = run_catalog_with(
+        "room_replay_v1_01_mono_imu",
+        "mono_init_max_scale_sigma = 0.1",
     );
-    assert_plausible_biases(&d);
+    assert_started_after_the_wrong_initialization(&d);
 }
 
 /// With both gates off the wrong initialization starts the window, and its first solve is
@@ -329,7 +333,10 @@ fn an_inconsistent_mono_alignment_is_refused() {
 /// 7.75 s, ATE 0.0076 m over 20 s) instead of restarting from that state.
 #[test]
 fn a_wrong_initialization_fails_its_first_health_check() {
-    let d = v1_01_mono_with("mono_init_max_scale_sigma = 0.1\nmono_init_max_chi2_per_dof = inf");
+    let d = run_catalog_with(
+        "room_replay_v1_01_mono_imu",
+        "mono_init_max_scale_sigma = 0.1\nmono_init_max_chi2_per_dof = inf",
+    );
     let resets: Vec<_> = d
         .report
         .events
@@ -349,29 +356,11 @@ fn a_wrong_initialization_fails_its_first_health_check() {
 /// With the time offset estimated, a frame's IMU time `t + td` can fall before the newest IMU
 /// sample (`td` slightly negative): the sensor monitor judged at that earlier time and called
 /// the dead camera back, three switches within 10 ms (silent, back, silent at 20.45 / 20.45 /
-/// 20.46 s). Its clock never runs backwards now: one switch, as with `td` fixed.
+/// 20.46 s). Its clock never runs backwards now: one switch, as with `td` fixed, and the
+/// scenario's expectations hold.
 #[test]
 fn a_dead_camera_stays_dead_with_the_time_offset_estimated() {
-    let text = format!(
-        "{}\n[estimator]\nestimate_td = true\n",
-        scenarios::catalog::get("room_figure8_right_camera_death_stereo_imu")
-            .unwrap()
-            .text
-    );
-    let scenario =
-        scenarios::spec::Scenario::parse("td_death", scenarios::spec::Origin::Catalog, &text)
-            .unwrap();
-    let d = common::run_scenario(scenario, None);
-    let switches: Vec<_> = d
-        .report
-        .events
-        .iter()
-        .filter(|e| e.kind == "suite_switch")
-        .map(|e| (e.t_s, e.detail.as_str()))
-        .collect();
-    assert_eq!(switches.len(), 1, "{switches:?}");
-    assert!(
-        switches[0].1.starts_with("stereo_imu -> mono_imu(cam0)"),
-        "{switches:?}"
-    );
+    let name = "room_figure8_right_camera_death_stereo_imu";
+    let d = run_catalog_with(name, "estimate_td = true");
+    assert_fault_run(name, &d, &[(20.46, "stereo_imu -> mono_imu(cam0)")]);
 }
