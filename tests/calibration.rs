@@ -80,7 +80,7 @@ fn extrinsics_are_estimated_where_the_motion_determines_them() {
         .text
         .replace(
             "[expectations]",
-            "[estimator]\nestimate_extrinsics = true\n\n[expectations]",
+            "[estimator]\nestimate_extrinsics = true\nestimate_td = false\n\n[expectations]",
         );
     let scenario = Scenario::parse("extrinsics", Origin::Catalog, &text).unwrap();
     let done = run_scenario(scenario, Some(20.0));

@@ -17,10 +17,11 @@ fn rest_is_detected_from_the_imu_and_the_images_and_never_while_moving() {
     assert!(rest.frames_detected >= 76, "{rest:?}");
     assert_eq!(rest.false_detections, 0, "{rest:?}");
     assert_eq!(rest.rests.len(), 1);
-    // The causal estimate moved 5.7 mm between the first and last frame at rest (seeds 2, 3:
-    // 6.1, 4.2 mm; without zero-velocity factors 5.7 mm as well: vision holds the position at
-    // rest, the factors add the zero velocity and the gyroscope bias). Bound: measured + 40 %.
-    assert!(rest.max_drift_m.unwrap() < 0.008, "{rest:?}");
+    // The causal estimate moved 8.2 mm between the first and last frame at rest (seeds 2, 3:
+    // 8.3, 6.3 mm; with the time offset held at 0: 6.8, 14.4, 4.4 mm). Vision holds the
+    // position at rest, the factors add the zero velocity and the gyroscope bias. Bound:
+    // measured + 40 %.
+    assert!(rest.max_drift_m.unwrap() < 0.0115, "{rest:?}");
     assert!(done.report.ate_rmse_m.unwrap() < 0.0095); // measured 0.0068
 }
 

@@ -43,6 +43,7 @@ const ENTRIES: &[Entry] = &[
     entry!("room_figure8_imu_dropout_stereo_imu"),
     entry!("room_figure8_frame_drops_stereo_imu"),
     entry!("room_figure8_time_offset_stereo_imu"),
+    entry!("room_replay_v1_01_time_offset_stereo_imu"),
     entry!("room_fast_rotation_imu_saturation_stereo_imu"),
     entry!("room_figure8_stops_stereo_imu"),
     entry!("room_figure8_calibration_stereo_imu"),

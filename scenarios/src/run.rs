@@ -497,8 +497,8 @@ impl Recorder {
             };
             // An estimate often leaves the estimator in a later call than its frame entered
             // (the frame waits for the IMU that covers it): its front-end and render times are
-            // those recorded when its frame was pushed (camera stamp = estimate − td).
-            let camera_t = e.t_ns - (e.td_s * 1e9).round() as i64;
+            // those recorded when its frame was pushed.
+            let camera_t = e.stamp_ns;
             let (mut frame_frontend_s, mut frame_render_s) = (0.0, render_s);
             while let Some(&(t, f, r)) = self.pending.front() {
                 if t > camera_t {

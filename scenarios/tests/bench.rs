@@ -14,8 +14,9 @@ fn one_benchmark_row_has_every_stage() {
         String::from_utf8_lossy(&out.stderr)
     );
     let row: scenarios::bench::BenchRow = serde_json::from_slice(&out.stdout).unwrap();
-    // 8 s at 20 Hz, both ends included.
-    assert_eq!(row.frames, 161);
+    // 8 s at 20 Hz, both ends included; with the time offset estimated the last frame's IMU
+    // time `t + td` may fall after the last IMU sample, and it then waits for IMU past the end.
+    assert!((160..=161).contains(&row.frames), "{} frames", row.frames);
     assert!(row.render_ms.is_none());
     assert!(row.backend_ms.median > 0.0 && row.backend_ms.median <= row.backend_ms.p99);
     assert!(row.solve_ms.median <= row.backend_ms.max);

@@ -72,15 +72,20 @@ fn calibration_errors_are_reported_against_the_truth() {
         .unwrap()
         .text
         .replace("time_offset_s = 0.0", "time_offset_s = 0.01")
+        // Held at 0: the report's errors are then known exactly.
+        .replace(
+            "[expectations]",
+            "[estimator]\nestimate_td = false\n\n[expectations]",
+        )
         .replace(
             "pixel_sigma_px = 1.0",
             "pixel_sigma_px = 1.0\ncalibration_error = { rotation_deg = [1.2, -1.2, 1.0], translation_m = [0.012, -0.012, 0.01] }",
         );
     let scenario = Scenario::parse("calibration", scenarios::spec::Origin::Catalog, &text).unwrap();
-    let (td, truth) = scenario.calibration_truth().unwrap();
-    assert_eq!(td, 0.01);
+    let truth = scenario.calibration_truth().unwrap();
+    assert_eq!(truth.td_s, 0.01);
     let est = scenario.estimator_config().unwrap();
-    let angle = (truth[0].q.inverse() * est.cameras[0].T_b_c.q)
+    let angle = (truth.T_b_c[0].q.inverse() * est.cameras[0].T_b_c.q)
         .angle()
         .to_degrees();
     assert!((angle - 1.9698).abs() < 1e-3, "{angle}");
@@ -102,6 +107,21 @@ fn calibration_errors_are_reported_against_the_truth() {
     assert_eq!(c.history.len(), 3, "one sample per second");
     assert!(report::summary(&rep, None).contains("calibration   final td error -10.000 ms"));
 
-    let plain = Scenario::load(scenarios::catalog::DEFAULT).unwrap();
+    // Stereo only: no IMU, so no time offset is estimated, and nothing else is studied.
+    let plain = Scenario::load("room_figure8_stereo").unwrap();
     assert!(plain.calibration_truth().is_none());
+    // The default estimates the offset; a `camera_time_offset` fault steps its truth.
+    let default = Scenario::load(scenarios::catalog::DEFAULT).unwrap();
+    assert_eq!(default.calibration_truth().unwrap().td_at(0), 0.0);
+    let text = scenarios::catalog::get(scenarios::catalog::DEFAULT)
+        .unwrap()
+        .text
+        .replace(
+            "[rig]",
+            "[[faults]]\nkind = \"camera_time_offset\"\nat_s = 10.0\ntd_s = 0.015\n\n[rig]",
+        );
+    let stepped = Scenario::parse("stepped", scenarios::spec::Origin::Catalog, &text).unwrap();
+    let truth = stepped.calibration_truth().unwrap();
+    assert_eq!(truth.td_at(9_999_999_999), 0.0);
+    assert_eq!(truth.td_at(10_000_000_000), 0.015);
 }

@@ -36,6 +36,13 @@ pub struct HealthLimits {
     pub imu_chi2_z: f64,
     /// Consecutive solves that must fail the IMU χ² test before the window is reset.
     pub imu_chi2_solves: usize,
+    /// Largest distance (s) of the estimated camera–IMU time offset from the configured
+    /// `td_s`. Real offsets are a few ms (hardware-synchronized rigs) to a few tens of ms (USB
+    /// cameras), and one far off means the offset is absorbing a failure: a diverging window
+    /// (1 cm stereo baseline, default motion, seed 1) drove it from 0 to 101 ms within 0.6 s of
+    /// its release, and kept its IMU χ² under the threshold while doing so. A rig with a larger
+    /// offset sets `td_s` near it.
+    pub max_time_offset_deviation_s: f64,
 }
 
 /// The window's IMU factors at the solution: `Σ ‖r‖²` and their degrees of freedom.
@@ -79,6 +86,7 @@ impl Default for HealthLimits {
             max_rotation_jump_deg: 50.0,
             imu_chi2_z: 4.75,
             imu_chi2_solves: 3,
+            max_time_offset_deviation_s: 0.05,
         }
     }
 }
@@ -96,6 +104,8 @@ pub enum FailureReason {
     Jump(f64),
     /// The solved attitude turned this far (deg) from the prediction.
     RotationJump(f64),
+    /// The estimated time offset is this far (s) from the configured one.
+    TimeOffset(f64),
     /// The window's IMU factors fail their χ² test.
     ImuInconsistent {
         /// `Σ ‖r‖²`.
@@ -113,6 +123,9 @@ impl fmt::Display for FailureReason {
             Self::GyroBias(n) => write!(f, "gyroscope bias {n:.2} rad/s"),
             Self::Jump(d) => write!(f, "position jump {d:.2} m against the prediction"),
             Self::RotationJump(a) => write!(f, "rotation jump {a:.1}° against the prediction"),
+            Self::TimeOffset(d) => {
+                write!(f, "time offset {:.1} ms from the configured one", d * 1e3)
+            }
             Self::ImuInconsistent { chi2, threshold } => write!(
                 f,
                 "IMU factors inconsistent: χ² {chi2:.0} above {threshold:.0}"
@@ -121,15 +134,16 @@ impl fmt::Display for FailureReason {
     }
 }
 
-/// Checks a solved window: every state finite, then the newest frame's biases and the IMU
-/// factors' χ² (when `imu` is given), and the newest frame's distance and angle from
-/// `predicted`, its pose before the solve.
+/// Checks a solved window: every state finite, then the newest frame's biases, the time
+/// offset's distance from `td_configured_s` and the IMU factors' χ² (when `imu` is given), and
+/// the newest frame's distance and angle from `predicted`, its pose before the solve.
 pub(super) fn check_window(
     window: &Window,
     summary: &SolverSummary,
     predicted: &Pose,
     imu: Option<ImuChi2>,
     limits: &HealthLimits,
+    td_configured_s: f64,
 ) -> Option<FailureReason> {
     let finite = |f: &WindowFrame| {
         f.pose.p.iter().all(|v| v.is_finite())
@@ -140,13 +154,20 @@ pub(super) fn check_window(
                 .chain(f.bg.iter())
                 .all(|v| v.is_finite())
     };
-    if !summary.final_cost.is_finite() || !window.frames.iter().all(finite) {
+    if !summary.final_cost.is_finite()
+        || !window.frames.iter().all(finite)
+        || !window.td.is_finite()
+    {
         return Some(FailureReason::NonFinite);
     }
     let newest = window.frames.back()?;
     if let Some(chi) = imu {
         if let Some(failure) = limits.bias_failure(&newest.ba, &newest.bg) {
             return Some(failure);
+        }
+        let td_deviation = (window.td - td_configured_s).abs();
+        if td_deviation > limits.max_time_offset_deviation_s {
+            return Some(FailureReason::TimeOffset(td_deviation));
         }
         let threshold = chi2_quantile(chi.dof, limits.imu_chi2_z);
         // A NaN χ² fails too.
@@ -193,7 +214,14 @@ impl Estimator {
         imu_active: bool,
     ) -> Option<FailureReason> {
         let chi2 = imu_active.then(|| imu_chi2(built));
-        let failure = check_window(&self.window, summary, predicted, chi2, &self.config.health);
+        let failure = check_window(
+            &self.window,
+            summary,
+            predicted,
+            chi2,
+            &self.config.health,
+            self.config.td_s,
+        );
         match failure {
             Some(FailureReason::ImuInconsistent { .. }) => {
                 self.imu_chi2_failures += 1;
@@ -285,16 +313,22 @@ impl Estimator {
             t_ns,
             kind: EventKind::Reset { reason },
         });
-        // Estimated extrinsics return to their configured values: a failure may come from them.
+        // Estimated extrinsics and time offset return to their configured values: a failure
+        // may come from them.
         let extrinsics = if self.config.estimate_extrinsics {
             self.config.cameras.iter().map(|c| c.T_b_c).collect()
         } else {
             self.window.extrinsics.clone()
         };
+        let td = if self.config.estimate_td {
+            self.config.td_s
+        } else {
+            self.window.td
+        };
         // The aiding buffers and the GNSS alignment with its initialization prior survive (the
         // world frame is kept); what the window had learnt about the alignment is lost.
         let aiding = std::mem::take(&mut self.window.aiding);
-        self.window = Window::new(extrinsics, self.window.td);
+        self.window = Window::new(extrinsics, td);
         self.window.aiding = aiding;
         self.tracking_since = None;
         self.known_start = None;
@@ -370,7 +404,7 @@ mod tests {
             dof: 150,
         });
         let check = |f: WindowFrame, cost: f64| {
-            check_window(&window_with(f), &summary(cost), &at, quiet, &limits)
+            check_window(&window_with(f), &summary(cost), &at, quiet, &limits, 0.0)
         };
         let z = Vector3::zeros();
         assert_eq!(check(frame(z, 0.0, 2.4, 0.9), 1.0), None);
@@ -403,7 +437,30 @@ mod tests {
         // Vision only: the biases are not judged.
         let f = frame(z, 0.0, 9.0, 9.0);
         assert_eq!(
-            check_window(&window_with(f), &summary(1.0), &at, None, &limits),
+            check_window(&window_with(f), &summary(1.0), &at, None, &limits, 0.0),
+            None
+        );
+        // The time offset, against the configured 20 ms: 50 ms either side passes.
+        let with_td = |td: f64| {
+            let mut w = window_with(frame(z, 0.0, 0.0, 0.0));
+            w.td = td;
+            check_window(&w, &summary(1.0), &at, quiet, &limits, 0.02)
+        };
+        assert_eq!(with_td(0.069), None);
+        assert_eq!(with_td(-0.029), None);
+        assert!(
+            matches!(with_td(0.071), Some(FailureReason::TimeOffset(d)) if (d - 0.051).abs() < 1e-12)
+        );
+        assert!(matches!(
+            with_td(-0.031),
+            Some(FailureReason::TimeOffset(_))
+        ));
+        assert_eq!(with_td(f64::NAN), Some(FailureReason::NonFinite));
+        // Vision only: the offset is not a variable and is not judged.
+        let mut w = window_with(frame(z, 0.0, 0.0, 0.0));
+        w.td = 0.5;
+        assert_eq!(
+            check_window(&w, &summary(1.0), &at, None, &limits, 0.0),
             None
         );
         // The IMU χ² test: 150 degrees of freedom at 4.75 σ → 247.3.
@@ -417,12 +474,20 @@ mod tests {
                 &summary(1.0),
                 &at,
                 chi(246.0),
-                &limits
+                &limits,
+                0.0
             ),
             None
         );
         assert!(matches!(
-            check_window(&window_with(f), &summary(1.0), &at, chi(248.0), &limits),
+            check_window(
+                &window_with(f),
+                &summary(1.0),
+                &at,
+                chi(248.0),
+                &limits,
+                0.0
+            ),
             Some(FailureReason::ImuInconsistent { .. })
         ));
     }

@@ -85,6 +85,9 @@ impl Status {
 pub struct Estimate {
     /// Frame time in the IMU clock (camera stamp + td), ns.
     pub t_ns: i64,
+    /// The frame's camera stamp (`FeatureFrame::t_ns`), ns: the same in every run of one
+    /// sequence, whatever `td` each estimates.
+    pub stamp_ns: i64,
     /// Body pose in the world frame.
     pub T_w_b: Pose,
     /// Velocity in the world frame (m/s).
@@ -403,7 +406,10 @@ impl Estimator {
     fn drain_pending(&mut self) -> Result<Vec<Estimate>, EstimatorError> {
         let mut out = Vec::new();
         while let Some(f) = self.pending.front() {
-            let t = f.t_ns + self.td_ns();
+            // A frame's IMU time follows the previous frame's even when the offset estimate
+            // fell by more than a frame period since (a reset returns it to `td_s`).
+            let after_previous = self.last_frame_t.map_or(i64::MIN, |t| t + 1);
+            let t = (f.t_ns + self.td_ns()).max(after_previous);
             if self.config.suite.uses_imu() {
                 // A frame waits for the IMU samples that cover it, unless the IMU has been
                 // silent for longer than the sensor timeout (newer frames prove time went on):
@@ -429,6 +435,7 @@ impl Estimator {
 
     fn process(&mut self, frame: FeatureFrame, t_ns: i64) -> Estimate {
         let start = Instant::now();
+        let stamp_ns = frame.t_ns;
         let seq = self.next_seq;
         self.next_seq += 1;
         let uses_imu = self.config.suite.uses_imu();
@@ -570,7 +577,7 @@ impl Estimator {
                 self.window.remove_oldest(false, &self.config);
             }
             let newest = self.window.frames.back().expect("just pushed").clone();
-            return self.estimate(&newest, keyframe, start, None);
+            return self.estimate(&newest, stamp_ns, keyframe, start, None);
         }
         let imu_active = uses_imu && self.status == Status::Tracking;
         if imu_active
@@ -629,7 +636,7 @@ impl Estimator {
             && let Some(reason) = failure
         {
             self.reset(t_ns, reason);
-            return self.estimate(&predicted, keyframe, start, None);
+            return self.estimate(&predicted, stamp_ns, keyframe, start, None);
         }
         self.release_calibration(t_ns, &built, linearization.as_ref(), imu_active);
         let (covariance, relative_pose) = match &linearization {
@@ -673,7 +680,7 @@ impl Estimator {
             covariance,
             relative_pose,
         };
-        self.estimate(&newest, keyframe, start, Some(solved))
+        self.estimate(&newest, stamp_ns, keyframe, start, Some(solved))
     }
 
     /// The camera a monocular initialization uses: the mono+IMU suite's camera, or the one
@@ -690,11 +697,12 @@ impl Estimator {
         }
     }
 
-    /// The estimate of the newest frame after `process` (`solved`: what the window solve and
-    /// marginalization produced, `None` when nothing was solved).
+    /// The estimate of the newest frame (camera stamp `stamp_ns`) after `process` (`solved`:
+    /// what the window solve and marginalization produced, `None` when nothing was solved).
     fn estimate(
         &self,
         newest: &WindowFrame,
+        stamp_ns: i64,
         keyframe: bool,
         start: Instant,
         solved: Option<Solved>,
@@ -702,6 +710,7 @@ impl Estimator {
         let newest_observations = solved.as_ref().map_or(0, |s| s.newest_observations);
         Estimate {
             t_ns: newest.t_ns,
+            stamp_ns,
             T_w_b: newest.pose,
             v_w: newest.v,
             ba: newest.ba,

@@ -7,6 +7,32 @@ use serde::Serialize;
 
 use crate::run::RunOutput;
 
+/// The true calibration a run is judged against.
+#[allow(non_snake_case)]
+#[derive(Clone, Debug, PartialEq)]
+pub struct CalibrationTruth {
+    /// The rig's camera-IMU time offset (s): a frame stamped `t` was taken at `t + td_s`.
+    pub td_s: f64,
+    /// The `camera_time_offset` faults: from this time (ns) on, frames are stamped this much
+    /// (s) earlier on top.
+    pub td_steps: Vec<(i64, f64)>,
+    /// Each used camera's true `T_b_c`.
+    pub T_b_c: Vec<Pose>,
+}
+
+impl CalibrationTruth {
+    /// The true time offset (s) of a frame taken at `t_ns`.
+    pub fn td_at(&self, t_ns: i64) -> f64 {
+        self.td_s
+            + self
+                .td_steps
+                .iter()
+                .filter(|(start_ns, _)| t_ns >= *start_ns)
+                .map(|(_, td)| td)
+                .sum::<f64>()
+    }
+}
+
 /// One camera's extrinsic error.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct ExtrinsicError {
@@ -32,7 +58,7 @@ pub struct CalibrationSample {
 /// `report.json` → `calibration`.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct CalibrationReport {
-    /// The true time offset (ms).
+    /// The true time offset at the last estimate (ms).
     pub td_true_ms: f64,
     /// Final estimated minus true time offset (ms).
     pub td_error_ms: f64,
@@ -49,22 +75,20 @@ fn extrinsic_error(est: &Pose, truth: &Pose) -> ExtrinsicError {
     }
 }
 
-/// The calibration report of `run` against `(td_s, T_b_c)`, the truth; `None` without
-/// estimates.
-pub fn calibration_report(truth: &(f64, Vec<Pose>), run: &RunOutput) -> Option<CalibrationReport> {
-    let (td_true, t_b_c) = truth;
+/// The calibration report of `run` against `truth`; `None` without estimates.
+pub fn calibration_report(truth: &CalibrationTruth, run: &RunOutput) -> Option<CalibrationReport> {
     let sample = |e: &estimator::estimator::Estimate| {
         let errors: Vec<ExtrinsicError> = e
             .T_b_c
             .iter()
-            .zip(t_b_c)
+            .zip(&truth.T_b_c)
             .map(|(est, tru)| extrinsic_error(est, tru))
             .collect();
         let max = |f: fn(&ExtrinsicError) -> f64| errors.iter().map(f).fold(0.0, f64::max);
         (
             CalibrationSample {
                 t_s: e.t_ns as f64 * 1e-9,
-                td_error_ms: (e.td_s - td_true) * 1e3,
+                td_error_ms: (e.td_s - truth.td_at(e.t_ns)) * 1e3,
                 rotation_error_deg: max(|x| x.rotation_error_deg),
                 translation_error_mm: max(|x| x.translation_error_mm),
             },
@@ -83,7 +107,7 @@ pub fn calibration_report(truth: &(f64, Vec<Pose>), run: &RunOutput) -> Option<C
         }
     }
     Some(CalibrationReport {
-        td_true_ms: td_true * 1e3,
+        td_true_ms: truth.td_at(last.estimate.t_ns) * 1e3,
         td_error_ms: end.td_error_ms,
         cameras,
         history,

@@ -59,7 +59,7 @@ mod calibration;
 mod gnss;
 mod rest;
 mod summary;
-pub use calibration::{CalibrationReport, CalibrationSample, ExtrinsicError};
+pub use calibration::{CalibrationReport, CalibrationSample, CalibrationTruth, ExtrinsicError};
 pub use gnss::{GnssReport, gnss_report};
 pub use rest::{RestInterval, RestReport, rest_report};
 pub use summary::summary;
@@ -81,9 +81,9 @@ pub struct RunContext {
     /// The recording's own clock: added to the estimate stamps (ns) for
     /// `estimate_source_time.tum`; `None`: that file is not written.
     pub source_time_offset_ns: Option<i64>,
-    /// The true calibration `(td_s, T_b_c per camera)` when the run studies it (the report
-    /// then has a `calibration` block).
-    pub calibration_truth: Option<(f64, Vec<Pose>)>,
+    /// The true calibration when the run studies it (the report then has a `calibration`
+    /// block).
+    pub calibration_truth: Option<CalibrationTruth>,
     /// A recorded dataset (`vio euroc`) rather than a simulation.
     pub recorded: bool,
     /// Whether the run's frames carry ground truth. Without it the report's error metrics are

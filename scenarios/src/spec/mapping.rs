@@ -22,6 +22,7 @@ use super::error::serde_name;
 use super::schema::*;
 use super::{Origin, Scenario, SpecError};
 use crate::catalog;
+use crate::report::CalibrationTruth;
 
 impl Scenario {
     /// The projection model of camera `i`.
@@ -622,12 +623,25 @@ impl Scenario {
 
     /// The true calibration the estimator may estimate, when the scenario studies it (a
     /// calibration error, a camera time offset, or online estimation switched on): the
-    /// camera-IMU time offset (s) and each used camera's `T_b_c`.
-    pub fn calibration_truth(&self) -> Option<(f64, Vec<Pose>)> {
+    /// camera-IMU time offset, with the steps of its `camera_time_offset` faults, and each used
+    /// camera's `T_b_c`.
+    pub fn calibration_truth(&self) -> Option<CalibrationTruth> {
         let s = &self.spec;
-        let studied = self.settings.estimate_td
+        let td_steps: Vec<(i64, f64)> = s
+            .faults
+            .iter()
+            .filter(|f| f.kind == FaultKind::CameraTimeOffset)
+            .map(|f| {
+                let at_s = f.at_s.unwrap_or(0.0);
+                ((at_s * 1e9).round() as i64, f.td_s.unwrap_or(0.0))
+            })
+            .collect();
+        // Without an IMU the offset is never a variable (vision alone cannot tell it).
+        let with_imu = s.suite.suite().uses_imu();
+        let studied = (self.settings.estimate_td && with_imu)
             || self.settings.estimate_extrinsics
             || s.rig.time_offset_s != 0.0
+            || !td_steps.is_empty()
             || s.rig.cameras.iter().any(|c| c.calibration_error.is_some());
         if !studied {
             return None;
@@ -637,7 +651,11 @@ impl Scenario {
             .map(|i| self.extrinsic(i))
             .collect::<Result<_, _>>()
             .ok()?;
-        Some((s.rig.time_offset_s, t_b_c))
+        Some(CalibrationTruth {
+            td_s: s.rig.time_offset_s,
+            td_steps,
+            T_b_c: t_b_c,
+        })
     }
 
     /// The estimator configuration: the `[estimator]` settings with the same camera models and
