@@ -17,33 +17,62 @@
 //! estimated from what the IMU says about that shift, as in filters that propagate the clone to
 //! `t + td` (Li & Mourikis 2014).
 
-use nalgebra::{Vector2, Vector3};
+use nalgebra::{Matrix3, Vector2, Vector3};
 
 use super::window::Window;
 use crate::geometry::Pose;
 
-/// The velocity (1/s) of world point `x_w` on the normalized image plane of the camera at
-/// `T_b_c` on a body at `T_w_b` moving with body-frame velocity `v_b` and angular rate `w_b`;
-/// `None` when the point is not in front of the camera.
-#[allow(non_snake_case)]
-fn image_velocity(
-    T_w_b: &Pose,
-    v_b: &Vector3<f64>,
-    w_b: &Vector3<f64>,
-    T_b_c: &Pose,
-    x_w: &Vector3<f64>,
-) -> Option<Vector2<f64>> {
-    let p_b = T_w_b.inverse().transform(x_w);
-    // The point moves in the body frame as ṗ_b = −ω × p_b − v_b.
-    let dp_b = -w_b.cross(&p_b) - v_b;
-    let p_c = T_b_c.inverse().transform(&p_b);
-    let dp_c = T_b_c.q.inverse() * dp_b;
-    (p_c.z > 1e-3).then(|| {
-        Vector2::new(
-            (dp_c.x - p_c.x / p_c.z * dp_c.z) / p_c.z,
-            (dp_c.y - p_c.y / p_c.z * dp_c.z) / p_c.z,
-        )
-    })
+/// A body's state at one window frame, in the form the image velocity needs: `R_b_w`,
+/// `p_w_b`, and its body-frame velocity and angular rate.
+struct BodyMotion {
+    r_bw: Matrix3<f64>,
+    p_wb: Vector3<f64>,
+    v_b: Vector3<f64>,
+    w_b: Vector3<f64>,
+}
+
+/// A camera on the body: `R_c_b` and `p_b_c`.
+struct CameraMount {
+    r_cb: Matrix3<f64>,
+    p_bc: Vector3<f64>,
+}
+
+impl CameraMount {
+    #[allow(non_snake_case)]
+    fn new(T_b_c: &Pose) -> Self {
+        Self {
+            r_cb: T_b_c.q.inverse().to_rotation_matrix().into_inner(),
+            p_bc: T_b_c.p,
+        }
+    }
+}
+
+impl BodyMotion {
+    #[allow(non_snake_case)]
+    fn new(T_w_b: &Pose, v_b: Vector3<f64>, w_b: Vector3<f64>) -> Self {
+        Self {
+            r_bw: T_w_b.q.inverse().to_rotation_matrix().into_inner(),
+            p_wb: T_w_b.p,
+            v_b,
+            w_b,
+        }
+    }
+
+    /// The velocity (1/s) of world point `x_w` on the normalized image plane of `camera`;
+    /// `None` when the point is not in front of it.
+    fn image_velocity(&self, camera: &CameraMount, x_w: &Vector3<f64>) -> Option<Vector2<f64>> {
+        let p_b = self.r_bw * (x_w - self.p_wb);
+        // The point moves in the body frame as ṗ_b = −ω × p_b − v_b.
+        let dp_b = -self.w_b.cross(&p_b) - self.v_b;
+        let p_c = camera.r_cb * (p_b - camera.p_bc);
+        let dp_c = camera.r_cb * dp_b;
+        (p_c.z > 1e-3).then(|| {
+            Vector2::new(
+                (dp_c.x - p_c.x / p_c.z * dp_c.z) / p_c.z,
+                (dp_c.y - p_c.y / p_c.z * dp_c.z) / p_c.z,
+            )
+        })
+    }
 }
 
 impl Window {
@@ -75,43 +104,39 @@ impl Window {
     /// the window's state predicts (see the module documentation). Measurements of tracks
     /// without a depth, or of frames without an IMU sample at their time, keep theirs.
     pub fn predict_image_velocities(&mut self) {
-        // (body velocity, body angular rate) of each window frame.
-        let motion: Vec<Option<(Vector3<f64>, Vector3<f64>)>> = (0..self.frames.len())
+        // The motion of each window frame (by sequence number), rotations as matrices: each
+        // is used for every measurement of that frame.
+        let motion: Vec<(u64, Option<BodyMotion>)> = (0..self.frames.len())
             .map(|i| {
                 let f = &self.frames[i];
                 let v_b = f.pose.q.inverse() * f.v;
-                self.angular_rate(i).map(|w| (v_b, w))
+                let body = self
+                    .angular_rate(i)
+                    .map(|w| BodyMotion::new(&f.pose, v_b, w));
+                (f.seq, body)
             })
             .collect();
-        let ids: Vec<u64> = self.features.tracks.keys().copied().collect();
-        for id in ids {
-            let Some(x_w) = self.track_world_point(id) else {
-                continue;
-            };
-            let mut updates = Vec::new();
-            let track = &self.features.tracks[&id];
-            for (k, o) in track.obs.iter().enumerate() {
-                let Some(idx) = self.frame_index(o.seq) else {
-                    continue;
-                };
-                let Some((v_b, w_b)) = motion[idx] else {
-                    continue;
-                };
-                let pose = &self.frames[idx].pose;
-                for (c, m) in o.meas.iter().enumerate() {
-                    if m.is_none() {
-                        continue;
-                    }
-                    let ex = &self.extrinsics[c];
-                    if let Some(velocity) = image_velocity(pose, &v_b, &w_b, ex, &x_w) {
-                        updates.push((k, c, velocity));
-                    }
-                }
-            }
+        let cameras: Vec<CameraMount> = self.extrinsics.iter().map(CameraMount::new).collect();
+        let points: Vec<(u64, Vector3<f64>)> = self
+            .features
+            .tracks
+            .keys()
+            .filter_map(|&id| Some((id, self.track_world_point(id)?)))
+            .collect();
+        for (id, x_w) in points {
             let track = self.features.tracks.get_mut(&id).expect("listed");
-            for (k, c, velocity) in updates {
-                if let Some(m) = track.obs[k].meas[c].as_mut() {
-                    m.velocity = velocity;
+            for o in &mut track.obs {
+                let Some(Some(body)) = motion.iter().find(|(seq, _)| *seq == o.seq).map(|m| &m.1)
+                else {
+                    continue;
+                };
+                for (m, camera) in o.meas.iter_mut().zip(&cameras) {
+                    let Some(m) = m.as_mut() else {
+                        continue;
+                    };
+                    if let Some(velocity) = body.image_velocity(camera, &x_w) {
+                        m.velocity = velocity;
+                    }
                 }
             }
         }
@@ -150,7 +175,10 @@ mod tests {
             Vector3::new(0.0, 0.0, 6.0),
         ] {
             let x_w = camera.transform(&p_c);
-            let predicted = image_velocity(&T_w_b, &v_b, &w_b, &T_b_c, &x_w).unwrap();
+            let body = BodyMotion::new(&T_w_b, v_b, w_b);
+            let predicted = body
+                .image_velocity(&CameraMount::new(&T_b_c), &x_w)
+                .unwrap();
             let h = 1e-6;
             let numeric = (project(h, &x_w) - project(-h, &x_w)) / (2.0 * h);
             assert!(
@@ -160,6 +188,10 @@ mod tests {
         }
         // Behind the camera: no velocity.
         let behind = camera.transform(&Vector3::new(0.0, 0.0, -1.0));
-        assert!(image_velocity(&T_w_b, &v_b, &w_b, &T_b_c, &behind).is_none());
+        let body = BodyMotion::new(&T_w_b, v_b, w_b);
+        assert!(
+            body.image_velocity(&CameraMount::new(&T_b_c), &behind)
+                .is_none()
+        );
     }
 }
