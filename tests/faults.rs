@@ -273,7 +273,7 @@ fn a_diverging_window_fails_the_imu_chi2_test() {
 /// The same divergence with the time offset estimated (the default): released at 3.50 s, the
 /// offset jumped to 113 ms in the next solve, where it absorbed what the χ² test caught above
 /// (without the health limit on it the run went on to 211 ms and 0.91 m ATE in 8.4 s, no
-/// reset). The limit (50 ms from the configured offset) resets the window at 3.55 s; measured
+/// reset). The limit (100 ms from the configured offset) resets the window at 3.55 s; measured
 /// ATE 0.268 m.
 #[test]
 fn a_time_offset_that_absorbs_a_divergence_fails_its_health_check() {

@@ -38,10 +38,11 @@ pub struct HealthLimits {
     pub imu_chi2_solves: usize,
     /// Largest distance (s) of the estimated camera–IMU time offset from the configured
     /// `td_s`. Real offsets are a few ms (hardware-synchronized rigs) to a few tens of ms (USB
-    /// cameras), and one far off means the offset is absorbing a failure: a diverging window
-    /// (1 cm stereo baseline, default motion, seed 1) drove it from 0 to 101 ms within 0.6 s of
-    /// its release, and kept its IMU χ² under the threshold while doing so. A rig with a larger
-    /// offset sets `td_s` near it.
+    /// cameras), and one far beyond means the offset is absorbing a failure: a diverging window
+    /// (1 cm stereo baseline, default motion, seed 1) moved it from 0 to 113 ms in the solve
+    /// after its release, and kept its IMU χ² under the threshold while doing so. A true offset
+    /// beyond the limit makes a reset loop (60 ms against 50: 578 resets on EuRoC V1_01), so
+    /// the limit stays well above real offsets, and a rig with a larger one sets `td_s` near it.
     pub max_time_offset_deviation_s: f64,
 }
 
@@ -86,7 +87,7 @@ impl Default for HealthLimits {
             max_rotation_jump_deg: 50.0,
             imu_chi2_z: 4.75,
             imu_chi2_solves: 3,
-            max_time_offset_deviation_s: 0.05,
+            max_time_offset_deviation_s: 0.1,
         }
     }
 }
@@ -440,19 +441,19 @@ mod tests {
             check_window(&window_with(f), &summary(1.0), &at, None, &limits, 0.0),
             None
         );
-        // The time offset, against the configured 20 ms: 50 ms either side passes.
+        // The time offset, against the configured 20 ms: 100 ms either side passes.
         let with_td = |td: f64| {
             let mut w = window_with(frame(z, 0.0, 0.0, 0.0));
             w.td = td;
             check_window(&w, &summary(1.0), &at, quiet, &limits, 0.02)
         };
-        assert_eq!(with_td(0.069), None);
-        assert_eq!(with_td(-0.029), None);
+        assert_eq!(with_td(0.119), None);
+        assert_eq!(with_td(-0.079), None);
         assert!(
-            matches!(with_td(0.071), Some(FailureReason::TimeOffset(d)) if (d - 0.051).abs() < 1e-12)
+            matches!(with_td(0.121), Some(FailureReason::TimeOffset(d)) if (d - 0.101).abs() < 1e-12)
         );
         assert!(matches!(
-            with_td(-0.031),
+            with_td(-0.081),
             Some(FailureReason::TimeOffset(_))
         ));
         assert_eq!(with_td(f64::NAN), Some(FailureReason::NonFinite));
