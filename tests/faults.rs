@@ -251,6 +251,11 @@ fn run_with_1cm_baseline(settings: &str) -> scenarios::report::Report {
     common::run_scenario(scenario, Some(20.0)).report
 }
 
+/// The `reset` events of a report, in time order.
+fn reset_events(r: &scenarios::report::Report) -> Vec<&scenarios::report::EventReport> {
+    r.events.iter().filter(|e| e.kind == "reset").collect()
+}
+
 /// A 1 cm stereo baseline gives the stereo-inertial initialization depths too poor to hold the
 /// scale: the window diverges (seed 1, 20 s: 8.86 m ATE, no alarm, before the IMU χ² test).
 /// With the time offset held, its IMU factors then fail their χ² test in consecutive solves and
@@ -259,7 +264,7 @@ fn run_with_1cm_baseline(settings: &str) -> scenarios::report::Report {
 #[test]
 fn a_diverging_window_fails_the_imu_chi2_test() {
     let r = run_with_1cm_baseline("estimate_td = false");
-    let resets: Vec<_> = r.events.iter().filter(|e| e.kind == "reset").collect();
+    let resets = reset_events(&r);
     assert!(
         resets
             .iter()
@@ -278,7 +283,7 @@ fn a_diverging_window_fails_the_imu_chi2_test() {
 #[test]
 fn a_time_offset_that_absorbs_a_divergence_fails_its_health_check() {
     let r = run_with_1cm_baseline("");
-    let resets: Vec<_> = r.events.iter().filter(|e| e.kind == "reset").collect();
+    let resets = reset_events(&r);
     assert!(
         resets
             .first()
@@ -363,12 +368,7 @@ fn a_wrong_initialization_fails_its_first_health_check() {
         "room_replay_v1_01_mono_imu",
         "mono_init_max_scale_sigma = 0.1\nmono_init_max_chi2_per_dof = inf",
     );
-    let resets: Vec<_> = d
-        .report
-        .events
-        .iter()
-        .filter(|e| e.kind == "reset")
-        .collect();
+    let resets = reset_events(&d.report);
     assert_eq!(resets.len(), 1, "{resets:?}");
     assert!(
         (resets[0].t_s - 4.45).abs() < 0.1 && resets[0].detail.contains("initializing again"),
