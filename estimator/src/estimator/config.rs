@@ -101,7 +101,7 @@ pub struct EstimatorConfig {
     /// the true value within 1.0 ms after 20 s. On by default: a real rig's camera and IMU
     /// clocks disagree by milliseconds, and an offset the window does not model breaks fast
     /// motions (EuRoC V1_01 with 10 ms: 23 IMU-χ² resets and 0.27 m held fixed, 0.0069 m
-    /// estimated). It costs about 0.3 ms per frame on the default motion.
+    /// estimated). It costs 0.15–0.4 ms per frame on the default motion (window bench).
     pub estimate_td: bool,
     /// Estimate the camera extrinsics online (with the IMU), held near the configured values by
     /// `extrinsic_prior_sigma_*` and, between cameras, `extrinsic_relative_prior_sigma_*`. The

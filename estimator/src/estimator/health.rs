@@ -315,21 +315,16 @@ impl Estimator {
             kind: EventKind::Reset { reason },
         });
         // Estimated extrinsics and time offset return to their configured values: a failure
-        // may come from them.
+        // may come from them. (A time offset that is not estimated stays at `td_s`.)
         let extrinsics = if self.config.estimate_extrinsics {
             self.config.cameras.iter().map(|c| c.T_b_c).collect()
         } else {
             self.window.extrinsics.clone()
         };
-        let td = if self.config.estimate_td {
-            self.config.td_s
-        } else {
-            self.window.td
-        };
         // The aiding buffers and the GNSS alignment with its initialization prior survive (the
         // world frame is kept); what the window had learnt about the alignment is lost.
         let aiding = std::mem::take(&mut self.window.aiding);
-        self.window = Window::new(extrinsics, td);
+        self.window = Window::new(extrinsics, self.config.td_s);
         self.window.aiding = aiding;
         self.tracking_since = None;
         self.known_start = None;

@@ -627,13 +627,11 @@ impl Scenario {
     /// camera's `T_b_c`.
     pub fn calibration_truth(&self) -> Option<CalibrationTruth> {
         let s = &self.spec;
-        let td_steps: Vec<(i64, f64)> = s
-            .faults
-            .iter()
-            .filter(|f| f.kind == FaultKind::CameraTimeOffset)
-            .map(|f| {
-                let at_s = f.at_s.unwrap_or(0.0);
-                ((at_s * 1e9).round() as i64, f.td_s.unwrap_or(0.0))
+        // The offset steps as the simulator applies them.
+        let td_steps: Vec<(i64, f64)> = (0..s.faults.len())
+            .filter_map(|i| match self.fault(i).ok()? {
+                Fault::CameraTimeOffset { start_ns, td_ns } => Some((start_ns, td_ns as f64 / 1e9)),
+                _ => None,
             })
             .collect();
         // Without an IMU the offset is never a variable (vision alone cannot tell it).

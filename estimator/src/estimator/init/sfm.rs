@@ -38,6 +38,12 @@ pub struct SfmSettings {
     pub td: f64,
 }
 
+/// The square-root information on the normalized plane of view `j` of track `i`: its entry
+/// in `weights`, or without per-view weights the on-axis `focal / pixel_sigma`.
+fn view_weight(weights: Option<&[Vec<f64>]>, settings: &SfmSettings, i: usize, j: usize) -> f64 {
+    weights.map_or(settings.focal / settings.pixel_sigma, |w| w[i][j])
+}
+
 /// What the SfM found: `T_w_c` of every frame, window order. The world is the camera of the
 /// reference frame (the one paired with the newest, its pose the identity), and the newest
 /// camera sits at unit distance from it.
@@ -197,7 +203,6 @@ fn pnp(
     guess: &Pose,
     settings: &SfmSettings,
 ) -> Option<Pose> {
-    let uniform = settings.focal / settings.pixel_sigma;
     // (point, normalized measurement, weight) of every landmark seen in frame `k`.
     let pairs: Vec<(Vector3<f64>, Vector2<f64>, f64)> = tracks
         .iter()
@@ -205,7 +210,7 @@ fn pnp(
         .enumerate()
         .filter_map(|(i, (t, p))| {
             let j = t.iter().position(|(f, _)| *f == k)?;
-            Some(((*p)?, t[j].1.point, weights.map_or(uniform, |w| w[i][j])))
+            Some(((*p)?, t[j].1.point, view_weight(weights, settings, i, j)))
         })
         .collect();
     if pairs.len() < MIN_PNP_POINTS {
@@ -308,7 +313,6 @@ fn bundle_adjust(
         .add_factor(Arc::new(gauge), None, &[ids[newest]])
         .ok()?;
     let loss: Arc<dyn LossFunction> = Arc::new(HuberLoss { delta: 1.5 });
-    let uniform = settings.focal / settings.pixel_sigma;
     let point_m = Arc::new(Euclidean::new(3));
     for (i, (t, p)) in tracks.iter().zip(points).enumerate() {
         let Some(p) = p else { continue };
@@ -324,7 +328,7 @@ fn bundle_adjust(
         for (j, &(k, m)) in t.iter().enumerate() {
             let f = PointProjection {
                 obs: m.point_at_td(settings.td),
-                weight: weights.map_or(uniform, |w| w[i][j]),
+                weight: view_weight(weights, settings, i, j),
             };
             problem
                 .add_factor(Arc::new(f), Some(loss.clone()), &[ids[k], lm])
