@@ -74,7 +74,7 @@ pub fn render_at(
     let live: Vec<usize> = (0..rig.cameras.len()).collect();
     let start = std::time::Instant::now();
     let frame = renderer
-        .render(t_ns, t_ns, (t_ns / rig.period_ns()) as u64, &poses, &live)
+        .render(t_ns, t_ns, rig.frame_at_or_before(t_ns), &poses, &live)
         .map_err(|e| RunError::sim(scenario, e))?;
     Ok(RenderedAt {
         frame,

@@ -79,10 +79,11 @@ pub fn render_tracks(
         message: e.to_string(),
     };
     let mut tracker = FeatureTracker::new(tracker_cfg, cameras).map_err(|e| frontend_err(&e))?;
-    let period = rig.period_ns();
     let at_ns = (at_s * 1e9).round() as i64;
     let from_ns = (at_ns - (HISTORY_S * 1e9).round() as i64).max(0);
-    let (first_k, last_k) = ((from_ns + period - 1) / period, at_ns / period);
+    // The frames captured in [from_ns, at_ns].
+    let first_k = rig.frame_at_or_before(from_ns - 1) + u64::from(from_ns > 0);
+    let last_k = rig.frame_at_or_before(at_ns);
     let offsets = renderer.exposure_offsets_ns();
     let live: Vec<usize> = (0..rig.cameras.len()).collect();
     let mut stream = world.stream();
@@ -91,7 +92,7 @@ pub fn render_tracks(
     let mut prev_q = None;
     let mut last: Option<ImageFrame> = None;
     for k in first_k..=last_k {
-        let t_cap = k * period;
+        let t_cap = rig.capture_ns(k);
         let mut truth = |t: i64| {
             stream
                 .truth(t.clamp(0, world.end_ns()))
@@ -105,7 +106,7 @@ pub fn render_tracks(
             .collect::<Result<Vec<_>, _>>()?;
         let start = Instant::now();
         let frame = renderer
-            .render(t_cap, t_cap - rig.td_ns, k as u64, &poses, &live)
+            .render(t_cap, t_cap - rig.td_ns, k, &poses, &live)
             .map_err(|e| RunError::sim(scenario, e))?;
         render_s += start.elapsed().as_secs_f64();
         let views = crate::frontend::image_views(&frame).map_err(|e| frontend_err(&e))?;
@@ -137,8 +138,8 @@ pub fn render_tracks(
         tracks,
         stereo_matches,
         frames: (last_k - first_k + 1) as usize,
-        first_ns: first_k * period,
-        last_ns: last_k * period,
+        first_ns: rig.capture_ns(first_k),
+        last_ns: rig.capture_ns(last_k),
         adapter: renderer.adapter().to_string(),
         render_s,
         track_s,

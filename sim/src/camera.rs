@@ -139,7 +139,9 @@ const CAMERA_BITS: u64 = 8;
 pub struct RigConfig {
     /// The cameras; index = `cam_id`.
     pub cameras: Vec<CameraConfig>,
-    /// Frame rate (Hz); `1e9 / rate_hz` must be a whole number of nanoseconds.
+    /// Frame rate (Hz). Frame `i` is captured at `i / rate_hz` rounded to the nanosecond
+    /// ([`RigConfig::capture_ns`]), so a rate whose period is not a whole number of nanoseconds
+    /// (30 Hz, 15 Hz) keeps its average rate; its periods differ by at most 1 ns.
     pub rate_hz: f64,
     /// Camera-IMU time offset (ns): frames captured at `t` are stamped `t − td_ns`.
     pub td_ns: i64,
@@ -188,9 +190,29 @@ impl RigConfig {
         Self::stereo_forward(model, 0.11)
     }
 
-    /// Frame period (ns).
+    /// Nominal frame period (ns, rounded): for magnitudes such as timestamp jitter; frame times
+    /// come from [`RigConfig::capture_ns`].
     pub fn period_ns(&self) -> i64 {
         (1e9 / self.rate_hz).round() as i64
+    }
+
+    /// True capture time of frame `i` (ns): `i · 10⁹ / rate_hz`, rounded. Exact multiples of
+    /// the period when it is a whole number of nanoseconds (the product and quotient are exact
+    /// in `f64` for any frame count below 2⁵³ / 10⁹, some 285 years at 1 kHz).
+    pub fn capture_ns(&self, i: u64) -> i64 {
+        (i as f64 * 1e9 / self.rate_hz).round() as i64
+    }
+
+    /// The index of the last frame captured at or before `t_ns` (0 for `t_ns` before frame 1).
+    pub fn frame_at_or_before(&self, t_ns: i64) -> u64 {
+        let mut k = (t_ns.max(0) as f64 * self.rate_hz / 1e9).floor() as u64;
+        while k > 0 && self.capture_ns(k) > t_ns {
+            k -= 1;
+        }
+        while self.capture_ns(k + 1) <= t_ns {
+            k += 1;
+        }
+        k
     }
 }
 
@@ -228,7 +250,6 @@ pub struct Projection {
 pub struct RigSim {
     cfg: RigConfig,
     scene: Arc<Scene>,
-    period_ns: i64,
     next_i: u32,
     cams: Vec<CamState>,
     /// Landmarks seeded by the cameras, with their seeder, in seeding order (internal index =
@@ -266,7 +287,6 @@ impl RigSim {
             })
             .collect();
         Self {
-            period_ns: cfg.period_ns(),
             cfg,
             scene,
             next_i: 0,
@@ -345,7 +365,7 @@ impl RigSim {
 
     /// True capture time of the next frame (ns).
     pub fn next_capture_ns(&self) -> i64 {
-        i64::from(self.next_i) * self.period_ns
+        self.cfg.capture_ns(u64::from(self.next_i))
     }
 
     /// Stamp of the next frame in the camera clock (ns).

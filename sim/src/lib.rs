@@ -176,8 +176,8 @@ impl World {
             return bad("physics_steps_per_imu must divide the IMU period in ns");
         }
         if let Some(rig) = &config.rig {
-            if !positive(rig.rate_hz) || (1e9 / rig.rate_hz - rig.period_ns() as f64).abs() > 1e-6 {
-                return bad("frame period must be a whole number of nanoseconds");
+            if !positive(rig.rate_hz) || rig.period_ns() < 1 {
+                return bad("frame rate must be positive and at most 1 GHz");
             }
             if rig.cameras.is_empty() {
                 return bad("a rig needs at least one camera");

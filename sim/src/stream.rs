@@ -242,11 +242,11 @@ impl Stream {
             }
             let period = rig.config().period_ns();
             let (t_cap, f) = rig.next_frame(&mut self.truth);
+            let frame_index = rig.config().frame_at_or_before(t_cap);
             let Some(frame) = self.faults.apply_frame(f, t_cap, period) else {
                 continue;
             };
             let images = self.worker.is_some().then(|| {
-                let frame_index = (t_cap / period) as u64;
                 let live: Vec<usize> = frame.cameras.iter().map(|c| c.cam_id).collect();
                 self.submit_render(t_cap, frame.t_ns, frame_index, live)
             });

@@ -402,7 +402,9 @@ pub enum TimeUnitSpec {
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RigSpec {
-    /// Frame rate (Hz).
+    /// Frame rate (Hz), up to the IMU's: frame `i` is captured at `i / rate_hz` rounded to the
+    /// nanosecond, so rates such as 30 Hz, whose period is not a whole number of nanoseconds,
+    /// keep their average rate.
     pub rate_hz: f64,
     /// Camera-IMU time offset (s): a frame taken at IMU time `t` is stamped `t − time_offset_s`.
     #[serde(default)]

@@ -247,7 +247,6 @@ impl Scenario {
             limits::MAX_CAMERA_RATE_HZ.min(imu.rate_hz),
             "a camera no faster than 1 kHz nor than the IMU",
         )?;
-        c.whole_ns_period("rig.rate_hz", rig.rate_hz)?;
         if let Some(g) = rig.gnss {
             c.within("rig.gnss.rate_hz", g.rate_hz, 0.01, 1000.0, "a receiver")?;
             c.whole_ns_period("rig.gnss.rate_hz", g.rate_hz)?;
