@@ -542,6 +542,11 @@ impl Estimator {
         }
         let mono_cam = self.mono_init_camera();
         let mono = mono_cam.is_some();
+        if !mono && !keyframe && self.window.frames.len() >= 3 && self.init_spacing_s().is_some() {
+            // A stereo window waiting for the alignment keeps only frames spread over
+            // `stereo_init_window_s`; the others leave before anything is solved.
+            self.window.remove_second_newest();
+        }
         // The prediction is comparable with the solution only if the world did not change
         // (initialization rotates and, for mono, rescales it).
         let was_tracking = self.status == Status::Tracking;

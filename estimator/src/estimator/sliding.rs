@@ -13,15 +13,11 @@ impl Estimator {
     /// initialization) time spacing.
     pub(super) fn second_newest_is_keyframe(&self, frame: &FeatureFrame, continued: usize) -> bool {
         let n = self.window.frames.len();
-        let mono_waiting = self.mono_init_camera().is_some();
-        if mono_waiting && n >= 3 {
-            // A monocular window waiting for initialization spreads its keyframes evenly over
-            // `mono_init_window_s`: the alignment needs the acceleration to change within the
-            // window, or a constant acceleration passes for a tilt of gravity and the scale is
-            // lost.
+        if let Some(spacing_s) = self.init_spacing_s().filter(|_| n >= 3) {
+            // A window waiting for the visual-inertial alignment spreads its frames evenly
+            // over a time span, not a frame count (see `init_spacing_s`).
             let (a, b) = (&self.window.frames[n - 3], &self.window.frames[n - 2]);
-            let spacing = self.config.mono_init_window_s / self.config.init_frames as f64;
-            (b.t_ns - a.t_ns) as f64 * 1e-9 >= spacing
+            (b.t_ns - a.t_ns) as f64 * 1e-9 >= spacing_s
         } else if n < 3 || continued < self.config.keyframe_min_tracked {
             true
         } else {
@@ -40,6 +36,27 @@ impl Estimator {
                 Some(p) => p * self.focal[0] >= self.config.keyframe_parallax_px,
                 None => true,
             }
+        }
+    }
+
+    /// While the window waits for the visual-inertial alignment, the least time (s) between
+    /// the frames it keeps. Monocular: `mono_init_window_s / init_frames` (the alignment needs
+    /// the acceleration to change within the window, or a constant acceleration passes for a
+    /// tilt of gravity and the scale is lost). Stereo: `stereo_init_window_s / init_frames`
+    /// (gravity from a short window's poses is noisy), where a rounding margin of 1 µs keeps
+    /// a rate whose period equals the spacing from dropping frames. `None` once initialized
+    /// and without an IMU.
+    pub(super) fn init_spacing_s(&self) -> Option<f64> {
+        let frames = self.config.init_frames as f64;
+        if self.mono_init_camera().is_some() {
+            Some(self.config.mono_init_window_s / frames)
+        } else if self.status == Status::Initializing
+            && self.config.suite.uses_imu()
+            && self.config.stereo_init_window_s > 0.0
+        {
+            Some(self.config.stereo_init_window_s / frames - 1e-6)
+        } else {
+            None
         }
     }
 
