@@ -85,9 +85,8 @@ fn a_30_hz_rig_captures_at_rounded_times_of_its_exact_rate() {
         ..WorldConfig::default()
     })
     .unwrap();
-    let mut s = world.stream();
     let mut stamps = Vec::new();
-    while let Some(m) = s.next() {
+    for m in world.stream() {
         if let Measurement::Frame(f) = m {
             stamps.push(f.t_ns);
         }
