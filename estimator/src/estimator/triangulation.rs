@@ -8,8 +8,8 @@ use crate::geometry::Pose;
 
 /// Triangulates tracks without depth from every camera view of the track in the window (DLT),
 /// keeping those whose depth along the anchor camera's ray is in range and that reproject onto
-/// all their observations within 5× `outlier_reprojection_px`. `focal`: effective focal length
-/// of each camera (px).
+/// every observation within 5× `outlier_reprojection_sigma` pixel σ of its camera. `focal`:
+/// effective focal length of each camera (px).
 pub(super) fn triangulate_tracks(window: &mut Window, config: &EstimatorConfig, focal: &[f64]) {
     let ids: Vec<u64> = window
         .features
@@ -21,6 +21,8 @@ pub(super) fn triangulate_tracks(window: &mut Window, config: &EstimatorConfig, 
     for id in ids {
         let track = &window.features.tracks[&id];
         let mut views: Vec<(Pose, Vector2<f64>)> = Vec::new();
+        // Each view's largest reprojection error in normalized coordinates.
+        let mut limits: Vec<f64> = Vec::new();
         let anchor = &track.obs[0];
         let Some(ai) = window.frame_index(anchor.seq) else {
             continue;
@@ -33,6 +35,7 @@ pub(super) fn triangulate_tracks(window: &mut Window, config: &EstimatorConfig, 
             for cam in 0..2 {
                 if let Some(m) = o.meas[cam] {
                     views.push((window.camera_pose(fi, cam), m.point));
+                    limits.push(outlier_limit_px(config, cam) * 5.0 / focal[cam]);
                 }
             }
         }
@@ -47,11 +50,9 @@ pub(super) fn triangulate_tracks(window: &mut Window, config: &EstimatorConfig, 
             continue;
         }
         // Reject triangulations that do not reproject onto their observations.
-        let ok = views.iter().all(|(t_w_c, z)| {
+        let ok = views.iter().zip(&limits).all(|((t_w_c, z), limit)| {
             let q = t_w_c.inverse().transform(&p_w);
-            q.z > 0.0
-                && (Vector2::new(q.x / q.z, q.y / q.z) - z).norm() * focal[0]
-                    < 5.0 * config.outlier_reprojection_px
+            q.z > 0.0 && (Vector2::new(q.x / q.z, q.y / q.z) - z).norm() < *limit
         });
         if ok {
             window
@@ -64,8 +65,15 @@ pub(super) fn triangulate_tracks(window: &mut Window, config: &EstimatorConfig, 
     }
 }
 
-/// Drops tracks whose mean reprojection error (distorted pixels, both cameras) exceeds
-/// `outlier_reprojection_px`.
+/// The outlier test's reprojection error of camera `cam` (px): `outlier_reprojection_sigma`
+/// of its pixel σ.
+fn outlier_limit_px(config: &EstimatorConfig, cam: usize) -> f64 {
+    config.outlier_reprojection_sigma * config.cameras[cam].pixel_sigma
+}
+
+/// Drops tracks whose mean reprojection error (distorted pixels, both cameras, each in units
+/// of its camera's outlier limit) exceeds 1: a track seen by cameras of one noise level is
+/// dropped past `outlier_reprojection_sigma` of their pixel σ.
 pub(super) fn reject_outliers(window: &mut Window, config: &EstimatorConfig) {
     let mut bad = Vec::new();
     // `T_c_w` of both cameras of every window frame, by frame sequence number.
@@ -90,14 +98,15 @@ pub(super) fn reject_outliers(window: &mut Window, config: &EstimatorConfig) {
                     continue;
                 };
                 let p_c = pose.transform(&p_w);
+                let limit = outlier_limit_px(config, cam);
                 match config.cameras[cam].model.project(&p_c) {
-                    Some(px) if p_c.z > 0.0 => sum += (px - uv).norm(),
+                    Some(px) if p_c.z > 0.0 => sum += (px - uv).norm() / limit,
                     _ => sum += 1e3,
                 }
                 n += 1;
             }
         }
-        if n > 0 && sum / n as f64 > config.outlier_reprojection_px {
+        if n > 0 && sum / n as f64 > 1.0 {
             bad.push(*id);
         }
     }
