@@ -8,6 +8,7 @@
 mod common;
 
 use common::{run_catalog, run_scenario};
+use scenarios::report::Report;
 use scenarios::spec::{Origin, Scenario};
 
 /// Shortened duration of the default test run (s).
@@ -35,6 +36,22 @@ fn assert_run_converges(name: &str, duration_s: Option<f64>, want: Converges) {
     let max = want.max_ate_m;
     assert!(ate < max, "{name}: ATE {ate:.4} m ≥ {max} m");
     assert_eq!(r.resets, 0);
+}
+
+/// Runs catalog scenario `name`, its text changed by `edit`, for `duration_s`.
+fn run_edited(name: &str, duration_s: f64, edit: impl FnOnce(&str) -> String) -> common::Done {
+    let text = edit(scenarios::catalog::get(name).unwrap().text);
+    let scenario = Scenario::parse(name, Origin::Catalog, &text).unwrap();
+    run_scenario(scenario, Some(duration_s))
+}
+
+/// The times (s) at which a run's status turned to tracking.
+fn tracking_starts(r: &Report) -> Vec<f64> {
+    r.events
+        .iter()
+        .filter(|e| e.kind == "status_change" && e.detail.ends_with("Tracking"))
+        .map(|e| e.t_s)
+        .collect()
 }
 
 /// Asserts the position ATE of a shortened stereo+IMU run and that it tracked almost throughout.
@@ -94,22 +111,14 @@ fn mono_imu_initializes_and_converges_on_room_figure8() {
 /// 81.8 %, ATE 0.0222 m; 60 s: 0.0162 / 0.0161 / 0.0147 m).
 #[test]
 fn mono_imu_initializes_soon_after_a_static_start() {
-    let text = scenarios::catalog::get("room_figure8_mono_imu")
-        .unwrap()
-        .text
-        .replace(
+    let done = run_edited("room_figure8_mono_imu", SHORT_S, |t| {
+        t.replace(
             "figure_eight = {",
             "static_start = { hold_s = 3.0, ramp_s = 1.0 }\nfigure_eight = {",
-        );
-    let scenario = Scenario::parse("mono_static_start", Origin::Catalog, &text).unwrap();
-    let done = run_scenario(scenario, Some(SHORT_S));
+        )
+    });
     let r = &done.report;
-    let started: Vec<f64> = r
-        .events
-        .iter()
-        .filter(|e| e.kind == "status_change" && e.detail.ends_with("Tracking"))
-        .map(|e| e.t_s)
-        .collect();
+    let started = tracking_starts(r);
     assert_eq!(started.len(), 1, "{started:?}");
     assert!(
         (3.0..4.5).contains(&started[0]),
@@ -128,19 +137,11 @@ fn mono_imu_initializes_soon_after_a_static_start() {
 /// rotation 1.14°. Bounds: measured + 50 %.
 #[test]
 fn a_60_hz_stereo_imu_rig_spreads_its_initial_window_over_time() {
-    let text = scenarios::catalog::get("room_replay_v2_02_stereo_imu")
-        .unwrap()
-        .text
-        .replacen("rate_hz = 20.0", "rate_hz = 60.0", 1);
-    let scenario = Scenario::parse("replay_60_hz", Origin::Catalog, &text).unwrap();
-    let done = run_scenario(scenario, Some(10.0));
+    let done = run_edited("room_replay_v2_02_stereo_imu", 10.0, |t| {
+        t.replacen("rate_hz = 20.0", "rate_hz = 60.0", 1)
+    });
     let r = &done.report;
-    let started: Vec<f64> = r
-        .events
-        .iter()
-        .filter(|e| e.kind == "status_change" && e.detail.ends_with("Tracking"))
-        .map(|e| e.t_s)
-        .collect();
+    let started = tracking_starts(r);
     assert_eq!(started.len(), 1, "{started:?}");
     assert!(
         (0.35..0.6).contains(&started[0]),
@@ -160,12 +161,9 @@ fn a_60_hz_stereo_imu_rig_spreads_its_initial_window_over_time() {
 /// ATE 0.195 m, rotation 3.1°, no reset. Bounds: measured + 50 %.
 #[test]
 fn a_noisier_camera_keeps_its_tracks() {
-    let text = scenarios::catalog::get("room_figure8_stereo_imu")
-        .unwrap()
-        .text
-        .replace("pixel_sigma_px = 1.0", "pixel_sigma_px = 3.0");
-    let scenario = Scenario::parse("figure8_3px", Origin::Catalog, &text).unwrap();
-    let done = run_scenario(scenario, Some(SHORT_S));
+    let done = run_edited("room_figure8_stereo_imu", SHORT_S, |t| {
+        t.replace("pixel_sigma_px = 1.0", "pixel_sigma_px = 3.0")
+    });
     let r = &done.report;
     let (ate, rot) = (r.ate_rmse_m.unwrap(), r.ate_rot_rmse_deg.unwrap());
     assert!(ate < 0.047, "ATE {ate:.4} m");
