@@ -127,6 +127,8 @@ pub struct ScaleAlignment {
     /// model agree; far above it when they contradict each other (a wrong structure from
     /// motion).
     pub chi2_per_dof: f64,
+    /// Its degrees of freedom.
+    pub dof: usize,
 }
 
 /// The visual side of [`align_with_scale`]: an up-to-scale camera trajectory (SfM world).
@@ -316,7 +318,8 @@ pub fn align_with_scale(
         let s_var = (0..cols)
             .map(|k| (v_t[(k, s_at)] / svd.singular_values[k]).powi(2))
             .sum::<f64>();
-        let chi2_per_dof = (&a * &x - &b).norm_squared() / rows.saturating_sub(cols).max(1) as f64;
+        let dof = rows.saturating_sub(cols).max(1);
+        let chi2_per_dof = (&a * &x - &b).norm_squared() / dof as f64;
         let v: Vec<Vector3<f64>> = (0..n)
             .map(|k| x.fixed_rows::<3>(3 * k).into_owned())
             .collect();
@@ -325,9 +328,9 @@ pub fn align_with_scale(
             Some((g0, basis)) => g0 + basis * x.fixed_rows::<2>(g_at),
         };
         let ba = x.fixed_rows::<3>(ba_at).into_owned();
-        Some((v, g, x[s_at], ba, s_var, chi2_per_dof))
+        Some((v, g, x[s_at], ba, s_var, chi2_per_dof, dof))
     };
-    let (_, g, mut s, _, _, _) = solve(None, None)?;
+    let (_, g, mut s, _, _, _, _) = solve(None, None)?;
     if (g.norm() - g_norm).abs() > 1.0 || s.is_nan() || s <= 0.0 {
         return None;
     }
@@ -336,15 +339,15 @@ pub fn align_with_scale(
     for _ in 0..4 {
         let (b1, b2) = sphere_tangent_basis(&g.normalize());
         let basis = nalgebra::Matrix3x2::from_columns(&[b1, b2]);
-        let (v, g_new, s_new, ba, s_var, chi2) = solve(Some((g, basis)), Some(s))?;
+        let (v, g_new, s_new, ba, s_var, chi2, dof) = solve(Some((g, basis)), Some(s))?;
         if !(s_new.is_finite() && s_new > 0.0) {
             return None;
         }
         g = g_new.normalize() * g_norm;
         s = s_new;
-        out = Some((v, g, s, ba, s_var, chi2));
+        out = Some((v, g, s, ba, s_var, chi2, dof));
     }
-    let (velocities, gravity, scale, ba, s_var, chi2_per_dof) = out?;
+    let (velocities, gravity, scale, ba, s_var, chi2_per_dof, dof) = out?;
     Some(ScaleAlignment {
         velocities,
         gravity,
@@ -352,6 +355,7 @@ pub fn align_with_scale(
         ba,
         scale_rel_sigma: s_var.max(0.0).sqrt() / scale,
         chi2_per_dof,
+        dof,
     })
 }
 

@@ -4,6 +4,7 @@
 mod alignment;
 pub(crate) mod five_point;
 mod mono;
+mod offset;
 pub(crate) mod sfm;
 mod stereo;
 

@@ -7,11 +7,12 @@ use nalgebra::{UnitQuaternion, Vector3};
 use super::alignment::{UpToScaleTrajectory, WheelSpeeds, align_with_scale, estimate_gyro_bias};
 use super::sfm::{SfmFailure, SfmSettings, solve_sfm};
 use super::stereo::initial_prior;
-use super::{repropagate, set_gravity_aligned, window_intervals};
+use super::{offset, repropagate, set_gravity_aligned, window_intervals};
 use crate::estimator::config::EstimatorConfig;
 use crate::estimator::window::Window;
 use crate::factors::FeatureMeasurement;
 use crate::geometry::Pose;
+use crate::imu::Preintegration;
 
 /// Why a mono+IMU initialization attempt failed (the next frame tries again).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -77,14 +78,49 @@ pub(in crate::estimator) fn initialize_mono_inertial(
         .iter()
         .map(|q| Pose::new(*q, Vector3::zeros()))
         .collect();
-    let intervals = window_intervals(window).ok_or(MonoInitFailure::MissingImu)?;
-    let bg = estimate_gyro_bias(&attitudes, &intervals).ok_or(MonoInitFailure::GyroBias)?;
-    repropagate(window, Vector3::zeros(), bg);
     let cam_positions: Vec<Vector3<f64>> = sfm.poses.iter().map(|p| p.p).collect();
     let rotations: Vec<_> = body_q
         .iter()
         .map(|q| q.to_rotation_matrix().into_inner())
         .collect();
+    if config.estimate_td && config.init_td_search_s > 0.0 {
+        // The offset the interior frames' intervals align best at (see `offset.rs`).
+        let last = window.frames.len() - 1;
+        let m = last - 1;
+        let cov = sfm
+            .position_covariance
+            .view((3, 3), (3 * m, 3 * m))
+            .into_owned();
+        let shift = offset::best_shift(window, config.init_td_search_s, |intervals| {
+            let refs: Vec<&Preintegration> = intervals.iter().collect();
+            let bg = estimate_gyro_bias(&attitudes[1..last], &refs)?;
+            for p in intervals.iter_mut() {
+                p.repropagate(Vector3::zeros(), bg);
+            }
+            let refs: Vec<&Preintegration> = intervals.iter().collect();
+            let visual = UpToScaleTrajectory {
+                cam_positions: &cam_positions[1..last],
+                cam_covariance: &cov,
+                body_rotations: &rotations[1..last],
+                t_b_c: &t_b_c.p,
+            };
+            align_with_scale(
+                &visual,
+                &refs,
+                &bg,
+                config.initial_ba_sigma,
+                crate::GRAVITY,
+                None,
+            )
+            .map(|a| (a.chi2_per_dof, a.dof))
+        });
+        if !offset::apply_shift(window, shift) {
+            return Err(MonoInitFailure::MissingImu);
+        }
+    }
+    let intervals = window_intervals(window).ok_or(MonoInitFailure::MissingImu)?;
+    let bg = estimate_gyro_bias(&attitudes, &intervals).ok_or(MonoInitFailure::GyroBias)?;
+    repropagate(window, Vector3::zeros(), bg);
     let visual = UpToScaleTrajectory {
         cam_positions: &cam_positions,
         cam_covariance: &sfm.position_covariance,
