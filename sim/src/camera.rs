@@ -363,9 +363,14 @@ impl RigSim {
         &self.cfg
     }
 
+    /// Index of the next frame (frame `i` is captured at [`RigConfig::capture_ns`]`(i)`).
+    pub fn next_index(&self) -> u64 {
+        u64::from(self.next_i)
+    }
+
     /// True capture time of the next frame (ns).
     pub fn next_capture_ns(&self) -> i64 {
-        self.cfg.capture_ns(u64::from(self.next_i))
+        self.cfg.capture_ns(self.next_index())
     }
 
     /// Stamp of the next frame in the camera clock (ns).

@@ -241,8 +241,8 @@ impl Stream {
                 return;
             }
             let period = rig.config().period_ns();
+            let frame_index = rig.next_index();
             let (t_cap, f) = rig.next_frame(&mut self.truth);
-            let frame_index = rig.config().frame_at_or_before(t_cap);
             let Some(frame) = self.faults.apply_frame(f, t_cap, period) else {
                 continue;
             };
