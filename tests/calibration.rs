@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::run_scenario;
+use common::{run_edited, run_scenario};
 use scenarios::report::{self, Report};
 use scenarios::spec::{Origin, Scenario};
 
@@ -158,21 +158,13 @@ fn calibration_converges_from_the_perturbed_start_on_a_tilting_motion() {
 /// (ATE 0.006 m, 1°, no reset, 90 % tracking) hold.
 #[test]
 fn a_60_ms_offset_is_found_from_zero_without_a_reset() {
-    let text = scenarios::catalog::get("room_replay_v1_01_time_offset_stereo_imu")
-        .unwrap()
-        .text
-        .replace("time_offset_s = 0.02", "time_offset_s = 0.06");
-    let scenario = Scenario::parse("td_60ms", Origin::Catalog, &text).unwrap();
-    let r = run_scenario(scenario, None).report;
+    let r = run_edited("room_replay_v1_01_time_offset_stereo_imu", None, |t| {
+        t.replace("time_offset_s = 0.02", "time_offset_s = 0.06")
+    })
+    .report;
     assert_eq!(r.resets, 0);
     assert!(r.passed, "{:?}", r.expectations);
-    let c = r.calibration.as_ref().unwrap();
-    assert_eq!(c.td_true_ms, 60.0);
-    assert!(
-        c.td_error_ms.abs() < 1.0,
-        "final td error {} ms",
-        c.td_error_ms
-    );
+    assert_offset_found(&r, 60.0);
 }
 
 /// Mono+IMU initialization finds an unknown offset: EuRoC V2_02 replay (20 s, seed 1), frames
@@ -182,18 +174,24 @@ fn a_60_ms_offset_is_found_from_zero_without_a_reset() {
 /// diverged unnoticed (ATE 13 m). Bounds: measured + 50 %.
 #[test]
 fn mono_initialization_finds_a_35_ms_offset() {
-    let text = scenarios::catalog::get("room_replay_v2_02_mono_imu")
-        .unwrap()
-        .text
-        .replacen("seed = 4", "seed = 1", 1)
-        .replacen("[rig]\n", "[rig]\ntime_offset_s = 0.035\n", 1);
-    let scenario = Scenario::parse("mono_td_35ms", Origin::Catalog, &text).unwrap();
-    let r = run_scenario(scenario, None).report;
+    let r = run_edited("room_replay_v2_02_mono_imu", None, |t| {
+        t.replacen("seed = 4", "seed = 1", 1).replacen(
+            "[rig]\n",
+            "[rig]\ntime_offset_s = 0.035\n",
+            1,
+        )
+    })
+    .report;
     assert_eq!(r.resets, 0);
     let ate = r.ate_rmse_m.unwrap();
     assert!(ate < 0.031, "ATE {ate:.4} m");
+    assert_offset_found(&r, 35.0);
+}
+
+/// Asserts that the report studied a true offset of `true_ms` and ends within 1 ms of it.
+fn assert_offset_found(r: &Report, true_ms: f64) {
     let c = r.calibration.as_ref().unwrap();
-    assert_eq!(c.td_true_ms, 35.0);
+    assert_eq!(c.td_true_ms, true_ms);
     assert!(
         c.td_error_ms.abs() < 1.0,
         "final td error {} ms",

@@ -7,9 +7,8 @@
 
 mod common;
 
-use common::{run_catalog, run_scenario};
+use common::{run_catalog, run_edited};
 use scenarios::report::Report;
-use scenarios::spec::{Origin, Scenario};
 
 /// Shortened duration of the default test run (s).
 const SHORT_S: f64 = 20.0;
@@ -36,13 +35,6 @@ fn assert_run_converges(name: &str, duration_s: Option<f64>, want: Converges) {
     let max = want.max_ate_m;
     assert!(ate < max, "{name}: ATE {ate:.4} m ≥ {max} m");
     assert_eq!(r.resets, 0);
-}
-
-/// Runs catalog scenario `name`, its text changed by `edit`, for `duration_s`.
-fn run_edited(name: &str, duration_s: f64, edit: impl FnOnce(&str) -> String) -> common::Done {
-    let text = edit(scenarios::catalog::get(name).unwrap().text);
-    let scenario = Scenario::parse(name, Origin::Catalog, &text).unwrap();
-    run_scenario(scenario, Some(duration_s))
 }
 
 /// The times (s) at which a run's status turned to tracking.
@@ -111,7 +103,7 @@ fn mono_imu_initializes_and_converges_on_room_figure8() {
 /// 81.8 %, ATE 0.0222 m; 60 s: 0.0162 / 0.0161 / 0.0147 m).
 #[test]
 fn mono_imu_initializes_soon_after_a_static_start() {
-    let done = run_edited("room_figure8_mono_imu", SHORT_S, |t| {
+    let done = run_edited("room_figure8_mono_imu", Some(SHORT_S), |t| {
         t.replace(
             "figure_eight = {",
             "static_start = { hold_s = 3.0, ramp_s = 1.0 }\nfigure_eight = {",
@@ -137,7 +129,7 @@ fn mono_imu_initializes_soon_after_a_static_start() {
 /// rotation 1.14°. Bounds: measured + 50 %.
 #[test]
 fn a_60_hz_stereo_imu_rig_spreads_its_initial_window_over_time() {
-    let done = run_edited("room_replay_v2_02_stereo_imu", 10.0, |t| {
+    let done = run_edited("room_replay_v2_02_stereo_imu", Some(10.0), |t| {
         t.replacen("rate_hz = 20.0", "rate_hz = 60.0", 1)
     });
     let r = &done.report;
@@ -161,7 +153,7 @@ fn a_60_hz_stereo_imu_rig_spreads_its_initial_window_over_time() {
 /// ATE 0.195 m, rotation 3.1°, no reset. Bounds: measured + 50 %.
 #[test]
 fn a_noisier_camera_keeps_its_tracks() {
-    let done = run_edited("room_figure8_stereo_imu", SHORT_S, |t| {
+    let done = run_edited("room_figure8_stereo_imu", Some(SHORT_S), |t| {
         t.replace("pixel_sigma_px = 1.0", "pixel_sigma_px = 3.0")
     });
     let r = &done.report;

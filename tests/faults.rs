@@ -42,13 +42,9 @@ fn assert_fault_run(name: &str, d: &common::Done, switches: &[(f64, &str)]) {
 
 /// Catalog scenario `name` with `[estimator]` settings appended, run at its full length.
 fn run_catalog_with(name: &str, settings: &str) -> common::Done {
-    let text = format!(
-        "{}\n[estimator]\n{settings}\n",
-        scenarios::catalog::get(name).unwrap().text
-    );
-    let scenario =
-        scenarios::spec::Scenario::parse(name, scenarios::spec::Origin::Catalog, &text).unwrap();
-    common::run_scenario(scenario, None)
+    common::run_edited(name, None, |text| {
+        format!("{text}\n[estimator]\n{settings}\n")
+    })
 }
 
 #[test]

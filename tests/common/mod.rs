@@ -64,3 +64,11 @@ pub fn run_scenario(scenario: Scenario, duration_s: Option<f64>) -> Done {
         report,
     }
 }
+
+/// Runs catalog scenario `name`, its text changed by `edit`, for `duration_s` (None: its full
+/// length).
+pub fn run_edited(name: &str, duration_s: Option<f64>, edit: impl FnOnce(&str) -> String) -> Done {
+    let text = edit(scenarios::catalog::get(name).unwrap().text);
+    let scenario = Scenario::parse(name, scenarios::spec::Origin::Catalog, &text).unwrap();
+    run_scenario(scenario, duration_s)
+}
