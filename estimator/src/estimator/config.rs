@@ -663,6 +663,17 @@ impl EstimatorConfig {
             ));
         }
         // Infinite: the IMU χ² test is off.
+        if !(1..=1000).contains(&h.rejected_solves) {
+            return Err(ConfigError::new(
+                "health.rejected_solves",
+                format!("expected 1 to 1000 solves, got {}", h.rejected_solves),
+            ));
+        }
+        positive_or_infinite(
+            "health.max_rejected_fraction",
+            h.max_rejected_fraction,
+            "no rejection test",
+        )?;
         if h.imu_chi2_z.is_nan() || h.imu_chi2_z <= 0.0 {
             return Err(ConfigError::new(
                 "health.imu_chi2_z",

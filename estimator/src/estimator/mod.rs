@@ -196,6 +196,8 @@ pub struct Estimator {
     tracking_since: Option<i64>,
     /// Consecutive solves whose IMU factors failed the χ² test.
     imu_chi2_failures: usize,
+    /// The reprojection test's rejections over the last solves.
+    rejections: health::RejectionMonitor,
     /// Events not yet taken.
     events: Vec<Event>,
     /// Persistent points given a new first estimate so far (`relinearization.rs`).
@@ -279,6 +281,7 @@ impl Estimator {
             tracking_since: None,
             points_relinearized: 0,
             imu_chi2_failures: 0,
+            rejections: health::RejectionMonitor::default(),
             events: Vec::new(),
             workspace: SolverWorkspace::default(),
         })
@@ -666,8 +669,13 @@ impl Estimator {
         let marg_start = Instant::now();
         self.slide(&built, keyframe, imu_active, t_ns);
         let marginalization_s = marg_start.elapsed().as_secs_f64();
-        triangulation::reject_outliers(&mut self.window, &self.config);
+        let (checked, rejected) = triangulation::reject_outliers(&mut self.window, &self.config);
         self.window.drop_unused_points();
+        let rejection = self.rejections.push(checked, rejected, &self.config.health);
+        if was_tracking && let Some(reason) = rejection {
+            self.reset(t_ns, reason);
+            return self.estimate(&predicted, stamp_ns, keyframe, start, None);
+        }
         if !uses_imu {
             self.status = Status::Tracking;
         }

@@ -73,9 +73,10 @@ fn outlier_limit_px(config: &EstimatorConfig, cam: usize) -> f64 {
 
 /// Drops tracks whose mean reprojection error (distorted pixels, both cameras, each in units
 /// of its camera's outlier limit) exceeds 1: a track seen by cameras of one noise level is
-/// dropped past `outlier_reprojection_sigma` of their pixel σ.
-pub(super) fn reject_outliers(window: &mut Window, config: &EstimatorConfig) {
-    let mut bad = Vec::new();
+/// dropped past `outlier_reprojection_sigma` of their pixel σ. Returns how many triangulated
+/// tracks were checked and how many of them dropped.
+pub(super) fn reject_outliers(window: &mut Window, config: &EstimatorConfig) -> (usize, usize) {
+    let (mut bad, mut checked) = (Vec::new(), 0);
     // `T_c_w` of both cameras of every window frame, by frame sequence number.
     let cameras = window.extrinsics.len();
     let t_c_w: Vec<(u64, [Option<Pose>; 2])> = (0..window.frames.len())
@@ -106,13 +107,16 @@ pub(super) fn reject_outliers(window: &mut Window, config: &EstimatorConfig) {
                 n += 1;
             }
         }
+        checked += usize::from(n > 0);
         if n > 0 && sum / n as f64 > 1.0 {
             bad.push(*id);
         }
     }
+    let rejected = bad.len();
     for id in bad {
         window.features.tracks.remove(&id);
     }
+    (checked, rejected)
 }
 
 /// Linear triangulation (DLT) of one point from camera poses `T_w_c` and normalized
