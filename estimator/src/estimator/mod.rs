@@ -616,10 +616,14 @@ impl Estimator {
                 kind: EventKind::GnssAlignmentDropped,
             });
         }
-        if imu_active && self.config.first_estimate_jacobians && self.config.first_estimate_points {
+        if imu_active && self.config.first_estimate_jacobians {
+            let points = match self.config.first_estimate_points {
+                true => self.config.point_relinearize_fraction,
+                false => f64::INFINITY,
+            };
             self.points_relinearized += self
                 .window
-                .relinearize_drifted_points(self.config.point_relinearize_fraction);
+                .relinearize_drifted_states(points, self.config.frame_relinearize_fraction);
         }
         if imu_active && self.window.calibration.td_variable() {
             self.window.predict_image_velocities();
