@@ -168,7 +168,7 @@ fn a_noisier_camera_keeps_its_tracks() {
 /// prior at the biased solution of the last and the scale stayed 3–9 % short to the end (ATE
 /// 0.0899 m with `frame_relinearize_fraction = inf`); frames whose position or velocity moved
 /// far from the first estimate now get a new one and the scale is right within a second
-/// (measured: ATE 0.0160 m). Bound: measured + 50 %.
+/// (measured: ATE 0.0154 m). Bound: measured + 50 %.
 #[test]
 fn a_frame_far_from_its_first_estimate_gets_a_new_one() {
     let done = run_edited("room_figure8_mono_imu", Some(SHORT_S), |t| {
@@ -176,7 +176,7 @@ fn a_frame_far_from_its_first_estimate_gets_a_new_one() {
     });
     let r = &done.report;
     let ate = r.ate_rmse_m.unwrap();
-    assert!(ate < 0.024, "ATE {ate:.4} m");
+    assert!(ate < 0.023, "ATE {ate:.4} m");
     assert_eq!(r.resets, 0);
 }
 

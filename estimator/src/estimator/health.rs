@@ -50,7 +50,8 @@ pub struct HealthLimits {
     /// and the estimator initializes again from the data (≥ 1: off). A window drifting away
     /// from what its cameras see loses its tracks to that test and is then carried by the IMU
     /// alone, which the χ² test cannot see: mono+IMU on EuRoC V2_02 with an unmodelled 35 ms
-    /// offset (seed 1) rejected 12–25 % per solve from 12 s on and ran to 12 m/s and 13 m ATE.
+    /// offset (seed 1, frames' first estimates never renewed) rejected 12–25 % per solve from
+    /// 12 s on and ran to 12 m/s and 13 m ATE.
     /// Healthy windows: at most 1.1 % over 10 solves on the non-rendered catalog, 4.4 % on
     /// the Lissajous calibration run's start with its extrinsics still wrong (1.1 s). 10 % over
     /// 20 solves: twice that, and longer than a start-up transient (20 over 10 solves reset the
