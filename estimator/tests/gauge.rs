@@ -372,17 +372,8 @@ fn first_estimate_jacobians_keep_the_four_dimensional_nullspace_over_a_long_run(
     // estimate and the leaks stayed ≤ 1.0e-14 (yaw 1.2e-15); moving them without carrying
     // the prior's directions along leaked 5.2e-7 in yaw, as much as no FEJ for points.
     let (keyframes, leak, spec, moved) = &results[0];
-    assert!(*keyframes > 200, "only {keyframes} keyframes");
+    assert_four_null_directions("FEJ", *keyframes, leak, spec);
     assert!(*moved > 10, "only {moved} points got a new first estimate");
-    for (dir, l) in leak.iter().enumerate() {
-        assert!(*l < 1e-12, "FEJ: gauge direction {dir} leaks {l:e}");
-    }
-    assert!(
-        spec[3] < 1e-13,
-        "FEJ: 4th smallest eigenvalue {:e}",
-        spec[3]
-    );
-    assert!(spec[4] > 1e-6, "FEJ: 5th smallest eigenvalue {:e}", spec[4]);
     // Without FEJ translation stays null (its direction does not depend on the state) but
     // yaw does not.
     let (_, leak, spec, _) = &results[1];
@@ -401,21 +392,25 @@ fn first_estimate_jacobians_keep_the_four_dimensional_nullspace_over_a_long_run(
     // (measured: leaks ≤ 3.3e-15, 4 eigenvalues ≤ 4.3e-16 then 8.9e-5; without carrying the
     // prior's directions along, yaw leaks 5.3e-7 and its eigenvalue rises to 1.5e-5).
     let (keyframes, leak, spec, _) = &results[3];
-    assert!(*keyframes > 200, "only {keyframes} keyframes");
+    assert_four_null_directions("frames renewed", *keyframes, leak, spec);
+}
+
+/// Asserts that a long run (`keyframes` > 200) ended with the four gauge directions null
+/// (`leak` < 1e-12 each) and exactly four null eigenvalues in the scaled spectrum `spec`
+/// (the 4th < 1e-13, the 5th > 1e-6); `label` names the run in the messages.
+fn assert_four_null_directions(label: &str, keyframes: usize, leak: &[f64], spec: &[f64]) {
+    assert!(keyframes > 200, "{label}: only {keyframes} keyframes");
     for (dir, l) in leak.iter().enumerate() {
-        assert!(
-            *l < 1e-12,
-            "frames renewed: gauge direction {dir} leaks {l:e}"
-        );
+        assert!(*l < 1e-12, "{label}: gauge direction {dir} leaks {l:e}");
     }
     assert!(
         spec[3] < 1e-13,
-        "frames renewed: 4th eigenvalue {:e}",
+        "{label}: 4th smallest eigenvalue {:e}",
         spec[3]
     );
     assert!(
         spec[4] > 1e-6,
-        "frames renewed: 5th eigenvalue {:e}",
+        "{label}: 5th smallest eigenvalue {:e}",
         spec[4]
     );
 }

@@ -368,10 +368,10 @@ impl Estimator {
     }
 
     /// Discards the failed window and restarts from `last_good` (the newest state that passed
-    /// the checks; not after [`FailureReason::TracksRejected`]), keeping the world frame: the next frame starts at that pose, velocity and
-    /// biases with the initial prior around them, the way [`Estimator::start_from`] does.
-    /// Without a good state (a rejected initialization) the estimator initializes again from
-    /// the data. Records a [`EventKind::Reset`] at `t_ns`.
+    /// the checks; not after [`FailureReason::TracksRejected`]), keeping the world frame: the
+    /// next frame starts at that pose, velocity and biases with the initial prior around them,
+    /// the way [`Estimator::start_from`] does. Without a good state (a rejected initialization)
+    /// the estimator initializes again from the data. Records a [`EventKind::Reset`] at `t_ns`.
     pub(super) fn reset(&mut self, t_ns: i64, reason: FailureReason) {
         self.imu_chi2_failures = 0;
         self.rejections.clear();

@@ -617,9 +617,10 @@ impl Estimator {
             });
         }
         if imu_active && self.config.first_estimate_jacobians {
-            let points = match self.config.first_estimate_points {
-                true => self.config.point_relinearize_fraction,
-                false => f64::INFINITY,
+            let points = if self.config.first_estimate_points {
+                self.config.point_relinearize_fraction
+            } else {
+                f64::INFINITY
             };
             self.points_relinearized += self
                 .window
