@@ -196,7 +196,8 @@ pub struct Estimator {
     tracking_since: Option<i64>,
     /// Consecutive solves whose IMU factors failed the χ² test.
     imu_chi2_failures: usize,
-    /// The reprojection test's rejections over the last solves.
+    /// The reprojection test's rejections over the last solves (cleared at a reset and when
+    /// the IMU alignment succeeds).
     rejections: health::RejectionMonitor,
     /// Events not yet taken.
     events: Vec<Event>,
@@ -570,6 +571,10 @@ impl Estimator {
             };
             if initialized {
                 self.status = Status::Tracking;
+                // The solves before the alignment judged a window without the IMU (a stereo
+                // window waiting for it, a mono one before its structure from motion): the
+                // tracking window's rejections count from here.
+                self.rejections.clear();
                 if mono {
                     triangulation::triangulate_tracks(&mut self.window, &self.config, &self.focal);
                 }
