@@ -1,13 +1,15 @@
 //! One full window update (solve + marginalization) of the stereo+IMU estimator with ~150
 //! tracked features, on the synthetic room of the window tests; and the same update with the
-//! newest state's marginal covariance (`compute_covariance`, what `vio nees` runs with).
+//! newest state's marginal covariance (`compute_covariance`, what `vio nees` runs with); and
+//! the update with 100 persistent points (`max_persistent_points`, the accuracy study of the
+//! README's "How many persistent points").
 //!
 //! `cargo bench -p estimator --bench window`
 
 use std::hint::black_box;
 
 use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
-use estimator::estimator::{Estimator, Status, Suite};
+use estimator::estimator::{Estimator, EstimatorConfig, Status, Suite};
 
 #[path = "../tests/common/mod.rs"]
 mod common;
@@ -15,14 +17,20 @@ mod common;
 use common::world::{FRAME_NS, IMU_NS, World};
 
 fn window_update(c: &mut Criterion) {
-    bench_update(c, "stereo_imu_window_update", false);
-    bench_update(c, "stereo_imu_window_update_with_covariance", true);
+    bench_update(c, "stereo_imu_window_update", |_| {});
+    bench_update(c, "stereo_imu_window_update_with_covariance", |config| {
+        config.compute_covariance = true;
+    });
+    bench_update(c, "stereo_imu_window_update_100_points", |config| {
+        config.max_persistent_points = 100;
+    });
 }
 
-fn bench_update(c: &mut Criterion, name: &str, covariance: bool) {
+/// Benchmarks `name`: the default stereo+IMU configuration with `edit` applied.
+fn bench_update(c: &mut Criterion, name: &str, edit: impl Fn(&mut EstimatorConfig)) {
     let mut world = World::new(1, 3000, 1.0);
     let mut config = world.config(Suite::StereoImu);
-    config.compute_covariance = covariance;
+    edit(&mut config);
     let mut est = Estimator::new(config).unwrap();
     let (mut t_imu, mut t_frame) = (0, 0);
     // Estimates come out of either call (a frame waits for the IMU samples that cover it).
