@@ -5,7 +5,7 @@ mod common;
 
 use common::Analytic;
 use common::world::{FRAME_NS, IMU_NS, World, align_position_yaw};
-use estimator::estimator::{Estimate, Estimator, Suite};
+use estimator::estimator::{Estimate, Estimator, EventKind, Suite};
 use nalgebra::Vector3;
 
 /// Runs `seconds` of the world through the estimator; returns every estimate.
@@ -281,4 +281,48 @@ fn min_track_frames_4_does_not_starve_a_starting_window() {
     let ate = ate(&estimates);
     println!("min_track_frames 4: ATE {ate:.4} m");
     assert!(ate < 0.03, "ATE {ate}");
+}
+
+/// The outlier test's rejections before the IMU alignment (the vision-only solves of a stereo
+/// window waiting for it) do not count against the tracking window. For its first 0.4 s the
+/// left camera jitters by ±8 px on nine features in ten, so those solves reject 2–88 % of
+/// their tracks; the window then initializes at 0.45 s and tracks cleanly. Counting the
+/// earlier solves, the monitor found 16 % rejected over 20 solves at 0.95 s and initialized
+/// again (ATE 0.417 m over 4 s); cleared at the alignment it stays quiet: no reset, ATE
+/// 0.0174 m (seed 5; bound +50 %).
+#[test]
+fn rejections_before_the_alignment_do_not_reset_the_tracking_window() {
+    let mut world = World::new(5, 3000, 1.0);
+    let mut est = Estimator::new(world.config(Suite::StereoImu)).unwrap();
+    let mut out = Vec::new();
+    let (mut t_imu, mut t_frame) = (0, 0);
+    while t_frame <= 4_000_000_000 {
+        while t_imu <= t_frame {
+            out.extend(est.push_imu(world.imu(t_imu)).unwrap());
+            t_imu += IMU_NS;
+        }
+        let mut frame = world.frame(t_frame);
+        if t_frame < 400_000_000 {
+            let shift = if (t_frame / FRAME_NS) % 2 == 0 {
+                8.0
+            } else {
+                -8.0
+            };
+            for f in frame.cameras[0].features.iter_mut() {
+                if f.feature_id % 10 != 0 {
+                    f.uv.x += shift;
+                }
+            }
+        }
+        out.extend(est.push_frame(frame).unwrap());
+        t_frame += FRAME_NS;
+    }
+    let resets: Vec<_> = est
+        .take_events()
+        .into_iter()
+        .filter(|e| matches!(e.kind, EventKind::Reset { .. }))
+        .collect();
+    assert!(resets.is_empty(), "{resets:?}");
+    let ate = ate(&out);
+    assert!(ate < 0.026, "ATE {ate} m");
 }
