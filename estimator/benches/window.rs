@@ -2,7 +2,8 @@
 //! tracked features, on the synthetic room of the window tests; and the same update with the
 //! newest state's marginal covariance (`compute_covariance`, what `vio nees` runs with); and
 //! the update with 100 persistent points (`max_persistent_points`, the accuracy study of the
-//! README's "How many persistent points").
+//! README's "How many persistent points"). Each also as twenty consecutive frames in the
+//! window's steady state (`..._20_frames`: time / 20 is the mean cost of a frame).
 //!
 //! `cargo bench -p estimator --bench window`
 
@@ -101,7 +102,50 @@ fn bench_update(c: &mut Criterion, name: &str, edit: impl Fn(&mut EstimatorConfi
             BatchSize::LargeInput,
         )
     });
+
+    // Twenty consecutive frames from where the breakdown ended (8 s, the window in its steady
+    // state): keyframes and dropped frames in their own proportions, where the single update
+    // above is whichever kind the frame at 3 s happens to be. Criterion's time / 20 is the
+    // mean cost of a frame.
+    let mut inputs = Vec::new();
+    for _ in 0..SEQUENCE_FRAMES {
+        let mut imu = Vec::new();
+        while ti <= tf {
+            imu.push(w2.imu(ti));
+            ti += IMU_NS;
+        }
+        inputs.push((imu, w2.frame(tf)));
+        tf += FRAME_NS;
+    }
+    let tail: Vec<_> = (0..3).map(|k| w2.imu(ti + k * IMU_NS)).collect();
+    // The first frame's IMU samples release the breakdown's last frame: they go in unmeasured.
+    for s in std::mem::take(&mut inputs[0].0) {
+        probe.push_imu(s).unwrap();
+    }
+    c.bench_function(&format!("{name}_{SEQUENCE_FRAMES}_frames"), |b| {
+        b.iter_batched(
+            || (probe.clone(), inputs.clone()),
+            |(mut e, inputs)| {
+                let mut out = Vec::new();
+                for (imu, frame) in inputs {
+                    for s in imu {
+                        out.extend(e.push_imu(s).unwrap());
+                    }
+                    out.extend(e.push_frame(frame).unwrap());
+                }
+                for s in &tail {
+                    out.extend(e.push_imu(*s).unwrap());
+                }
+                assert_eq!(out.len(), SEQUENCE_FRAMES, "every frame processed");
+                black_box(out)
+            },
+            BatchSize::LargeInput,
+        )
+    });
 }
+
+/// Frames of the sequence benchmarks.
+const SEQUENCE_FRAMES: usize = 20;
 
 criterion_group!(benches, window_update);
 criterion_main!(benches);
