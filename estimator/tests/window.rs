@@ -6,6 +6,7 @@ mod common;
 use common::Analytic;
 use common::world::{FRAME_NS, IMU_NS, World, align_position_yaw};
 use estimator::estimator::{Estimate, Estimator, EventKind, Suite};
+use estimator::frontend::FeatureFrame;
 use nalgebra::Vector3;
 
 /// Runs `seconds` of the world through the estimator; returns every estimate.
@@ -38,19 +39,32 @@ fn run_config(
             world.bg,
         );
     }
+    let out = feed(&mut est, world, seconds, |_, _| {});
+    (est, out)
+}
+
+/// Feeds `seconds` of the world's IMU samples and frames to `est`, each frame through `edit`
+/// (with its time) first; returns the estimates.
+fn feed(
+    est: &mut Estimator,
+    world: &mut World,
+    seconds: f64,
+    mut edit: impl FnMut(i64, &mut FeatureFrame),
+) -> Vec<Estimate> {
     let mut out = Vec::new();
     let end = (seconds * 1e9) as i64;
-    let mut t_imu = 0;
-    let mut t_frame = 0;
+    let (mut t_imu, mut t_frame) = (0, 0);
     while t_frame <= end {
         while t_imu <= t_frame {
             out.extend(est.push_imu(world.imu(t_imu)).unwrap());
             t_imu += IMU_NS;
         }
-        out.extend(est.push_frame(world.frame(t_frame)).unwrap());
+        let mut frame = world.frame(t_frame);
+        edit(t_frame, &mut frame);
+        out.extend(est.push_frame(frame).unwrap());
         t_frame += FRAME_NS;
     }
-    (est, out)
+    out
 }
 
 fn run(world: &mut World, suite: Suite, seconds: f64, record: bool) -> (Estimator, Vec<Estimate>) {
@@ -227,16 +241,7 @@ fn covariance_of_the_newest_state_is_positive_definite_and_consistent_for_the_bi
     config.compute_covariance = true;
     let mut with = Estimator::new(config).unwrap();
     let (_, without) = run(&mut World::new(3, 2500, 1.0), Suite::StereoImu, 6.0, false);
-    let mut out = Vec::new();
-    let (mut t_imu, mut t_frame) = (0, 0);
-    while t_frame <= 6_000_000_000 {
-        while t_imu <= t_frame {
-            out.extend(with.push_imu(world.imu(t_imu)).unwrap());
-            t_imu += IMU_NS;
-        }
-        out.extend(with.push_frame(world.frame(t_frame)).unwrap());
-        t_frame += FRAME_NS;
-    }
+    let out = feed(&mut with, &mut world, 6.0, |_, _| {});
     assert_eq!(out.len(), without.len());
     let (mut nees_ba, mut nees_bg, mut n) = (0.0, 0.0, 0.0);
     for (a, b) in out.iter().zip(&without) {
@@ -294,16 +299,9 @@ fn min_track_frames_4_does_not_starve_a_starting_window() {
 fn rejections_before_the_alignment_do_not_reset_the_tracking_window() {
     let mut world = World::new(5, 3000, 1.0);
     let mut est = Estimator::new(world.config(Suite::StereoImu)).unwrap();
-    let mut out = Vec::new();
-    let (mut t_imu, mut t_frame) = (0, 0);
-    while t_frame <= 4_000_000_000 {
-        while t_imu <= t_frame {
-            out.extend(est.push_imu(world.imu(t_imu)).unwrap());
-            t_imu += IMU_NS;
-        }
-        let mut frame = world.frame(t_frame);
-        if t_frame < 400_000_000 {
-            let shift = if (t_frame / FRAME_NS) % 2 == 0 {
+    let out = feed(&mut est, &mut world, 4.0, |t_ns, frame| {
+        if t_ns < 400_000_000 {
+            let shift = if (t_ns / FRAME_NS) % 2 == 0 {
                 8.0
             } else {
                 -8.0
@@ -314,9 +312,7 @@ fn rejections_before_the_alignment_do_not_reset_the_tracking_window() {
                 }
             }
         }
-        out.extend(est.push_frame(frame).unwrap());
-        t_frame += FRAME_NS;
-    }
+    });
     let resets: Vec<_> = est
         .take_events()
         .into_iter()
