@@ -11,6 +11,8 @@ use std::hint::black_box;
 
 use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
 use estimator::estimator::{Estimator, EstimatorConfig, Status, Suite};
+use estimator::frontend::FeatureFrame;
+use estimator::imu::ImuSample;
 
 #[path = "../tests/common/mod.rs"]
 mod common;
@@ -36,12 +38,12 @@ fn bench_update(c: &mut Criterion, name: &str, edit: impl Fn(&mut EstimatorConfi
     let (mut t_imu, mut t_frame) = (0, 0);
     // Estimates come out of either call (a frame waits for the IMU samples that cover it).
     let feed = |est: &mut Estimator, world: &mut World, t_frame: i64, t_imu: &mut i64| {
+        let (imu, frame) = frame_inputs(world, t_imu, t_frame);
         let mut out = Vec::new();
-        while *t_imu <= t_frame {
-            out.extend(est.push_imu(world.imu(*t_imu)).unwrap());
-            *t_imu += IMU_NS;
+        for s in imu {
+            out.extend(est.push_imu(s).unwrap());
         }
-        out.extend(est.push_frame(world.frame(t_frame)).unwrap());
+        out.extend(est.push_frame(frame).unwrap());
         out
     };
     // 3 s: initialized, window full, prior in place.
@@ -55,11 +57,7 @@ fn bench_update(c: &mut Criterion, name: &str, edit: impl Fn(&mut EstimatorConfi
     let mut probe = est.clone();
     let (mut w2, mut ti, mut tf) = (World::new(1, 3000, 1.0), 0, 0);
     while tf < 3_000_000_000 {
-        while ti <= tf {
-            w2.imu(ti);
-            ti += IMU_NS;
-        }
-        w2.frame(tf);
+        frame_inputs(&mut w2, &mut ti, tf);
         tf += FRAME_NS;
     }
     let mut rows = Vec::new();
@@ -82,11 +80,10 @@ fn bench_update(c: &mut Criterion, name: &str, edit: impl Fn(&mut EstimatorConfi
 
     // The next frame's IMU samples go in during setup; the measured calls are push_frame and
     // the IMU samples after it that release the frame (the spike filter looks two ahead).
-    while t_imu <= t_frame {
-        est.push_imu(world.imu(t_imu)).unwrap();
-        t_imu += IMU_NS;
+    let (imu, frame) = frame_inputs(&mut world, &mut t_imu, t_frame);
+    for s in imu {
+        est.push_imu(s).unwrap();
     }
-    let frame = world.frame(t_frame);
     let after: Vec<_> = (0..3).map(|k| world.imu(t_imu + k * IMU_NS)).collect();
     c.bench_function(name, |b| {
         b.iter_batched(
@@ -109,12 +106,7 @@ fn bench_update(c: &mut Criterion, name: &str, edit: impl Fn(&mut EstimatorConfi
     // mean cost of a frame.
     let mut inputs = Vec::new();
     for _ in 0..SEQUENCE_FRAMES {
-        let mut imu = Vec::new();
-        while ti <= tf {
-            imu.push(w2.imu(ti));
-            ti += IMU_NS;
-        }
-        inputs.push((imu, w2.frame(tf)));
+        inputs.push(frame_inputs(&mut w2, &mut ti, tf));
         tf += FRAME_NS;
     }
     let tail: Vec<_> = (0..3).map(|k| w2.imu(ti + k * IMU_NS)).collect();
@@ -142,6 +134,21 @@ fn bench_update(c: &mut Criterion, name: &str, edit: impl Fn(&mut EstimatorConfi
             BatchSize::LargeInput,
         )
     });
+}
+
+/// The world's IMU samples from `t_imu` (advanced past them) up to the frame at `t_frame`,
+/// and that frame: what the estimator is fed for one frame, drawn in the world's order.
+fn frame_inputs(
+    world: &mut World,
+    t_imu: &mut i64,
+    t_frame: i64,
+) -> (Vec<ImuSample>, FeatureFrame) {
+    let mut imu = Vec::new();
+    while *t_imu <= t_frame {
+        imu.push(world.imu(*t_imu));
+        *t_imu += IMU_NS;
+    }
+    (imu, world.frame(t_frame))
 }
 
 /// Frames of the sequence benchmarks.
