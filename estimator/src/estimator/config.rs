@@ -229,7 +229,7 @@ pub struct EstimatorConfig {
     /// anchor. Each point adds 3 coordinates to the dense reduced system. 0: none. Measured
     /// on the default figure-eight (60 s, seeds 1 / 2 / 3, 2026-11-25): 30 (the default)
     /// window/batch ATE ratio 2.11 / 3.24 / 1.26 at 2.8–3.0 ms per frame; 50: 1.10 / 1.77 /
-    /// 1.38 at 2.8–2.9 ms (3.7 ms in the window bench, whose world fills all 50); 100: 1.17 /
+    /// 1.38 at 2.8–2.9 ms (3.5 ms in the window bench, whose world fills all 50); 100: 1.17 /
     /// 1.24 / 1.30 at 4.7–5.1 ms (README, "How many persistent points").
     pub max_persistent_points: usize,
     /// First-estimate Jacobians: every factor's Jacobians with respect to a state in the
