@@ -12,7 +12,7 @@
 use std::hint::black_box;
 
 use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
-use estimator::estimator::{Estimator, EstimatorConfig, Status, Suite};
+use estimator::estimator::{Estimate, Estimator, EstimatorConfig, Status, Suite};
 use estimator::frontend::FeatureFrame;
 use estimator::imu::ImuSample;
 
@@ -40,13 +40,7 @@ fn bench_update(c: &mut Criterion, name: &str, edit: impl Fn(&mut EstimatorConfi
     let (mut t_imu, mut t_frame) = (0, 0);
     // Estimates come out of either call (a frame waits for the IMU samples that cover it).
     let feed = |est: &mut Estimator, world: &mut World, t_frame: i64, t_imu: &mut i64| {
-        let (imu, frame) = frame_inputs(world, t_imu, t_frame);
-        let mut out = Vec::new();
-        for s in imu {
-            out.extend(est.push_imu(s).unwrap());
-        }
-        out.extend(est.push_frame(frame).unwrap());
-        out
+        push_inputs(est, frame_inputs(world, t_imu, t_frame))
     };
     // 3 s: initialized, window full, prior in place.
     while t_frame < 3_000_000_000 {
@@ -74,25 +68,22 @@ fn bench_update(c: &mut Criterion, name: &str, edit: impl Fn(&mut EstimatorConfi
         rows.extend(feed(&mut probe, &mut w2, tf, &mut ti));
         tf += FRAME_NS;
     }
-    let sorted = |f: &dyn Fn(&estimator::estimator::Estimate) -> f64| {
-        let mut v: Vec<f64> = rows.iter().map(|e| f(e) * 1e3).collect();
+    let sorted = |f: &dyn Fn(&Estimate) -> f64| {
+        let mut v: Vec<f64> = rows.iter().map(f).collect();
         v.sort_by(f64::total_cmp);
         v
     };
-    let median = |f: &dyn Fn(&estimator::estimator::Estimate) -> f64| {
-        let v = sorted(f);
-        v[v.len() / 2]
-    };
-    let total = sorted(&|e| e.backend_s);
+    let median = |f: &dyn Fn(&Estimate) -> f64| sorted(f)[rows.len() / 2];
+    let total = sorted(&|e| e.backend_s * 1e3);
     eprintln!(
         "{name}: breakdown over {} frames from 8 s (ms): total median {:.3}, mean {:.3}, p90 {:.3}; median solve {:.3}, marginalization {:.3}; landmarks {:.0}",
         rows.len(),
         total[total.len() / 2],
         total.iter().sum::<f64>() / total.len() as f64,
         total[total.len() * 9 / 10],
-        median(&|e| e.solve_s),
-        median(&|e| e.marginalization_s),
-        median(&|e| e.landmarks as f64) / 1e3
+        median(&|e| e.solve_s) * 1e3,
+        median(&|e| e.marginalization_s) * 1e3,
+        median(&|e| e.landmarks as f64)
     );
 
     // The next frame's IMU samples go in during setup; the measured calls are push_frame and
@@ -118,9 +109,9 @@ fn bench_update(c: &mut Criterion, name: &str, edit: impl Fn(&mut EstimatorConfi
     });
 
     // Twenty consecutive frames from where the breakdown ended (28 s, the window in its
-    // steady state): keyframes and dropped frames in their own proportions, where the single update
-    // above is whichever kind the frame at 3 s happens to be. Criterion's time / 20 is the
-    // mean cost of a frame.
+    // steady state): keyframes and dropped frames in their own proportions, where the single
+    // update above is whichever kind the frame at 3 s happens to be. Criterion's time / 20 is
+    // the mean cost of a frame.
     let mut inputs = Vec::new();
     for _ in 0..SEQUENCE_FRAMES {
         inputs.push(frame_inputs(&mut w2, &mut ti, tf));
@@ -136,11 +127,8 @@ fn bench_update(c: &mut Criterion, name: &str, edit: impl Fn(&mut EstimatorConfi
             || (probe.clone(), inputs.clone()),
             |(mut e, inputs)| {
                 let mut out = Vec::new();
-                for (imu, frame) in inputs {
-                    for s in imu {
-                        out.extend(e.push_imu(s).unwrap());
-                    }
-                    out.extend(e.push_frame(frame).unwrap());
+                for input in inputs {
+                    out.extend(push_inputs(&mut e, input));
                 }
                 for s in &tail {
                     out.extend(e.push_imu(*s).unwrap());
@@ -166,6 +154,17 @@ fn frame_inputs(
         *t_imu += IMU_NS;
     }
     (imu, world.frame(t_frame))
+}
+
+/// Feeds one frame's inputs (see [`frame_inputs`]) to `est`: its IMU samples, then the frame.
+/// Returns the estimates released (a frame waits for the IMU samples that cover it).
+fn push_inputs(est: &mut Estimator, (imu, frame): (Vec<ImuSample>, FeatureFrame)) -> Vec<Estimate> {
+    let mut out = Vec::new();
+    for s in imu {
+        out.extend(est.push_imu(s).unwrap());
+    }
+    out.extend(est.push_frame(frame).unwrap());
+    out
 }
 
 /// Frames of the sequence benchmarks.
