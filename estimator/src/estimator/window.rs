@@ -330,11 +330,7 @@ impl Window {
             let Some(sb) = built.block(BlockRef::SpeedBias(*seq)) else {
                 continue;
             };
-            let f = ZeroVelocityFactor::new(
-                rest,
-                &config.imu_noise,
-                config.zero_velocity.velocity_sigma_m_s,
-            );
+            let f = ZeroVelocityFactor::new(rest, config.zero_velocity.velocity_sigma_m_s);
             let r = built
                 .problem
                 .add_factor(Arc::new(f), None, &[sb])
