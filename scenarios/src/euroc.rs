@@ -7,9 +7,13 @@
 //! assumes the IMU noise densities of `imu0/sensor.yaml`. Every stamp is shifted so that the
 //! first measurement is at 0 (the run's clock; `estimate_source_time.tum` has the dataset's
 //! own). Measurements go to the estimator in time order, IMU first at equal stamps, as in a
-//! simulated run. With ground truth the run is evaluated exactly like `vio run` (the truth of an
-//! estimate is the ground truth interpolated at its time; estimates outside the ground truth's
-//! span are left out); without it the report has no error metrics.
+//! simulated run, up to the last frame (IMU samples past it and the time offset's range are
+//! not read). With ground truth
+//! the run is evaluated exactly like `vio run` (the truth of an estimate is the ground truth
+//! interpolated at its time; estimates outside the ground truth's span are left out; a ground
+//! truth that stands still is scored from the first pose, see `metrics::anchored`); without it
+//! the report has no error metrics. The report's `frontend_tracks` says what the image front
+//! end did (features, track lengths, stereo matches, rejections).
 //!
 //! Instead of the images, `features.csv` (`vio export`'s feature tracks) can feed the estimator
 //! directly: the feature-track path of the same run.
@@ -21,7 +25,7 @@ use std::time::Instant;
 use estimator::camera::{Camera, CameraModel, KannalaBrandt, PinholeRadtan};
 use estimator::estimator::{CameraConfig, Estimate, Estimator, EstimatorConfig};
 use estimator::frontend::{
-    CameraImageView, FeatureFrame, FeatureTracker, ImageView, TrackerConfig,
+    CameraImageView, FeatureFrame, FeatureTracker, ImageView, TrackStatistics, TrackerConfig,
 };
 use estimator::geometry::Pose;
 use estimator::imu::ImuSample;
@@ -311,7 +315,12 @@ pub fn run_euroc(
             )
         }
     };
+    // How far past a frame's stamp its IMU time may lie (the time offset and how far its
+    // estimate may move): the IMU is read that far past the last frame.
+    let frame_to_imu_ns =
+        ((settings.td_s.abs() + settings.health.max_time_offset_deviation_s) * 1e9).ceil() as i64;
     let mut estimator = Estimator::new(settings).map_err(|e| est_err(e.to_string()))?;
+    let mut counts = TrackStatistics::default();
 
     let frames = match &options.features {
         Some(p) => {
@@ -329,13 +338,20 @@ pub fn run_euroc(
     }
     // The run's clock starts at the first measurement.
     let t0 = data.imu[0].t_ns.min(stamps[0]);
+    // The run ends with the IMU sample that closes the last frame's interval, wherever the time
+    // offset puts it: estimates come with frames, and an IMU log that goes on (a recording's
+    // excerpt of images, the flight's whole log) would only propagate.
+    let last_frame = *stamps.last().unwrap_or(&t0);
+    let k = data
+        .imu
+        .partition_point(|s| s.t_ns < last_frame.saturating_add(frame_to_imu_ns));
+    let last = data
+        .imu
+        .get(k)
+        .map_or(last_frame, |s| s.t_ns.max(last_frame));
     let end = match options.duration_s {
-        Some(d) => t0 + (d * 1e9).round() as i64,
-        None => data
-            .imu
-            .last()
-            .map_or(t0, |s| s.t_ns)
-            .max(*stamps.last().unwrap_or(&t0)),
+        Some(d) => (t0 + (d * 1e9).round() as i64).min(last),
+        None => last,
     };
     let has_truth = !data.groundtruth.is_empty();
     let name = mav0
@@ -407,9 +423,11 @@ pub fn run_euroc(
                             })
                             .collect::<Result<Vec<_>, _>>()?;
                         let tracker = tracker.as_mut().expect("images need the tracker");
-                        tracker
+                        let frame = tracker
                             .track(&views, t - t0, gyro.take())
-                            .map_err(|e| input(&paths[0], format!("front end: {e}")))?
+                            .map_err(|e| input(&paths[0], format!("front end: {e}")))?;
+                        counts.add(tracker.report(), &frame);
+                        frame
                     }
                 };
                 frame_i += 1;
@@ -433,6 +451,9 @@ pub fn run_euroc(
     let call_s = start.elapsed().as_secs_f64();
     recorder.absorb(&mut estimator, result, end - t0, call_s, 0.0, truth)?;
     progress(1.0);
+    if tracker.is_some() {
+        recorder.out.frontend_tracks = Some(counts.summary());
+    }
     let context = RunContext {
         description: format!("EuRoC dataset {}", mav0.display()),
         suite: options.suite,

@@ -12,8 +12,8 @@ use std::sync::Arc;
 use estimator::camera::CameraModel;
 use estimator::estimator::EstimatorConfig;
 use estimator::frontend::{
-    CameraImageView, FeatureFrame, FeatureTracker, ImageError, ImageView, TrackerCamera,
-    TrackerConfig, TrackerError,
+    CameraImageView, FeatureFrame, FeatureTracker, ImageError, ImageView, TrackStatistics,
+    TrackSummary, TrackerCamera, TrackerConfig, TrackerError,
 };
 use estimator::geometry::{Pose, so3_exp};
 use estimator::imu::ImuSample;
@@ -34,6 +34,7 @@ pub struct ImageFrontend {
     cameras: usize,
     gyro: GyroIntegrator,
     eval: TrackEvaluation,
+    counts: TrackStatistics,
 }
 
 impl ImageFrontend {
@@ -52,6 +53,7 @@ impl ImageFrontend {
             tracker: FeatureTracker::new(config, cameras)?,
             gyro: GyroIntegrator::default(),
             eval: TrackEvaluation::new(scene, models, true_T_b_c),
+            counts: TrackStatistics::default(),
         })
     }
 
@@ -81,6 +83,7 @@ impl ImageFrontend {
         let rotation = self.gyro.take();
         let frame = self.tracker.track(&views, images.t_ns, rotation)?;
         let seconds = self.tracker.report().times.total_s;
+        self.counts.add(self.tracker.report(), &frame);
         if let Some(pose) = T_w_b_true {
             self.eval.add(
                 &frame,
@@ -94,6 +97,11 @@ impl ImageFrontend {
     /// The statistics so far.
     pub fn stats(&self) -> FrontendStats {
         self.eval.stats()
+    }
+
+    /// What the tracker did so far (no ground truth involved).
+    pub fn track_summary(&self) -> TrackSummary {
+        self.counts.summary()
     }
 }
 

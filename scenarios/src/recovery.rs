@@ -49,10 +49,13 @@ pub fn error_at(errors: &[(f64, f64)], t_s: f64) -> Option<f64> {
 /// tracking on at least half of the frames. They catch divergence (metres of error, a lost
 /// track), not precision; a scenario states its own bounds for that. A scenario that expects no
 /// tracking (`tracking_fraction = { max = 0 }`: the estimator must refuse to start) gets no ATE
-/// bound: there is no trajectory.
+/// bound: there is no trajectory. A static run (`static_trajectory`: a ground truth that does not
+/// determine the alignment) has its position drift from the first pose bounded instead of the
+/// ATE.
 pub fn default_bounds(
     path_length_m: f64,
     stated: &[(&'static str, Bound)],
+    static_run: bool,
 ) -> Vec<(&'static str, Bound)> {
     let expects_no_track = stated
         .iter()
@@ -65,9 +68,14 @@ pub fn default_bounds(
         min: Some(0.5),
         max: None,
     };
-    [("ate_rmse_m", ate), ("tracking_fraction", tracking)]
+    let position = if static_run {
+        "position_drift_m"
+    } else {
+        "ate_rmse_m"
+    };
+    [(position, ate), ("tracking_fraction", tracking)]
         .into_iter()
-        .filter(|(metric, _)| !(expects_no_track && *metric == "ate_rmse_m"))
+        .filter(|(metric, _)| !(expects_no_track && *metric == position))
         .filter(|(metric, _)| stated.iter().all(|(m, _)| m != metric))
         .collect()
 }

@@ -11,6 +11,7 @@ use std::time::Instant;
 use estimator::estimator::{
     Estimate, Estimator, EstimatorError, EventKind as EstimatorEventKind, Status,
 };
+use estimator::frontend::TrackSummary;
 use estimator::geometry::Pose;
 use estimator::problem::{SolverOptions, SolverSummary};
 use sim::World;
@@ -151,6 +152,9 @@ pub struct RunOutput {
     /// The image front end's statistics against ground truth (rendered scenarios tracked by
     /// the KLT front end).
     pub frontend: Option<FrontendStats>,
+    /// What the image front end did, without ground truth (runs on images, rendered or
+    /// recorded).
+    pub frontend_tracks: Option<TrackSummary>,
     /// The batch reference, when asked for.
     pub batch_reference: Option<BatchReference>,
     /// Simulated time (s) at which the run was stopped early ([`run_interruptible`]); `None`
@@ -177,6 +181,7 @@ impl RunOutput {
             points_relinearized: 0,
             renderer,
             frontend: None,
+            frontend_tracks: None,
             batch_reference: None,
             interrupted_at_s: None,
         }
@@ -373,6 +378,7 @@ pub fn run_interruptible(
         }
     }
     let mut out = recorder.out;
+    out.frontend_tracks = frontend.as_ref().map(|f| f.track_summary());
     out.frontend = frontend.map(|f| f.stats());
     match out.interrupted_at_s {
         Some(t) => out.duration_s = t,

@@ -534,3 +534,59 @@ fn euroc_runs_an_exported_folder_and_writes_the_run_files() {
     assert_eq!(out.status.code(), Some(2));
     let _ = std::fs::remove_dir_all(dir);
 }
+
+/// A trajectory that does not move is scored from its first pose: the alignment's rotation
+/// would be noise. The estimate's world is turned by 40° of yaw and shifted; it drifts 2 mm
+/// along its own x and its last pose is tilted by 0.5° more than the truth.
+#[test]
+fn eval_scores_a_static_trajectory_from_its_first_pose() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("scenarios-cli-static");
+    std::fs::create_dir_all(&dir).unwrap();
+    let (c, s) = (40f64.to_radians().cos(), 40f64.to_radians().sin());
+    let (mut gt, mut est) = (String::new(), String::new());
+    for i in 0..21 {
+        let t = 1.0 + 0.05 * i as f64;
+        // ±0.2 mm of motion-capture jitter; the body faces yaw 0.
+        let jitter = if i % 2 == 0 { 2e-4 } else { -2e-4 };
+        gt.push_str(&format!("{t:.3} {:.6} 2.0 1.0 0 0 0 1\n", 1.0 + jitter));
+        let (x, y) = (1.0 + jitter + 1e-4 * i as f64, 2.0);
+        let (ex, ey) = (c * x - s * y + 3.0, s * x + c * y - 1.0);
+        // The estimate's body: yaw 40°, and on the last pose 0.5° of roll more.
+        let half_roll = if i == 20 { 0.25f64.to_radians() } else { 0.0 };
+        let (hc, hs) = (20f64.to_radians().cos(), 20f64.to_radians().sin());
+        let (rc, rs) = (half_roll.cos(), half_roll.sin());
+        // q = q_yaw(40°) · q_roll: (x, y, z, w).
+        let q = [hc * rs, hs * rs, hs * rc, hc * rc];
+        est.push_str(&format!(
+            "{t:.3} {ex:.9} {ey:.9} 1.0 {:.12} {:.12} {:.12} {:.12}\n",
+            q[0], q[1], q[2], q[3]
+        ));
+    }
+    let (g, e) = (dir.join("gt.tum"), dir.join("est.tum"));
+    std::fs::write(&g, gt).unwrap();
+    std::fs::write(&e, est).unwrap();
+    let out = vio(&[
+        "eval",
+        "--gt",
+        g.to_str().unwrap(),
+        "--est",
+        e.to_str().unwrap(),
+        "--align",
+        "posyaw",
+    ]);
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    assert_eq!(out.status.code(), Some(0), "{stdout}");
+    assert!(stdout.contains("too short or static"), "{stdout}");
+    assert!(!stdout.contains("ATE rot"), "{stdout}");
+    let max_of = |row: &str| -> f64 {
+        let line = stdout.lines().find(|l| l.starts_with(row)).unwrap();
+        line[row.len()..]
+            .split_whitespace()
+            .last()
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    assert!((max_of("drift trans (m)") - 2e-3).abs() < 1e-6, "{stdout}");
+    assert!((max_of("tilt error (deg)") - 0.5).abs() < 1e-6, "{stdout}");
+}

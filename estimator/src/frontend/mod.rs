@@ -13,11 +13,13 @@ pub mod image;
 pub mod klt;
 mod lanes;
 pub mod ransac;
+mod statistics;
 mod tracker;
 mod types;
 
 pub use config::{TrackerConfig, TrackerError};
 pub use image::{ImageError, ImageView, OwnedImage, Pyramid};
+pub use statistics::{TrackStatistics, TrackSummary};
 pub use tracker::{
     CameraImageView, FeatureTracker, StageTimes, TrackReport, TrackedFeature, TrackerCamera,
 };

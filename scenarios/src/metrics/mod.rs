@@ -13,11 +13,16 @@
 //! - Statistics ([`Stats`]) as evo prints them: rmse, mean, median, std (population), min, max, sse.
 
 mod align;
+mod anchored;
 mod associate;
 mod nees;
 mod rpe;
 
 pub use align::{Alignment, Sim3, align_position_yaw, estimate_alignment, umeyama};
+pub use anchored::{
+    AnchoredDrift, MIN_ALIGNMENT_SPREAD_M, StaticTrajectory, alignment_spread, anchored_drift,
+    ill_posed_alignment,
+};
 pub use associate::{Matched, associate, associate_trajectories};
 pub use nees::{Covariance, NeesResult, nees};
 pub use rpe::{PairsFrom, RpeDelta, RpeOptions, RpeResult, rpe, rpe_pairs};
@@ -171,6 +176,17 @@ pub fn ate(gt: &[Pose], est: &[Pose], alignment: Alignment) -> Result<AteResult,
         });
     }
     let s = estimate_alignment(gt, est, alignment)?;
+    ate_aligned(gt, est, s)
+}
+
+/// ATE of associated pose lists after a given alignment `s` of the estimate.
+pub fn ate_aligned(gt: &[Pose], est: &[Pose], s: Sim3) -> Result<AteResult, MetricsError> {
+    if gt.len() != est.len() {
+        return Err(MetricsError::LengthMismatch {
+            gt: gt.len(),
+            est: est.len(),
+        });
+    }
     let aligned: Vec<Pose> = est.iter().map(|p| s.transform_pose(p)).collect();
     let te: Vec<f64> = gt
         .iter()
@@ -232,6 +248,10 @@ pub struct Evaluation {
     /// One entry per requested RPE variant: its result, or why there is none (e.g. a path
     /// shorter than the delta).
     pub rpe: Vec<Result<RpeResult, MetricsError>>,
+    /// A ground truth too short or static to determine the alignment's rotation: why, and the
+    /// errors from the first pose, which replace the ATE's rotation (`None` otherwise, and with
+    /// [`Alignment::None`]).
+    pub static_trajectory: Option<StaticTrajectory>,
 }
 
 /// Associates, aligns and computes ATE and RPE, as `evo_ape` / `evo_rpe` do.
@@ -243,8 +263,24 @@ pub fn evaluate(
     let matched = associate_trajectories(gt, est, opts.max_diff_ns)?;
     let g: Vec<Pose> = matched.gt.iter().map(|s| s.pose).collect();
     let e: Vec<Pose> = matched.est.iter().map(|s| s.pose).collect();
-    let ate = ate(&g, &e, opts.alignment)?;
+    let static_trajectory = match ill_posed_alignment(&g, opts.alignment) {
+        Some(reason) => Some(StaticTrajectory {
+            reason,
+            drift: anchored_drift(&g, &e, opts.alignment == Alignment::PosYaw)?,
+        }),
+        None => None,
+    };
+    // A static trajectory's ATE is taken after the anchoring at its first pose.
+    let ate = match &static_trajectory {
+        Some(st) => ate_aligned(&g, &e, st.drift.alignment)?,
+        None => ate(&g, &e, opts.alignment)?,
+    };
     let aligned: Vec<Pose> = e.iter().map(|p| ate.alignment.transform_pose(p)).collect();
     let rpe = opts.rpe.iter().map(|o| rpe(&g, &aligned, o)).collect();
-    Ok(Evaluation { matched, ate, rpe })
+    Ok(Evaluation {
+        matched,
+        ate,
+        rpe,
+        static_trajectory,
+    })
 }

@@ -43,13 +43,16 @@ use crate::replay_report::ReplayReport;
 use std::path::Path;
 
 use estimator::estimator::Status;
+use estimator::frontend::TrackSummary;
 use estimator::geometry::Pose;
 use serde::Serialize;
 
 use crate::batch::{self, BatchReport};
 use crate::dataset::{self, StampedPose};
 use crate::frontend::FrontendStats;
-use crate::metrics::{self, Alignment, AteResult, MetricsError, RpeOptions, RpeResult};
+use crate::metrics::{
+    self, Alignment, AteResult, MetricsError, RpeOptions, RpeResult, StaticTrajectory,
+};
 use crate::plot::{self, PlotData};
 use crate::recovery;
 use crate::run::{EventKind, RunOutput};
@@ -58,10 +61,12 @@ use crate::spec::{Bound, Scenario, SuiteSpec};
 mod calibration;
 mod gnss;
 mod rest;
+mod static_trajectory;
 mod summary;
 pub use calibration::{CalibrationReport, CalibrationSample, CalibrationTruth, ExtrinsicError};
 pub use gnss::{GnssReport, gnss_report};
-pub use rest::{RestInterval, RestReport, rest_report};
+pub use rest::{RestInterval, RestReport, RestSpeeds, rest_report};
+pub use static_trajectory::StaticTrajectoryReport;
 pub use summary::summary;
 
 /// Where a run came from, as far as its report, plot and files are concerned: a scenario
@@ -156,22 +161,40 @@ pub struct Evaluation {
     pub gyro_bias_error_rad_s: Option<f64>,
     /// Final accelerometer bias error (m/s²), with an IMU.
     pub accel_bias_error_m_s2: Option<f64>,
+    /// A ground truth too short or static to determine the alignment: why, and the errors
+    /// from the first evaluated pose. `ate` then holds the errors after that anchoring, and
+    /// the report's ATE figures are `null`.
+    pub static_trajectory: Option<StaticTrajectory>,
+    /// The ground truth's spread in the directions the alignment needs (m).
+    pub ground_truth_spread_m: f64,
 }
 
 impl Evaluation {
-    /// The alignment's name in `report.json`: `position_yaw` or `se3`.
+    /// The alignment's name in `report.json`: `position_yaw` or `se3`; `first_pose` for a
+    /// static trajectory.
     pub fn alignment_name(&self) -> &'static str {
+        if self.static_trajectory.is_some() {
+            return "first_pose";
+        }
         alignment_name(self.alignment)
     }
 
-    /// Position ATE RMSE (m).
+    /// Position ATE RMSE (m); `None` for a static trajectory.
     pub fn ate_rmse_m(&self) -> Option<f64> {
-        self.ate.as_ref().ok().map(|a| a.translation.rmse)
+        self.aligned_ate().map(|a| a.translation.rmse)
     }
 
-    /// Rotation ATE RMSE (deg).
+    /// Rotation ATE RMSE (deg); `None` for a static trajectory.
     pub fn ate_rot_rmse_deg(&self) -> Option<f64> {
-        self.ate.as_ref().ok().map(|a| a.rotation_deg.rmse)
+        self.aligned_ate().map(|a| a.rotation_deg.rmse)
+    }
+
+    /// The ATE after an alignment the ground truth determines.
+    fn aligned_ate(&self) -> Option<&AteResult> {
+        self.ate
+            .as_ref()
+            .ok()
+            .filter(|_| self.static_trajectory.is_none())
     }
 
     /// RPE translation RMSE over [`RPE_DELTA_M`] (m).
@@ -214,7 +237,16 @@ pub fn evaluate(run: &RunOutput, suite: SuiteSpec) -> Evaluation {
         SuiteSpec::StereoImu | SuiteSpec::MonoImu => Alignment::PosYaw,
         SuiteSpec::Stereo => Alignment::Se3,
     };
-    let ate = metrics::ate(&gt, &est, alignment);
+    let positions: Vec<_> = gt.iter().map(|p| p.p).collect();
+    let ground_truth_spread_m = metrics::alignment_spread(&positions, alignment);
+    let static_trajectory = metrics::ill_posed_alignment(&gt, alignment).and_then(|reason| {
+        let drift = metrics::anchored_drift(&gt, &est, alignment == Alignment::PosYaw).ok()?;
+        Some(StaticTrajectory { reason, drift })
+    });
+    let ate = match &static_trajectory {
+        Some(st) => metrics::ate_aligned(&gt, &est, st.drift.alignment),
+        None => metrics::ate(&gt, &est, alignment),
+    };
     let rpe = metrics::rpe(&gt, &est, &RpeOptions::meters(RPE_DELTA_M));
     let last = evaluated.last().map(|&i| &run.frames[i]);
     let (gyro_bias_error_rad_s, accel_bias_error_m_s2) = match (suite, last) {
@@ -238,6 +270,8 @@ pub fn evaluate(run: &RunOutput, suite: SuiteSpec) -> Evaluation {
         rpe,
         gyro_bias_error_rad_s,
         accel_bias_error_m_s2,
+        static_trajectory,
+        ground_truth_spread_m,
     }
 }
 
@@ -386,6 +420,10 @@ pub struct Report {
     /// The image front end's statistics against ground truth (`null` unless the estimator
     /// tracked rendered images).
     pub frontend: Option<FrontendStats>,
+    /// What the image front end did, no ground truth needed: features, track lengths, stereo
+    /// matches, rejections (runs on images, rendered or recorded; absent otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frontend_tracks: Option<TrackSummary>,
     /// Events.
     pub events: Vec<EventReport>,
     /// The scenario's faults.
@@ -398,6 +436,10 @@ pub struct Report {
     /// The estimated time offset and extrinsics against the truth (`null` unless the scenario
     /// studies calibration: a calibration error, a camera time offset or online estimation).
     pub calibration: Option<CalibrationReport>,
+    /// A ground truth too short or static to align: the drift and tilt from the first pose that
+    /// replace the ATE (absent otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub static_trajectory: Option<StaticTrajectoryReport>,
     /// Zero-velocity detection against the truth and the drift during rests (`null` when the
     /// body never rests and nothing was detected, or without ground truth).
     pub rest: Option<RestReport>,
@@ -433,6 +475,11 @@ impl Report {
                 .map(|f| f.back_s)
                 .try_fold(0.0f64, |m, b| Some(m.max(b?))),
             "tracking_fraction" => Some(self.tracking_fraction),
+            "position_drift_m" => self.static_trajectory.as_ref().map(|s| s.position_drift_m),
+            "tilt_error_deg" => self
+                .static_trajectory
+                .as_ref()
+                .and_then(|s| s.tilt_error_max_deg),
             "gyro_bias_error_rad_s" => self.gyro_bias_error_rad_s,
             "accel_bias_error_m_s2" => self.accel_bias_error_m_s2,
             "frontend_features_min" => self.frontend.map(|f| f.features_min as f64),
@@ -552,6 +599,7 @@ pub fn build_report_in(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> 
         },
         renderer: run.renderer.clone(),
         frontend: run.frontend,
+        frontend_tracks: run.frontend_tracks,
         events,
         faults,
         batch_reference: batch::batch_report(run, eval.alignment),
@@ -560,7 +608,20 @@ pub fn build_report_in(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> 
             .calibration_truth
             .as_ref()
             .and_then(|t| calibration::calibration_report(t, run)),
-        rest: rest::rest_report(run).filter(|_| ctx.ground_truth),
+        static_trajectory: eval
+            .static_trajectory
+            .as_ref()
+            .filter(|_| ctx.ground_truth)
+            .map(|st| StaticTrajectoryReport::new(st, eval.ground_truth_spread_m)),
+        rest: rest::rest_report(
+            run,
+            if ctx.recorded {
+                RestSpeeds::RECORDED
+            } else {
+                RestSpeeds::SIMULATED
+            },
+        )
+        .filter(|_| ctx.ground_truth),
         gnss: gnss::gnss_report(run).filter(|_| ctx.ground_truth),
         interrupted_at_s: run.interrupted_at_s,
         expectations: Vec::new(),
@@ -581,7 +642,7 @@ pub fn build_report_in(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> 
         .windows(2)
         .map(|w| (w[1].truth.pose.p - w[0].truth.pose.p).norm())
         .sum();
-    let defaults = recovery::default_bounds(path_m, &bounds);
+    let defaults = recovery::default_bounds(path_m, &bounds, eval.static_trajectory.is_some());
     bounds.extend(defaults);
     report.expectations = bounds
         .into_iter()

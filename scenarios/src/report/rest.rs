@@ -6,12 +6,31 @@ use serde::Serialize;
 
 use crate::run::RunOutput;
 
-/// True speed (m/s) below which a frame counts as at rest (the simulator's rests are exact to
-/// the controller's tracking, well under a millimetre per second).
-pub const REST_SPEED_M_S: f64 = 1e-3;
+/// The true speeds (m/s) that separate rest from motion in the ground truth.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RestSpeeds {
+    /// Below: the frame counts as at rest.
+    pub rest_m_s: f64,
+    /// Above: a detection is false, the body is plainly moving.
+    pub moving_m_s: f64,
+}
 
-/// True speed (m/s) above which a detection is false: the body is plainly moving.
-pub const MOVING_SPEED_M_S: f64 = 0.01;
+impl RestSpeeds {
+    /// A simulation's: its rests are exact to the controller's tracking, well under a
+    /// millimetre per second.
+    pub const SIMULATED: RestSpeeds = RestSpeeds {
+        rest_m_s: 1e-3,
+        moving_m_s: 0.01,
+    };
+
+    /// A recording's: motion-capture velocities carry the noise of their differentiation
+    /// (EuRoC V1_01 at rest on the floor: 3–6 mm/s on average, up to 15 mm/s), and a
+    /// multirotor that takes off passes 0.1 m/s within a frame.
+    pub const RECORDED: RestSpeeds = RestSpeeds {
+        rest_m_s: 0.02,
+        moving_m_s: 0.05,
+    };
+}
 
 /// One rest of the body: an interval of consecutive evaluated frames at rest.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -34,7 +53,7 @@ pub struct RestReport {
     pub frames_at_rest: usize,
     /// Frames the estimator detected at rest.
     pub frames_detected: usize,
-    /// Detections while the body moved faster than [`MOVING_SPEED_M_S`].
+    /// Detections while the body moved faster than [`RestSpeeds::moving_m_s`].
     pub false_detections: usize,
     /// The rests, in time order (at least two frames each).
     pub rests: Vec<RestInterval>,
@@ -43,13 +62,13 @@ pub struct RestReport {
 }
 
 /// The rest block of a run: `None` when the body never rests and nothing was detected.
-pub fn rest_report(run: &RunOutput) -> Option<RestReport> {
+pub fn rest_report(run: &RunOutput, speeds: RestSpeeds) -> Option<RestReport> {
     let frames: Vec<_> = run
         .frames
         .iter()
         .filter(|f| f.estimate.status.initialized())
         .collect();
-    let at_rest = |f: &crate::run::FrameRecord| f.truth.v_w.norm() < REST_SPEED_M_S;
+    let at_rest = |f: &crate::run::FrameRecord| f.truth.v_w.norm() < speeds.rest_m_s;
     let frames_at_rest = frames.iter().filter(|f| at_rest(f)).count();
     let frames_detected = frames.iter().filter(|f| f.estimate.at_rest).count();
     if frames_at_rest == 0 && frames_detected == 0 {
@@ -57,7 +76,7 @@ pub fn rest_report(run: &RunOutput) -> Option<RestReport> {
     }
     let false_detections = frames
         .iter()
-        .filter(|f| f.estimate.at_rest && f.truth.v_w.norm() > MOVING_SPEED_M_S)
+        .filter(|f| f.estimate.at_rest && f.truth.v_w.norm() > speeds.moving_m_s)
         .count();
     let mut rests = Vec::new();
     let mut i = 0;

@@ -40,13 +40,30 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
         r.duration_s,
         if recorded { "recorded" } else { "simulated" }
     );
-    let _ = writeln!(
-        s,
-        "ATE           {} RMSE, rotation {} RMSE ({} alignment)",
-        opt(r.ate_rmse_m, 4, " m"),
-        opt(r.ate_rot_rmse_deg, 3, "°"),
-        r.alignment.replace('_', "+")
-    );
+    match &r.static_trajectory {
+        Some(st) => {
+            let _ = writeln!(s, "static        {}", st.reason);
+            let _ = writeln!(
+                s,
+                "drift         from the first pose (anchored in {}): position max {:.2} mm, final {:.2} mm; rotation final {:.3}°; tilt error RMS {}, max {}",
+                st.anchored.replace('_', "+"),
+                st.position_drift_m * 1e3,
+                st.position_drift_final_m * 1e3,
+                st.rotation_drift_final_deg,
+                opt(st.tilt_error_rms_deg, 3, "°"),
+                opt(st.tilt_error_max_deg, 3, "°")
+            );
+        }
+        None => {
+            let _ = writeln!(
+                s,
+                "ATE           {} RMSE, rotation {} RMSE ({} alignment)",
+                opt(r.ate_rmse_m, 4, " m"),
+                opt(r.ate_rot_rmse_deg, 3, "°"),
+                r.alignment.replace('_', "+")
+            );
+        }
+    }
     let _ = writeln!(
         s,
         "RPE ({} m)     {} translation RMSE, pose pairs {} m of ground-truth path apart",
@@ -145,6 +162,24 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
             100.0 * f.wrong_before_ransac,
             100.0 * f.wrong_after_ransac,
             f.stereo_error_median_px
+        );
+    }
+    if let Some(f) = &r.frontend_tracks {
+        let _ = writeln!(
+            s,
+            "tracker       {:.0} features/frame ({}–{}), tracks {:.1} frames (median {:.0}), {:.1} new/frame; lost per frame: KLT {:.1}, flow-back {:.1}, RANSAC {:.2} ({:.2} %); stereo {:.0} % matched, {:.1} rejected/frame",
+            f.features_mean,
+            f.features_min,
+            f.features_max,
+            f.track_length_mean,
+            f.track_length_median,
+            f.detected_per_frame,
+            f.klt_lost_per_frame,
+            f.flow_back_rejected_per_frame,
+            f.ransac_rejected_per_frame,
+            100.0 * f.ransac_rejected_fraction,
+            100.0 * f.stereo_match_ratio,
+            f.stereo_rejected_per_frame
         );
     }
     let _ = writeln!(s, "resets        {}", r.resets);

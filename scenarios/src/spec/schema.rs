@@ -698,6 +698,11 @@ pub struct ExpectationsSpec {
     pub ate_rot_rmse_deg: Option<Bound>,
     /// RPE translation RMSE over 1 m of ground-truth path (m; see [`crate::report`]).
     pub rpe_trans_rmse_m: Option<Bound>,
+    /// A static run's largest position error from its first pose (m; `static_trajectory` in
+    /// [`crate::report`]).
+    pub position_drift_m: Option<Bound>,
+    /// A static run's largest tilt error (deg).
+    pub tilt_error_deg: Option<Bound>,
     /// Estimator resets.
     pub resets: Option<Bound>,
     /// Sensor-suite switches.
@@ -738,6 +743,8 @@ impl ExpectationsSpec {
             ("ate_rmse_m", self.ate_rmse_m),
             ("ate_rot_rmse_deg", self.ate_rot_rmse_deg),
             ("rpe_trans_rmse_m", self.rpe_trans_rmse_m),
+            ("position_drift_m", self.position_drift_m),
+            ("tilt_error_deg", self.tilt_error_deg),
             ("resets", self.resets),
             ("suite_switches", self.suite_switches),
             ("imu_samples_excluded", self.imu_samples_excluded),

@@ -117,9 +117,22 @@ pub(super) fn eval(args: &EvalArgs) -> Result<String, String> {
         ev.matched.pairs.len(),
         args.t_max_diff
     ));
-    out.push_str(&format!("alignment {alignment}"));
-    if alignment == Alignment::Sim3 {
-        out.push_str(&format!(", scale {:.9}", a.scale));
+    match &ev.static_trajectory {
+        Some(st) => out.push_str(&format!(
+            "alignment {alignment}: {}\nanchored at the first matched pose ({})",
+            st.reason,
+            if st.drift.gravity_aligned {
+                "position+yaw; tilt needs no alignment"
+            } else {
+                "whole pose"
+            }
+        )),
+        None => {
+            out.push_str(&format!("alignment {alignment}"));
+            if alignment == Alignment::Sim3 {
+                out.push_str(&format!(", scale {:.9}", a.scale));
+            }
+        }
     }
     out.push_str("\n\n");
     out.push_str(&format!(
@@ -132,8 +145,26 @@ pub(super) fn eval(args: &EvalArgs) -> Result<String, String> {
             name, s.count, s.rmse, s.mean, s.median, s.std, s.min, s.max
         ));
     };
-    row("ATE trans (m)".into(), &ev.ate.translation);
-    row("ATE rot (deg)".into(), &ev.ate.rotation_deg);
+    match &ev.static_trajectory {
+        // Too short or static to align: errors from the first pose instead of the ATE.
+        Some(st) => {
+            let d = &st.drift;
+            let stats = |v: &[f64]| scenarios::metrics::Stats::from_errors(v);
+            if let Some(s) = stats(&d.position_errors) {
+                row("drift trans (m)".into(), &s);
+            }
+            if let Some(s) = stats(&d.rotation_errors_deg) {
+                row("drift rot (deg)".into(), &s);
+            }
+            if let Some(s) = d.tilt_deg() {
+                row("tilt error (deg)".into(), &s);
+            }
+        }
+        None => {
+            row("ATE trans (m)".into(), &ev.ate.translation);
+            row("ATE rot (deg)".into(), &ev.ate.rotation_deg);
+        }
+    }
     let mut missing = Vec::new();
     for (o, r) in opts.rpe.iter().zip(&ev.rpe) {
         match r {
