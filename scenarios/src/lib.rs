@@ -14,7 +14,9 @@
 //! - [`regress`] — `vio regress`: a regression catalog against a stored baseline, JUnit XML;
 //! - [`sweep`] — `vio sweep` / `sweep-merge`: a scenario over a parameter grid × seeds, sharded;
 //! - [`bench`] — `vio bench`: per-stage timing, frames per second and peak memory;
-//! - [`selfcheck`] — a quick end-to-end check of the estimator's mathematics.
+//! - [`selfcheck`] — a quick end-to-end check of the estimator's mathematics;
+//! - [`imu_model`] — `vio imu-model`: Allan deviation, noise-model fit, spectra and the residual
+//!   of a recorded IMU log against its ground truth.
 
 pub mod batch;
 pub mod bench;
@@ -24,6 +26,7 @@ pub mod euroc;
 pub mod export;
 pub mod frontend;
 pub mod images;
+pub mod imu_model;
 pub mod metrics;
 pub mod nees;
 pub mod plot;

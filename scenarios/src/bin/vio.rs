@@ -16,11 +16,14 @@ use scenarios::{catalog, report};
 mod euroc;
 #[path = "vio/eval.rs"]
 mod eval;
+#[path = "vio/imu_model.rs"]
+mod imu_model;
 #[path = "vio/studies.rs"]
 mod studies;
 
 use euroc::{EurocArgs, euroc_command};
 use eval::{EvalArgs, eval};
+use imu_model::{ImuModelArgs, imu_model_command};
 use studies::{bench_command, nees_command, regress_command, sweep_command};
 
 /// Visual-inertial odometry estimator and its simulation harness.
@@ -191,6 +194,11 @@ enum Command {
     /// Compare an estimated trajectory with ground truth (TUM files): ATE and RPE with evo's
     /// definitions (`evo_ape tum GT EST -a` prints the same ATE).
     Eval(EvalArgs),
+    /// Characterize a recorded IMU (EuRoC `imu0/data.csv`): Allan deviation of each axis with a
+    /// fit of the Kalibr noise densities and random walks, spectra and vibration lines; with
+    /// `--gt` also the residual against the IMU the ground truth implies, the clock lag and the
+    /// frame check. Writes `OUT/imu_model.json`, `OUT/allan.png`, `OUT/spectrum.png`.
+    ImuModel(ImuModelArgs),
 }
 
 /// Writes to stdout; a closed pipe (`vio list | head`) ends the output quietly instead of
@@ -345,6 +353,7 @@ fn main() -> ExitCode {
                 ExitCode::from(1)
             }
         }
+        Command::ImuModel(args) => imu_model_command(args),
         Command::Eval(args) => match eval(&args) {
             Ok(report) => {
                 say(&report);

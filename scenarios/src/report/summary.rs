@@ -43,15 +43,17 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
     match &r.static_trajectory {
         Some(st) => {
             let _ = writeln!(s, "static        {}", st.reason);
+            let tilt = match (st.tilt_error_rms_deg, st.tilt_error_max_deg) {
+                (Some(rms), Some(max)) => format!("; tilt error RMS {rms:.3}°, max {max:.3}°"),
+                _ => String::new(),
+            };
             let _ = writeln!(
                 s,
-                "drift         from the first pose (anchored in {}): position max {:.2} mm, final {:.2} mm; rotation final {:.3}°; tilt error RMS {}, max {}",
+                "drift         from the first pose (anchored in {}): position max {:.2} mm, final {:.2} mm; rotation final {:.3}°{tilt}",
                 st.anchored.replace('_', "+"),
                 st.position_drift_m * 1e3,
                 st.position_drift_final_m * 1e3,
                 st.rotation_drift_final_deg,
-                opt(st.tilt_error_rms_deg, 3, "°"),
-                opt(st.tilt_error_max_deg, 3, "°")
             );
         }
         None => {

@@ -1,0 +1,437 @@
+//! `vio imu-model`'s analysis: the selected stretch of a log → Allan deviations and fits,
+//! spectra, and with ground truth the residual against the implied IMU.
+
+use estimator::imu::ImuSample;
+use nalgebra::Vector3;
+
+use super::allan::allan_deviation;
+use super::fit::{NoiseFit, SlopeReadoff, fit_noise_model, slope_readoff};
+use super::motion::check_motion;
+use super::report::{
+    AllanSection, AxisAllan, GroundTruthSection, ImuModel, KalibrReference, ResidualStats, SCHEMA,
+    Selection, SensorAllan, SensorPair, SensorSpectrum, SpectrumSection,
+};
+use super::residual::{
+    self, GRAVITY, Implied, clock_lag, default_knot_spacing_s, detect_rest, frame_rotation,
+    gt_period_and_gaps, implied_bandwidth_hz, implied_imu, moving_average,
+};
+use super::spectrum::{Psd, find_lines, octave_bands, runs_of, segment_length, welch};
+use crate::dataset::GroundTruthState;
+
+/// Fewest samples an Allan deviation is computed from.
+pub const MIN_SAMPLES: usize = 100;
+/// Lines reported per spectrum.
+const MAX_LINES: usize = 6;
+/// Lowest frequency a line is looked for at (Hz).
+const LINE_MIN_HZ: f64 = 1.0;
+/// Clock search range (s, either way).
+const CLOCK_SEARCH_S: f64 = 0.05;
+/// At most this many samples either way (an IMU faster than 20 kHz searches less than ±50 ms).
+const MAX_CLOCK_LAGS: usize = 1000;
+const AXES: [&str; 3] = ["x", "y", "z"];
+
+/// What to analyse and how.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Options {
+    /// Start of the stretch (s from the log's first sample); default the start.
+    pub from_s: Option<f64>,
+    /// End of the stretch (s from the log's first sample); default the end.
+    pub to_s: Option<f64>,
+    /// With ground truth: rest is before this time (s from the log's start) instead of detected.
+    pub rest_until_s: Option<f64>,
+    /// Knot spacing (s) of the spline through the ground truth; default its median period, at
+    /// least [`residual::MIN_DEFAULT_KNOT_SPACING_S`].
+    pub knot_spacing_s: Option<f64>,
+}
+
+/// The data to analyse.
+#[derive(Clone, Debug, Default)]
+pub struct Input {
+    /// Name of the log in messages and the report.
+    pub log: String,
+    /// The IMU samples, time-ordered.
+    pub samples: Vec<ImuSample>,
+    /// Kalibr values from the log's `sensor.yaml`.
+    pub sensor_yaml: Option<KalibrReference>,
+    /// Ground truth: its file name and rows.
+    pub groundtruth: Option<(String, Vec<GroundTruthState>)>,
+}
+
+fn check_option(name: &str, v: Option<f64>) -> Result<(), String> {
+    match v {
+        Some(x) if !(x.is_finite() && x >= 0.0) => Err(format!(
+            "{name} must be a finite number of seconds ≥ 0, got {x}"
+        )),
+        _ => Ok(()),
+    }
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// Runs the analysis. `Err` explains what in the input or options is unusable.
+pub fn analyze(input: &Input, opts: &Options) -> Result<ImuModel, String> {
+    check_option("--from", opts.from_s)?;
+    check_option("--to", opts.to_s)?;
+    check_option("--rest-until", opts.rest_until_s)?;
+    if let Some(k) = opts.knot_spacing_s
+        && !(k.is_finite() && (0.01..=2.0).contains(&k))
+    {
+        return Err(format!("--knot-spacing must be in [0.01, 2] s, got {k}"));
+    }
+    let log = &input.log;
+    let Some(first) = input.samples.first() else {
+        return Err(format!("{log}: no IMU samples"));
+    };
+    let t0 = first.t_ns;
+    let rel = |s: &ImuSample| (s.t_ns - t0) as f64 * 1e-9;
+    let end = rel(&input.samples[input.samples.len() - 1]);
+    let from = opts.from_s.unwrap_or(0.0);
+    let to = opts.to_s.unwrap_or(f64::INFINITY);
+    if from >= to {
+        return Err(format!("--from {from} s is not before --to {to} s"));
+    }
+    let sel: Vec<ImuSample> = input
+        .samples
+        .iter()
+        .filter(|s| (from..=to).contains(&rel(s)))
+        .copied()
+        .collect();
+    if sel.len() < MIN_SAMPLES {
+        return Err(format!(
+            "{log}: {} samples between {from} s and {} s of a {end:.3} s log; an Allan deviation needs at least {MIN_SAMPLES}",
+            sel.len(),
+            to.min(end)
+        ));
+    }
+    let intervals: Vec<f64> = sel
+        .windows(2)
+        .map(|w| (w[1].t_ns - w[0].t_ns) as f64 * 1e-9)
+        .collect();
+    let dt = median(intervals.clone());
+    let selection = Selection {
+        from_s: rel(&sel[0]),
+        to_s: rel(&sel[sel.len() - 1]),
+        samples: sel.len(),
+        period_s: dt,
+        rate_hz: 1.0 / dt,
+        gaps: intervals.iter().filter(|d| **d > 1.5 * dt).count(),
+        longest_interval_s: intervals.iter().copied().fold(0.0, f64::max),
+    };
+    let gyro: Vec<Vector3<f64>> = sel.iter().map(|s| s.gyro).collect();
+    let accel: Vec<Vector3<f64>> = sel.iter().map(|s| s.accel).collect();
+    let all = vec![true; sel.len()];
+    let raw_allan = SensorPair {
+        gyro: sensor_allan(&gyro, &all, dt),
+        accel: sensor_allan(&accel, &all, dt),
+    };
+    let raw_spectrum = spectra(&gyro, &accel, &all, dt, LINE_MIN_HZ);
+    let motion = check_motion(&sel, dt, selection.from_s);
+    let mut notes = base_notes(&selection, dt);
+    if motion.moving_blocks > 0 {
+        notes.push(format!(
+            "the log moves in {} of {} 1-s blocks: its raw Allan deviation measures the motion, not the sensor's noise; select a still stretch with --from/--to or use --gt for the residual's",
+            motion.moving_blocks, motion.blocks
+        ));
+    }
+    let mut model = ImuModel {
+        schema: SCHEMA,
+        log: log.clone(),
+        selection,
+        sensor_yaml: input.sensor_yaml.clone(),
+        motion,
+        allan: AllanSection {
+            raw: raw_allan,
+            residual: None,
+        },
+        groundtruth: None,
+        spectrum: SpectrumSection {
+            raw: raw_spectrum,
+            residual_flight: None,
+            residual_rest: None,
+        },
+        notes,
+    };
+    if let Some((path, gt)) = &input.groundtruth {
+        with_groundtruth(&mut model, &sel, path, gt, opts, t0)?;
+    }
+    Ok(model)
+}
+
+fn base_notes(sel: &Selection, dt: f64) -> Vec<String> {
+    let mut notes = vec![
+        "Allan deviation: overlapping estimator, cluster times log-spaced from one period to T/9; fit σ²(τ) = N²/τ + (2 ln2/π)B² + K²τ/3 by weighted non-negative least squares; N, K are Kalibr's *_noise_density, *_random_walk".into(),
+        "spectra: Welch, Hann window, 50 % overlap, one-sided, sum of the three axes; a white noise of density N has the per-axis level 2N²".into(),
+    ];
+    if sel.gaps > 0 {
+        notes.push(format!(
+            "{} intervals longer than 1.5 periods (longest {:.4} s, period {dt:.6} s): the samples are treated as contiguous",
+            sel.gaps, sel.longest_interval_s
+        ));
+    }
+    notes
+}
+
+fn axis_series(v: &[Vector3<f64>], mask: &[bool], axis: usize) -> Vec<f64> {
+    v.iter()
+        .zip(mask)
+        .filter(|(_, m)| **m)
+        .map(|(x, _)| x[axis])
+        .collect()
+}
+
+fn sensor_allan(v: &[Vector3<f64>], mask: &[bool], dt: f64) -> SensorAllan {
+    let axes: Vec<AxisAllan> = (0..3)
+        .map(|a| {
+            let curve = allan_deviation(&axis_series(v, mask, a), dt);
+            AxisAllan {
+                axis: AXES[a],
+                fit: fit_noise_model(&curve),
+                readoff: slope_readoff(&curve),
+                curve,
+            }
+        })
+        .collect();
+    let fits: Option<Vec<NoiseFit>> = axes.iter().map(|a| a.fit).collect();
+    let fit_mean = fits.map(|f| NoiseFit {
+        white_noise_density: f.iter().map(|x| x.white_noise_density).sum::<f64>() / 3.0,
+        bias_instability: f.iter().map(|x| x.bias_instability).sum::<f64>() / 3.0,
+        random_walk: f.iter().map(|x| x.random_walk).sum::<f64>() / 3.0,
+        relative_rms_residual: f.iter().map(|x| x.relative_rms_residual).sum::<f64>() / 3.0,
+    });
+    let mean = |get: fn(&SlopeReadoff) -> Option<f64>| -> Option<f64> {
+        let v: Option<Vec<f64>> = axes.iter().map(|a| get(&a.readoff)).collect();
+        v.map(|v| v.iter().sum::<f64>() / 3.0)
+    };
+    let readoff_mean = SlopeReadoff {
+        white_noise_density: mean(|r| r.white_noise_density),
+        white_noise_tau_s: mean(|r| r.white_noise_tau_s),
+        random_walk: mean(|r| r.random_walk),
+        random_walk_tau_s: mean(|r| r.random_walk_tau_s),
+        bias_instability: mean(|r| r.bias_instability),
+        bias_instability_tau_s: mean(|r| r.bias_instability_tau_s),
+    };
+    SensorAllan {
+        axes,
+        fit_mean,
+        readoff_mean,
+    }
+}
+
+fn sensor_spectrum(
+    v: &[Vector3<f64>],
+    mask: &[bool],
+    dt: f64,
+    line_min_hz: f64,
+) -> Option<SensorSpectrum> {
+    let runs = runs_of(mask);
+    let segment = segment_length(&runs)?;
+    let fs = 1.0 / dt;
+    let per_axis: Vec<Psd> = (0..3)
+        .map(|a| {
+            let y: Vec<f64> = v.iter().map(|x| x[a]).collect();
+            welch(&y, &runs, fs, segment)
+        })
+        .collect::<Option<_>>()?;
+    let psd = Psd::sum(&per_axis)?;
+    let power = |keep: &dyn Fn(f64) -> bool| -> f64 {
+        let bins = psd.freq_hz.iter().zip(&psd.density).skip(1);
+        bins.filter(|(f, _)| keep(**f))
+            .map(|(_, d)| d * psd.df())
+            .sum()
+    };
+    let above = power(&|f| f >= line_min_hz);
+    let below = power(&|f| f < line_min_hz);
+    Some(SensorSpectrum {
+        octaves: octave_bands(&psd),
+        octaves_per_axis: per_axis.iter().map(octave_bands).collect(),
+        rms_below: below.sqrt(),
+        rms_above: above.sqrt(),
+        above_hz: line_min_hz,
+        lines: find_lines(&psd, line_min_hz, MAX_LINES),
+        psd,
+    })
+}
+
+fn spectra(
+    gyro: &[Vector3<f64>],
+    accel: &[Vector3<f64>],
+    mask: &[bool],
+    dt: f64,
+    line_min_hz: f64,
+) -> Option<SensorPair<SensorSpectrum>> {
+    Some(SensorPair {
+        gyro: sensor_spectrum(gyro, mask, dt, line_min_hz)?,
+        accel: sensor_spectrum(accel, mask, dt, line_min_hz)?,
+    })
+}
+
+fn stats(r: &[Vector3<f64>], mask: &[bool]) -> (Option<[f64; 3]>, Option<[f64; 3]>) {
+    let n = mask.iter().filter(|m| **m).count();
+    if n == 0 {
+        return (None, None);
+    }
+    let mut sum = Vector3::zeros();
+    let mut sq = Vector3::zeros();
+    for (x, _) in r.iter().zip(mask).filter(|(_, m)| **m) {
+        sum += x;
+        sq += x.component_mul(x);
+    }
+    let rms = (sq / n as f64).map(f64::sqrt);
+    let mean = sum / n as f64;
+    (Some([rms.x, rms.y, rms.z]), Some([mean.x, mean.y, mean.z]))
+}
+
+fn residual_stats(r: &[Vector3<f64>], rest: &[bool], flight: &[bool]) -> ResidualStats {
+    let (rms_flight, mean_flight) = stats(r, flight);
+    let (rms_rest, mean_rest) = stats(r, rest);
+    ResidualStats {
+        rms_flight,
+        rms_rest,
+        mean_flight,
+        mean_rest,
+    }
+}
+
+fn with_groundtruth(
+    model: &mut ImuModel,
+    sel: &[ImuSample],
+    path: &str,
+    gt: &[GroundTruthState],
+    opts: &Options,
+    t0: i64,
+) -> Result<(), String> {
+    let dt = model.selection.period_s;
+    let (gt_period, gt_gaps) = gt_period_and_gaps(gt);
+    let knots = opts
+        .knot_spacing_s
+        .unwrap_or_else(|| default_knot_spacing_s(gt_period));
+    let implied: Implied = implied_imu(gt, sel, knots).map_err(|e| format!("{path}: {e}"))?;
+    let covered = &implied.covered;
+    let n_cov = covered.iter().filter(|c| **c).count();
+    if n_cov < MIN_SAMPLES {
+        return Err(format!(
+            "{path}: the ground truth covers {n_cov} of the {} selected samples of {}; the comparison needs at least {MIN_SAMPLES} (does it belong to this log?)",
+            sel.len(),
+            model.log
+        ));
+    }
+    let bandwidth = implied_bandwidth_hz(gt_period, knots);
+    let (rest, rest_rule) = match opts.rest_until_s {
+        Some(s) => (
+            sel.iter()
+                .zip(covered)
+                .map(|(x, c)| *c && ((x.t_ns - t0) as f64 * 1e-9) < s)
+                .collect::<Vec<bool>>(),
+            format!("--rest-until {s} s"),
+        ),
+        None => (
+            detect_rest(&implied, dt),
+            format!(
+                "ground truth: speed < {} m/s and |ω| < {} rad/s for ≥ {} s",
+                residual::REST_SPEED_M_S,
+                residual::REST_RATE_RAD_S,
+                residual::REST_MIN_S
+            ),
+        ),
+    };
+    let rel_s = |s: &ImuSample| (s.t_ns - t0) as f64 * 1e-9;
+    let flight: Vec<bool> = covered.iter().zip(&rest).map(|(c, r)| *c && !r).collect();
+    let n_rest = rest.iter().filter(|r| **r).count();
+    let n_flight = flight.iter().filter(|r| **r).count();
+    let r_gyro: Vec<Vector3<f64>> = sel
+        .iter()
+        .zip(&implied.gyro)
+        .map(|(s, i)| s.gyro - i)
+        .collect();
+    let r_accel: Vec<Vector3<f64>> = sel
+        .iter()
+        .zip(&implied.accel)
+        .map(|(s, i)| s.accel - i)
+        .collect();
+
+    // Clock and frame over the flight (or everything covered when nothing flies), the measured
+    // rate low-passed to the implied IMU's band.
+    let moving = if n_flight >= MIN_SAMPLES {
+        &flight
+    } else {
+        covered
+    };
+    let half = ((0.25 / (bandwidth.max(0.5) * dt)).round() as usize).max(1);
+    let low = |v: Vec<f64>| moving_average(&v, half);
+    let meas_lp: Vec<Vector3<f64>> = {
+        let axes: Vec<Vec<f64>> = (0..3)
+            .map(|a| low(sel.iter().map(|s| s.gyro[a]).collect()))
+            .collect();
+        (0..sel.len())
+            .map(|i| Vector3::new(axes[0][i], axes[1][i], axes[2][i]))
+            .collect()
+    };
+    let meas_mag: Vec<f64> = meas_lp.iter().map(|w| w.norm()).collect();
+    let impl_mag: Vec<f64> = implied.gyro.iter().map(|w| w.norm()).collect();
+    let max_lag = ((CLOCK_SEARCH_S / dt).round() as usize).clamp(1, MAX_CLOCK_LAGS);
+    let clock = clock_lag(&[&meas_mag], &[&impl_mag], moving, dt, max_lag);
+    let meas_unbiased: Vec<Vector3<f64>> = meas_lp
+        .iter()
+        .zip(&implied.gyro_bias)
+        .map(|(m, b)| m - b)
+        .collect();
+    let impl_unbiased: Vec<Vector3<f64>> = implied
+        .gyro
+        .iter()
+        .zip(&implied.gyro_bias)
+        .map(|(w, b)| w - b)
+        .collect();
+    let frame = frame_rotation(&meas_unbiased, &impl_unbiased, moving);
+    let channels = |v: &[Vector3<f64>]| -> Vec<Vec<f64>> {
+        (0..3).map(|a| v.iter().map(|x| x[a]).collect()).collect()
+    };
+    let (mc, ic) = (channels(&meas_unbiased), channels(&impl_unbiased));
+    let mr: Vec<&[f64]> = mc.iter().map(Vec::as_slice).collect();
+    let ir: Vec<&[f64]> = ic.iter().map(Vec::as_slice).collect();
+    let clock_vector = clock_lag(&mr, &ir, moving, dt, max_lag);
+
+    model.allan.residual = Some(SensorPair {
+        gyro: sensor_allan(&r_gyro, covered, dt),
+        accel: sensor_allan(&r_accel, covered, dt),
+    });
+    let line_min = bandwidth.max(LINE_MIN_HZ);
+    model.spectrum.residual_flight = spectra(&r_gyro, &r_accel, &flight, dt, line_min);
+    model.spectrum.residual_rest = spectra(&r_gyro, &r_accel, &rest, dt, line_min);
+    model.groundtruth = Some(GroundTruthSection {
+        path: path.to_string(),
+        rows: gt.len(),
+        period_s: gt_period,
+        gaps: gt_gaps,
+        knot_spacing_s: knots,
+        rest_stretches_s: runs_of(&rest)
+            .into_iter()
+            .map(|r| [rel_s(&sel[r.start]), rel_s(&sel[r.end - 1])])
+            .collect(),
+        valid_bandwidth_hz: bandwidth,
+        gravity: GRAVITY,
+        covered_samples: n_cov,
+        rest_samples: n_rest,
+        flight_samples: n_flight,
+        rest_rule,
+        clock,
+        clock_vector,
+        frame,
+        residual: SensorPair {
+            gyro: residual_stats(&r_gyro, &rest, &flight),
+            accel: residual_stats(&r_accel, &rest, &flight),
+        },
+    });
+    model.notes.push(format!(
+        "ground truth every {gt_period:.4} s through a cubic B-spline with knots every {knots:.4} s: the implied IMU is valid below {bandwidth:.2} Hz; residual content above it is sensor noise and vibration, below it also the ground truth's error"
+    ));
+    model.notes.push("residual Allan deviation: over the samples the ground truth covers; at long τ it also holds the ground truth's bias and model errors".into());
+    if n_rest == 0 {
+        model
+            .notes
+            .push("no rest found in the ground truth: no residual at rest".into());
+    }
+    Ok(())
+}

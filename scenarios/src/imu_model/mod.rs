@@ -1,0 +1,21 @@
+//! IMU characterization (`vio imu-model`): Allan deviation and noise-model fit (Kalibr `N`, `K`
+//! and the bias instability `B`), spectra and vibration lines, and with ground truth the
+//! residual against the IMU the ground truth implies, the clock lag and the frame check.
+
+pub mod allan;
+pub mod analysis;
+pub mod fit;
+pub mod input;
+pub mod motion;
+pub mod plot;
+pub mod report;
+pub mod residual;
+pub mod spectrum;
+pub mod summary;
+
+pub use allan::{AllanCurve, allan_deviation};
+pub use analysis::{Input, MIN_SAMPLES, Options, analyze};
+pub use fit::{NoiseFit, SlopeReadoff, fit_noise_model, slope_readoff};
+pub use input::load;
+pub use report::{ImuModel, write_outputs};
+pub use summary::summary;
