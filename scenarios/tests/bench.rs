@@ -29,3 +29,26 @@ fn one_benchmark_row_has_every_stage() {
     let out = vio(&["bench", "--one", "no_such"]);
     assert_eq!(out.status.code(), Some(2));
 }
+
+/// The real-frames row: the committed EuRoC V1_01 excerpt (20 stereo pairs at rest) through the
+/// image front end and the estimator; its sanity figure is the position drift from the first
+/// pose (measured 2.2 mm).
+#[test]
+fn the_real_frames_row_tracks_images() {
+    let out = vio(&["bench", "--one", "euroc_V1_01_easy_excerpt", "--quick"]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let row: scenarios::bench::BenchRow = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!((row.mode.as_str(), row.frames), ("recorded", 20));
+    assert!(row.render_ms.is_none());
+    assert!(row.frontend_ms.median > 0.0 && row.backend_ms.median > 0.0);
+    assert!(
+        row.ate_rmse_m.is_some_and(|d| d < 0.005),
+        "{:?}",
+        row.ate_rmse_m
+    );
+}
