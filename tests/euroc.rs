@@ -148,14 +148,17 @@ fn exported_feature_tracks_reproduce_the_run() {
     );
     assert!(out.join("groundtruth.tum").exists() && out.join("trajectory.png").exists());
 
-    // Without ground truth it runs unevaluated: no error metrics, no ground-truth file.
+    // Without ground truth it runs unevaluated: no error metrics, no ground-truth file; only
+    // the tracking bound, which needs none, is checked.
     std::fs::remove_dir_all(dir.join("mav0/state_groundtruth_estimate0")).unwrap();
     let r = run_euroc(&dir.join("mav0"), &opts, &mut |_| {}).unwrap();
     assert!(!r.context.ground_truth);
     let eval = report::evaluate(&r.output, opts.suite);
     let rep = report::build_report_in(&r.context, &r.output, &eval);
     assert_eq!(rep.frames, expected.frames);
-    assert!(rep.ate_rmse_m.is_none() && rep.expectations.is_empty());
+    assert!(rep.ate_rmse_m.is_none() && rep.passed);
+    let checked: Vec<&str> = rep.expectations.iter().map(|e| e.metric).collect();
+    assert_eq!(checked, ["tracking_fraction"]);
     let out = dir.join("out-no-gt");
     report::write_outputs_in(&out, &r.context, &r.output, &eval, &rep).unwrap();
     assert!(out.join("estimate.tum").exists() && !out.join("groundtruth.tum").exists());
@@ -280,4 +283,76 @@ fn real_frames_at_rest_track_and_score_drift_and_tilt() {
         tracks.stereo_match_ratio
     );
     assert!(report::summary(&rep, None).contains("tilt error"));
+}
+
+/// No pass on nothing: without ground truth a run is still checked on what needs none. The real
+/// excerpt without its ground truth passes (11 of 20 frames tracking); the same folder with
+/// black images never tracks and fails.
+#[test]
+fn a_run_without_ground_truth_that_never_tracks_fails() {
+    let dir = scratch("no-truth");
+    let mav0 = dir.join("mav0");
+    let src = real_excerpt().join("mav0");
+    for sub in ["cam0/data", "cam1/data", "imu0"] {
+        std::fs::create_dir_all(mav0.join(sub)).unwrap();
+    }
+    for f in [
+        "cam0/data.csv",
+        "cam0/sensor.yaml",
+        "cam1/data.csv",
+        "cam1/sensor.yaml",
+    ] {
+        std::fs::copy(src.join(f), mav0.join(f)).unwrap();
+    }
+    for f in ["imu0/data.csv", "imu0/sensor.yaml"] {
+        std::fs::copy(src.join(f), mav0.join(f)).unwrap();
+    }
+    let images = |cam: &str| -> Vec<std::fs::DirEntry> {
+        let mut v: Vec<_> = std::fs::read_dir(src.join(cam).join("data"))
+            .unwrap()
+            .map(|e| e.unwrap())
+            .collect();
+        v.sort_by_key(|e| e.file_name());
+        v
+    };
+    let opts = EurocOptions {
+        suite: SuiteSpec::StereoImu,
+        features: None,
+        settings: None,
+        pixel_sigma_px: 1.0,
+        seed: 1,
+        duration_s: None,
+    };
+    let report_of = |mav0: &Path| {
+        let r = run_euroc(mav0, &opts, &mut |_| {}).unwrap();
+        assert!(!r.context.ground_truth);
+        let eval = report::evaluate(&r.output, opts.suite);
+        report::build_report_in(&r.context, &r.output, &eval)
+    };
+    for cam in ["cam0", "cam1"] {
+        for e in images(cam) {
+            std::fs::copy(e.path(), mav0.join(cam).join("data").join(e.file_name())).unwrap();
+        }
+    }
+    let real = report_of(&mav0);
+    assert!(real.passed, "{}", report::summary(&real, None));
+    assert_eq!(real.ate_rmse_m, None);
+    let black = image::GrayImage::new(752, 480);
+    for cam in ["cam0", "cam1"] {
+        for e in images(cam) {
+            black
+                .save(mav0.join(cam).join("data").join(e.file_name()))
+                .unwrap();
+        }
+    }
+    let dark = report_of(&mav0);
+    assert_eq!(dark.tracking_frames, 0);
+    assert!(!dark.passed, "{}", report::summary(&dark, None));
+    let check = dark
+        .expectations
+        .iter()
+        .find(|e| e.metric == "tracking_fraction")
+        .expect("the tracking bound is checked without ground truth");
+    assert!(!check.passed);
+    let _ = std::fs::remove_dir_all(dir);
 }
