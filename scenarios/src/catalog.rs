@@ -44,6 +44,7 @@ const ENTRIES: &[Entry] = &[
     entry!("room_figure8_frame_drops_stereo_imu"),
     entry!("room_figure8_time_offset_stereo_imu"),
     entry!("room_replay_v1_01_time_offset_stereo_imu"),
+    entry!("room_replay_v1_01_real_imu_stereo_imu"),
     entry!("room_fast_rotation_imu_saturation_stereo_imu"),
     entry!("room_figure8_stops_stereo_imu"),
     entry!("room_figure8_calibration_stereo_imu"),
@@ -81,6 +82,16 @@ const DATA: &[(&str, &[u8])] = &[
     (
         "data/euroc_V1_01_easy_20s.txt",
         include_bytes!("../catalog/data/euroc_V1_01_easy_20s.txt"),
+    ),
+    (
+        "data/euroc_V1_01_easy_excerpt/mav0/state_groundtruth_estimate0/data.csv",
+        include_bytes!(
+            "../catalog/data/euroc_V1_01_easy_excerpt/mav0/state_groundtruth_estimate0/data.csv"
+        ),
+    ),
+    (
+        "data/euroc_V1_01_easy_excerpt/mav0/imu0/data.csv",
+        include_bytes!("../catalog/data/euroc_V1_01_easy_excerpt/mav0/imu0/data.csv"),
     ),
 ];
 

@@ -9,6 +9,7 @@
 //! - [`report`] — evaluation, `report.json`, TUM files, the human summary;
 //! - [`plot`] — `trajectory.png`;
 //! - [`replay_report`] — what the checks of a replayed recording found and did;
+//! - [`recorded_imu_report`] — a recorded IMU log's checks against the replayed ground truth;
 //! - [`export`] — a scenario's measurements as an EuRoC ASL folder and `features.csv`;
 //! - [`images`], [`tracks_image`] — `vio render`: images, depth, and the front end's tracks;
 //! - [`regress`] — `vio regress`: a regression catalog against a stored baseline, JUnit XML;
@@ -30,6 +31,7 @@ pub mod imu_model;
 pub mod metrics;
 pub mod nees;
 pub mod plot;
+pub mod recorded_imu_report;
 pub mod recovery;
 pub mod regress;
 pub mod replay_report;

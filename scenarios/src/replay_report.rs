@@ -4,6 +4,8 @@
 use serde::Serialize;
 use sim::motion::recording::RecordingReport;
 
+use crate::recorded_imu_report::RecordedImuReport;
+
 /// `report.json` → `replay`.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ReplayReport {
@@ -33,6 +35,10 @@ pub struct ReplayReport {
     pub fit_max_m: f64,
     /// Largest attitude departure of the fitted spline from a kept sample (deg).
     pub fit_max_deg: f64,
+    /// The recorded IMU log the run used instead of the simulated IMU, and its checks (absent
+    /// without `rig.imu.recorded`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub recorded_imu: Option<RecordedImuReport>,
 }
 
 impl From<&RecordingReport> for ReplayReport {
@@ -54,6 +60,7 @@ impl From<&RecordingReport> for ReplayReport {
             bridged_samples: r.bridged_samples,
             fit_max_m: r.fit_max_m,
             fit_max_deg: r.fit_max_deg,
+            recorded_imu: None,
         }
     }
 }

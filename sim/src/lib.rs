@@ -23,6 +23,7 @@ pub mod aiding;
 pub mod camera;
 pub mod faults;
 pub mod imu;
+pub mod imu_source;
 pub mod motion;
 pub mod render;
 mod render_worker;
@@ -35,6 +36,7 @@ use crate::aiding::{GnssConfig, GnssSim, WheelConfig, WheelSim};
 use crate::camera::{RigConfig, RigSim};
 use crate::faults::{Fault, FaultTimeline};
 use crate::imu::{ImuConfig, ImuSim};
+use crate::imu_source::{ImuSource, RecordedImu};
 use crate::motion::{
     BodyParams, ControllerGains, Lissajous, MotionSim, RandomWaypoints, Reference, Replay,
     StaticStart, Stop, Stops, TrajectoryError, TruthBuffer,
@@ -107,6 +109,10 @@ pub struct WorldConfig {
     pub faults: Vec<Fault>,
     /// How long ground truth stays queryable behind the last emitted event (s).
     pub truth_retention_s: f64,
+    /// A recorded IMU log (run clock) the stream emits instead of the simulated IMU's samples;
+    /// the physics still moves the cameras and gives the ground truth, and the faults apply
+    /// to the log's samples. `imu.rate_hz` still sets the physics rate.
+    pub recorded_imu: Option<Arc<RecordedImu>>,
 }
 
 impl Default for WorldConfig {
@@ -132,6 +138,7 @@ impl Default for WorldConfig {
             wheel: None,
             faults: Vec::new(),
             truth_retention_s: 5.0,
+            recorded_imu: None,
         }
     }
 }
@@ -212,6 +219,10 @@ impl World {
         if let Some(d) = reference.duration() {
             duration = duration.min(d);
         }
+        let end_ns = (duration * 1e9).round() as i64;
+        if let Some(log) = &config.recorded_imu {
+            log.covers(end_ns).map_err(SimError::Config)?;
+        }
         let scene = Arc::new(Scene::build(&config.scene, config.seed));
         validate::check_free_space(
             reference.as_ref(),
@@ -220,7 +231,7 @@ impl World {
             duration,
         )?;
         Ok(Self {
-            end_ns: (duration * 1e9).round() as i64,
+            end_ns,
             config,
             scene,
             reference,
@@ -268,7 +279,10 @@ impl World {
     pub fn stream(&self) -> Stream {
         let c = &self.config;
         let truth = TruthBuffer::new(self.motion());
-        let imu = ImuSim::new(c.imu.clone(), c.seed);
+        let imu = match &c.recorded_imu {
+            Some(log) => ImuSource::recorded(log.clone(), c.imu.period_ns()),
+            None => ImuSource::Simulated(Box::new(ImuSim::new(c.imu.clone(), c.seed))),
+        };
         let rig = c
             .rig
             .as_ref()

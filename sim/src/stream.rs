@@ -8,7 +8,8 @@
 use crate::aiding::{GnssSim, WheelSim};
 use crate::camera::RigSim;
 use crate::faults::FaultTimeline;
-use crate::imu::{ImuBias, ImuSim};
+use crate::imu::ImuBias;
+use crate::imu_source::ImuSource;
 use crate::motion::{Kinematics, TruthBuffer};
 use crate::render::{CameraImage, DepthImage, GrayImage, ImageFrame, RenderError, Renderer};
 use crate::render_worker::{RenderJob, RenderWorker};
@@ -96,7 +97,8 @@ pub(crate) struct AidingSims {
 #[derive(Debug)]
 pub struct Stream {
     truth: TruthBuffer,
-    imu: ImuSim,
+    /// The simulated IMU or a recorded log.
+    imu: ImuSource,
     rig: Option<RigSim>,
     faults: FaultTimeline,
     end_ns: i64,
@@ -126,7 +128,7 @@ pub struct Stream {
 impl Stream {
     pub(crate) fn new(
         truth: TruthBuffer,
-        imu: ImuSim,
+        imu: ImuSource,
         rig: Option<RigSim>,
         faults: FaultTimeline,
         end_ns: i64,
@@ -386,7 +388,8 @@ impl Stream {
     /// or older than the retention window behind the last emitted event.
     ///
     /// Pose, velocity and rates come from the physics (see [`TruthBuffer`]); biases are the
-    /// IMU's bias random walk, linear between IMU samples.
+    /// simulated IMU's bias random walk (a recorded log's: the recording's biases, or zero),
+    /// linear between IMU samples.
     pub fn truth(&mut self, t_ns: i64) -> Option<GroundTruth> {
         if t_ns < 0 {
             return None;

@@ -4,6 +4,7 @@
 
 pub mod allan;
 pub mod analysis;
+pub mod comparison;
 pub mod fit;
 pub mod input;
 pub mod motion;

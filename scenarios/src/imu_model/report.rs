@@ -80,7 +80,7 @@ pub struct AllanSection {
 }
 
 /// One value per sensor.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct SensorPair<T> {
     /// Gyroscope (rad/s).
     pub gyro: T,
@@ -113,7 +113,7 @@ pub struct AxisAllan {
 }
 
 /// Measured against the ground-truth-implied IMU.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct GroundTruthSection {
     /// The ground-truth csv.
     pub path: String,
@@ -152,7 +152,7 @@ pub struct GroundTruthSection {
 }
 
 /// Residual mean and RMS per axis (x, y, z), in flight and at rest.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ResidualStats {
     /// RMS in flight.
     pub rms_flight: Option<[f64; 3]>,

@@ -56,69 +56,20 @@ use crate::metrics::{
 use crate::plot::{self, PlotData};
 use crate::recovery;
 use crate::run::{EventKind, RunOutput};
-use crate::spec::{Bound, Scenario, SuiteSpec};
+use crate::spec::{Scenario, SuiteSpec};
 
 mod calibration;
+mod context;
 mod gnss;
 mod rest;
 mod static_trajectory;
 mod summary;
 pub use calibration::{CalibrationReport, CalibrationSample, CalibrationTruth, ExtrinsicError};
+pub use context::RunContext;
 pub use gnss::{GnssReport, gnss_report};
 pub use rest::{RestInterval, RestReport, RestSpeeds, rest_report};
 pub use static_trajectory::StaticTrajectoryReport;
 pub use summary::summary;
-
-/// Where a run came from, as far as its report, plot and files are concerned: a scenario
-/// ([`RunContext::of`]) or a recorded dataset (`vio euroc`).
-#[derive(Clone, Debug)]
-pub struct RunContext {
-    /// One-line description.
-    pub description: String,
-    /// The sensor suite (picks the alignment and the bias metrics).
-    pub suite: SuiteSpec,
-    /// Fault intervals `(kind, start s, end s)` (end infinite for permanent faults).
-    pub faults: Vec<(String, f64, f64)>,
-    /// Bounds to check, `(metric, bound)`.
-    pub expectations: Vec<(&'static str, Bound)>,
-    /// What the checks of a replayed recording found and did.
-    pub replay: Option<ReplayReport>,
-    /// The recording's own clock: added to the estimate stamps (ns) for
-    /// `estimate_source_time.tum`; `None`: that file is not written.
-    pub source_time_offset_ns: Option<i64>,
-    /// The true calibration when the run studies it (the report then has a `calibration`
-    /// block).
-    pub calibration_truth: Option<CalibrationTruth>,
-    /// A recorded dataset (`vio euroc`) rather than a simulation.
-    pub recorded: bool,
-    /// Whether the run's frames carry ground truth. Without it the report's error metrics are
-    /// `null`, only expectations that need no ground truth are checked (tracking, resets, the
-    /// IMU counts), and neither `groundtruth.tum` nor the plot is written.
-    pub ground_truth: bool,
-}
-
-impl RunContext {
-    /// The context of a scenario run.
-    pub fn of(scenario: &Scenario) -> Self {
-        let spec = &scenario.spec;
-        Self {
-            description: spec.description.clone(),
-            suite: spec.suite,
-            faults: scenario.fault_intervals(),
-            expectations: spec.expectations.bounds(),
-            replay: scenario.recording_report().map(ReplayReport::from),
-            // A replay without a static start runs on the recording's clock shifted to start
-            // at 0.
-            source_time_offset_ns: scenario
-                .recording_start_s()
-                .filter(|_| spec.trajectory.static_start.is_none())
-                .map(|t0| (t0 * 1e9).round() as i64),
-            calibration_truth: scenario.calibration_truth(),
-            recorded: false,
-            ground_truth: true,
-        }
-    }
-}
 
 /// Pair spacing of the relative pose error: metres of ground-truth path.
 pub const RPE_DELTA_M: f64 = 1.0;
@@ -506,7 +457,7 @@ const GROUND_TRUTH_FREE: [&str; 5] = [
 
 /// Builds the report of a run and checks the scenario's expectations.
 pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> Report {
-    build_report_in(&RunContext::of(scenario), run, eval)
+    build_report_in(&RunContext::of(scenario, run), run, eval)
 }
 
 /// [`build_report`] for a run described by `ctx`.
@@ -733,7 +684,7 @@ pub fn write_outputs(
     eval: &Evaluation,
     report: &Report,
 ) -> Result<(), String> {
-    write_outputs_in(dir, &RunContext::of(scenario), run, eval, report)
+    write_outputs_in(dir, &RunContext::of(scenario, run), run, eval, report)
 }
 
 /// [`write_outputs`] for a run described by `ctx`; without ground truth

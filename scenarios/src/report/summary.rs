@@ -131,6 +131,9 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
             p.fit_max_m,
             p.fit_max_deg
         );
+        if let Some(imu) = &p.recorded_imu {
+            let _ = writeln!(s, "recorded IMU  {}", imu.summary());
+        }
     }
     let t = &r.timing_ms;
     let _ = writeln!(

@@ -575,6 +575,7 @@ impl Scenario {
                 ..Default::default()
             }),
             faults,
+            recorded_imu: self.recorded_imu.as_ref().map(|r| r.log.clone()),
             ..WorldConfig::default()
         })
     }
@@ -594,8 +595,8 @@ impl Scenario {
         }
     }
 
-    /// The IMU noise densities of the file.
-    pub(super) fn imu_noise(&self) -> ImuNoise {
+    /// The IMU noise densities of the file (what the estimator assumes).
+    pub fn imu_noise(&self) -> ImuNoise {
         let imu = &self.spec.rig.imu;
         ImuNoise {
             gyroscope_noise_density: imu.gyroscope_noise_density,

@@ -74,10 +74,12 @@ pub mod error;
 pub(crate) mod exact;
 mod mapping;
 pub(crate) mod overlay;
+mod recorded_imu;
 pub mod schema;
 mod validate;
 
 pub use error::SpecError;
+pub use recorded_imu::RecordedImuLog;
 pub use schema::*;
 
 /// Where a scenario came from.
@@ -111,6 +113,8 @@ pub struct Scenario {
     models: Vec<Arc<dyn CameraModel>>,
     /// A replayed recording, read, checked and fitted once (`trajectory.replay`).
     recording: Option<Arc<(Replay, RecordingReport)>>,
+    /// A recorded IMU log on the replay's clock, read and checked once (`rig.imu.recorded`).
+    recorded_imu: Option<Arc<RecordedImuLog>>,
 }
 
 impl Scenario {
@@ -184,6 +188,7 @@ impl Scenario {
             render,
             models: Vec::new(),
             recording: None,
+            recorded_imu: None,
         };
         s.validate()?;
         let models = (0..s.spec.rig.cameras.len())
@@ -193,6 +198,8 @@ impl Scenario {
         s.validate_estimator_config()?;
         let recording = s.load_recording()?.map(Arc::new);
         let s = Self { recording, ..s };
+        let recorded_imu = s.load_recorded_imu()?.map(Arc::new);
+        let s = Self { recorded_imu, ..s };
         s.validate_free_space()?;
         Ok(s)
     }
@@ -278,6 +285,16 @@ impl Scenario {
     /// generated motions).
     pub fn recording_start_s(&self) -> Option<f64> {
         self.recording.as_ref().map(|r| r.0.t_file0)
+    }
+
+    /// [`Scenario::recording_start_s`] in ns: the shift from the recording's clock to the run's.
+    /// Exact (the file's own stamp) with a recorded IMU log on an EuRoC ASL ground truth, else
+    /// rounded to the ns.
+    pub fn recording_start_ns(&self) -> Option<i64> {
+        match &self.recorded_imu {
+            Some(r) => Some(r.shift_ns),
+            None => self.recording_start_s().map(|t0| (t0 * 1e9).round() as i64),
+        }
     }
 
     /// The name errors use for the file.

@@ -595,6 +595,9 @@ pub struct ImuSpec {
     pub gyro_range_rad_s: Option<f64>,
     /// Per-axis accelerometer range (m/s²); none: no saturation.
     pub accel_range_m_s2: Option<f64>,
+    /// A recorded IMU log (EuRoC ASL `imu0/data.csv`, the replayed recording's clock, relative
+    /// to the scenario file) the run uses instead of the simulated IMU; replay trajectories only.
+    pub recorded: Option<String>,
 }
 
 /// Fault kinds.

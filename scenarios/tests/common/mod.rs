@@ -41,7 +41,24 @@ pub fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
 
 /// Runs `vio run` on `text`; asserts exit code 2 and that stderr names `key` and `line`.
 pub fn assert_bad(tag: &str, text: &str, key: &str, expect: &[&str]) -> String {
+    assert_bad_with(tag, text, &[], key, expect)
+}
+
+/// [`assert_bad`] with data `files` `(path relative to the scenario, bytes)` beside the
+/// scenario file.
+pub fn assert_bad_with(
+    tag: &str,
+    text: &str,
+    files: &[(&str, &[u8])],
+    key: &str,
+    expect: &[&str],
+) -> String {
     let dir = scratch(tag);
+    for (rel, bytes) in files {
+        let path = dir.join(rel);
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(path, bytes).unwrap();
+    }
     let p = write(&dir, "bad.toml", text);
     let out = vio(&[
         "run",

@@ -1,0 +1,64 @@
+//! [`RunContext`]: where a run came from, as far as its report, plot and files are concerned.
+
+use super::CalibrationTruth;
+use crate::recorded_imu_report::RecordedImuReport;
+use crate::replay_report::ReplayReport;
+use crate::run::RunOutput;
+use crate::spec::{Bound, Scenario, SuiteSpec};
+
+/// Where a run came from, as far as its report, plot and files are concerned: a scenario
+/// ([`RunContext::of`]) or a recorded dataset (`vio euroc`).
+#[derive(Clone, Debug)]
+pub struct RunContext {
+    /// One-line description.
+    pub description: String,
+    /// The sensor suite (picks the alignment and the bias metrics).
+    pub suite: SuiteSpec,
+    /// Fault intervals `(kind, start s, end s)` (end infinite for permanent faults).
+    pub faults: Vec<(String, f64, f64)>,
+    /// Bounds to check, `(metric, bound)`.
+    pub expectations: Vec<(&'static str, Bound)>,
+    /// What the checks of a replayed recording found and did.
+    pub replay: Option<ReplayReport>,
+    /// The recording's own clock: added to the estimate stamps (ns) for
+    /// `estimate_source_time.tum`; `None`: that file is not written.
+    pub source_time_offset_ns: Option<i64>,
+    /// The true calibration when the run studies it (the report then has a `calibration`
+    /// block).
+    pub calibration_truth: Option<CalibrationTruth>,
+    /// A recorded dataset (`vio euroc`) rather than a simulation.
+    pub recorded: bool,
+    /// Whether the run's frames carry ground truth. Without it the report's error metrics are
+    /// `null`, only expectations that need no ground truth are checked (tracking, resets, the
+    /// IMU counts), and neither `groundtruth.tum` nor the plot is written.
+    pub ground_truth: bool,
+}
+
+impl RunContext {
+    /// The context of a scenario's run `run` (its length bounds the recorded IMU's checks).
+    pub fn of(scenario: &Scenario, run: &RunOutput) -> Self {
+        let spec = &scenario.spec;
+        let recorded_imu = scenario.recorded_imu().map(|log| {
+            let end_ns = (run.duration_s * 1e9).round() as i64;
+            RecordedImuReport::new(log, end_ns, &scenario.imu_noise())
+        });
+        Self {
+            description: spec.description.clone(),
+            suite: spec.suite,
+            faults: scenario.fault_intervals(),
+            expectations: spec.expectations.bounds(),
+            replay: scenario.recording_report().map(|r| ReplayReport {
+                recorded_imu,
+                ..ReplayReport::from(r)
+            }),
+            // A replay without a static start runs on the recording's clock shifted to start
+            // at 0.
+            source_time_offset_ns: scenario
+                .recording_start_ns()
+                .filter(|_| spec.trajectory.static_start.is_none()),
+            calibration_truth: scenario.calibration_truth(),
+            recorded: false,
+            ground_truth: true,
+        }
+    }
+}
