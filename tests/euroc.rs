@@ -237,12 +237,8 @@ fn real_excerpt() -> PathBuf {
 fn real_frames_at_rest_track_and_score_drift_and_tilt() {
     let dir = real_excerpt();
     let opts = EurocOptions {
-        suite: SuiteSpec::StereoImu,
-        features: None,
         settings: Some(dir.join("zero_velocity.toml")),
-        pixel_sigma_px: 1.0,
-        seed: 1,
-        duration_s: None,
+        ..EurocOptions::new(SuiteSpec::StereoImu)
     };
     let rep = euroc_report(&dir.join("mav0"), &opts);
     assert_eq!(rep.frames, 20);
@@ -315,14 +311,7 @@ fn a_run_without_ground_truth_that_never_tracks_fails() {
         v.sort_by_key(|e| e.file_name());
         v
     };
-    let opts = EurocOptions {
-        suite: SuiteSpec::StereoImu,
-        features: None,
-        settings: None,
-        pixel_sigma_px: 1.0,
-        seed: 1,
-        duration_s: None,
-    };
+    let opts = EurocOptions::new(SuiteSpec::StereoImu);
     let report_of = |mav0: &Path| {
         let r = run_euroc(mav0, &opts, &mut |_| {}).unwrap();
         assert!(!r.context.ground_truth);

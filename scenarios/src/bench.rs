@@ -108,14 +108,7 @@ pub fn bench_one(name: &str, quick: bool) -> Result<BenchRow, String> {
         .ok_or_else(|| format!("`{name}` is not a benchmark scenario"))?;
     let start = Instant::now();
     let (out, rep) = if mode == "recorded" {
-        let options = EurocOptions {
-            suite: SuiteSpec::StereoImu,
-            features: None,
-            settings: None,
-            pixel_sigma_px: 1.0,
-            seed: 1,
-            duration_s: None,
-        };
+        let options = EurocOptions::new(SuiteSpec::StereoImu);
         let r =
             run_euroc(Path::new(REAL_FRAMES), &options, &mut |_| {}).map_err(|e| e.to_string())?;
         let eval = report::evaluate(&r.output, options.suite);

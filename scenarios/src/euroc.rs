@@ -59,6 +59,21 @@ pub struct EurocOptions {
     pub duration_s: Option<f64>,
 }
 
+impl EurocOptions {
+    /// `vio euroc`'s defaults for `suite`: the images tracked, default settings, 1 px of pixel
+    /// noise, seed 1, the whole dataset.
+    pub fn new(suite: SuiteSpec) -> Self {
+        Self {
+            suite,
+            features: None,
+            settings: None,
+            pixel_sigma_px: 1.0,
+            seed: 1,
+            duration_s: None,
+        }
+    }
+}
+
 /// Errors of [`run_euroc`]: each names the file concerned.
 #[derive(Debug, thiserror::Error)]
 pub enum EurocError {
