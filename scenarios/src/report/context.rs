@@ -35,22 +35,16 @@ pub struct RunContext {
 }
 
 impl RunContext {
-    /// The context of a scenario's run `run` (its length bounds the recorded IMU's checks).
-    pub fn of(scenario: &Scenario, run: &RunOutput) -> Self {
+    /// The context of a scenario run: what its files and plot need. The checks of a recorded
+    /// IMU log, which need the run, are added by [`RunContext::with_run`].
+    pub fn of(scenario: &Scenario) -> Self {
         let spec = &scenario.spec;
-        let recorded_imu = scenario.recorded_imu().map(|log| {
-            let end_ns = (run.duration_s * 1e9).round() as i64;
-            RecordedImuReport::new(log, end_ns, &scenario.imu_noise())
-        });
         Self {
             description: spec.description.clone(),
             suite: spec.suite,
             faults: scenario.fault_intervals(),
             expectations: spec.expectations.bounds(),
-            replay: scenario.recording_report().map(|r| ReplayReport {
-                recorded_imu,
-                ..ReplayReport::from(r)
-            }),
+            replay: scenario.recording_report().map(ReplayReport::from),
             // A replay without a static start runs on the recording's clock shifted to start
             // at 0.
             source_time_offset_ns: scenario
@@ -60,5 +54,16 @@ impl RunContext {
             recorded: false,
             ground_truth: true,
         }
+    }
+
+    /// [`RunContext::of`] with the checks of the scenario's recorded IMU log over the run's
+    /// span (`replay.recorded_imu`): what its report needs.
+    pub fn with_run(scenario: &Scenario, run: &RunOutput) -> Self {
+        let mut ctx = Self::of(scenario);
+        if let (Some(replay), Some(log)) = (ctx.replay.as_mut(), scenario.recorded_imu()) {
+            let end_ns = (run.duration_s * 1e9).round() as i64;
+            replay.recorded_imu = Some(RecordedImuReport::new(log, end_ns, &scenario.imu_noise()));
+        }
+        ctx
     }
 }

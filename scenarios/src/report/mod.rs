@@ -457,7 +457,7 @@ const GROUND_TRUTH_FREE: [&str; 5] = [
 
 /// Builds the report of a run and checks the scenario's expectations.
 pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> Report {
-    build_report_in(&RunContext::of(scenario, run), run, eval)
+    build_report_in(&RunContext::with_run(scenario, run), run, eval)
 }
 
 /// [`build_report`] for a run described by `ctx`.
@@ -684,7 +684,7 @@ pub fn write_outputs(
     eval: &Evaluation,
     report: &Report,
 ) -> Result<(), String> {
-    write_outputs_in(dir, &RunContext::of(scenario, run), run, eval, report)
+    write_outputs_in(dir, &RunContext::of(scenario), run, eval, report)
 }
 
 /// [`write_outputs`] for a run described by `ctx`; without ground truth
