@@ -228,7 +228,7 @@ fn real_excerpt() -> PathBuf {
 }
 
 /// Real frames at rest: the stereo+IMU start-up takes 9 frames, then every frame tracks with no
-/// reset; the ground truth stands still (0.3 mm of spread), so the run is scored from its first
+/// reset; the ground truth stands still (0.7 mm of spread), so the run is scored from its first
 /// pose. Measured (seed 1): 11 of 20 frames tracking, drift 2.2 mm, tilt error max 0.64° (the
 /// accelerometer bias, 0.075 m/s², alone allows 0.44° at rest), rest detected on 8 frames
 /// under the rotors' vibration (accelerometer 10–30× its datasheet noise), 76 features per

@@ -53,29 +53,43 @@ pub fn alignment_spread(positions: &[Vector3<f64>], alignment: Alignment) -> f64
     }
 }
 
-/// Why `alignment` of an estimate onto `gt` would be ill-posed (the ground truth spreads less
-/// than [`MIN_ALIGNMENT_SPREAD_M`]); `None` when it is determined.
-pub fn ill_posed_alignment(gt: &[Pose], alignment: Alignment) -> Option<String> {
+/// `est` scored from its first pose when `alignment` of it onto `gt` (associated,
+/// equal-length lists) would be ill-posed: the ground truth spreads less than
+/// [`MIN_ALIGNMENT_SPREAD_M`] in the directions the alignment needs. `None` when the ground truth
+/// determines the alignment (and always for [`Alignment::None`] or no poses).
+pub fn static_trajectory(
+    gt: &[Pose],
+    est: &[Pose],
+    alignment: Alignment,
+) -> Result<Option<StaticTrajectory>, MetricsError> {
     let positions: Vec<Vector3<f64>> = gt.iter().map(|p| p.p).collect();
     let spread = alignment_spread(&positions, alignment);
-    (spread < MIN_ALIGNMENT_SPREAD_M).then(|| {
-        let what = match alignment {
-            Alignment::PosYaw => "horizontally",
-            _ => "in its second direction",
-        };
-        format!(
+    if spread >= MIN_ALIGNMENT_SPREAD_M {
+        return Ok(None);
+    }
+    let what = match alignment {
+        Alignment::PosYaw => "horizontally",
+        _ => "in its second direction",
+    };
+    Ok(Some(StaticTrajectory {
+        reason: format!(
             "too short or static to align: the ground truth spreads {spread:.4} m {what} \
              (RMS about its centroid, < {MIN_ALIGNMENT_SPREAD_M} m), which leaves the \
              alignment's rotation to noise; scored from the first pose instead"
-        )
-    })
+        ),
+        spread_m: spread,
+        drift: anchored_drift(gt, est, alignment == Alignment::PosYaw)?,
+    }))
 }
 
 /// A trajectory scored from its first pose: why, and the errors.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StaticTrajectory {
-    /// Why the alignment is ill-posed ([`ill_posed_alignment`]).
+    /// Why the alignment is ill-posed.
     pub reason: String,
+    /// The ground truth's spread in the directions the alignment needs (m,
+    /// [`alignment_spread`]).
+    pub spread_m: f64,
     /// The errors from the first pose.
     pub drift: AnchoredDrift,
 }
@@ -214,12 +228,18 @@ mod tests {
         let still: Vec<Pose> = (0..20)
             .map(|i| pose(0.0, 0.0, [1e-3 * (i % 3) as f64, 0.0, 1.0]))
             .collect();
-        let why = ill_posed_alignment(&still, Alignment::PosYaw).expect("ill-posed");
-        assert!(why.contains("too short or static"), "{why}");
+        let st = static_trajectory(&still, &still, Alignment::PosYaw)
+            .unwrap()
+            .expect("ill-posed");
+        assert!(st.reason.contains("too short or static"), "{}", st.reason);
+        assert!(st.spread_m < 1e-3 && st.drift.max_position_m() == 0.0);
         let moving: Vec<Pose> = (0..20)
             .map(|i| pose(0.0, 0.0, [0.1 * i as f64, 0.0, 1.0]))
             .collect();
-        assert_eq!(ill_posed_alignment(&moving, Alignment::PosYaw), None);
+        assert_eq!(
+            static_trajectory(&moving, &moving, Alignment::PosYaw),
+            Ok(None)
+        );
     }
 
     #[test]

@@ -21,7 +21,7 @@ mod rpe;
 pub use align::{Alignment, Sim3, align_position_yaw, estimate_alignment, umeyama};
 pub use anchored::{
     AnchoredDrift, MIN_ALIGNMENT_SPREAD_M, StaticTrajectory, alignment_spread, anchored_drift,
-    ill_posed_alignment,
+    static_trajectory,
 };
 pub use associate::{Matched, associate, associate_trajectories};
 pub use nees::{Covariance, NeesResult, nees};
@@ -179,6 +179,22 @@ pub fn ate(gt: &[Pose], est: &[Pose], alignment: Alignment) -> Result<AteResult,
     ate_aligned(gt, est, s)
 }
 
+/// ATE of associated pose lists after `alignment` where the ground truth determines it, else
+/// after the anchoring at the first pose of a trajectory too short or static to align (with
+/// why, and the drift and tilt errors: [`static_trajectory`]).
+pub fn ate_or_anchored(
+    gt: &[Pose],
+    est: &[Pose],
+    alignment: Alignment,
+) -> Result<(AteResult, Option<StaticTrajectory>), MetricsError> {
+    let st = static_trajectory(gt, est, alignment)?;
+    let ate = match &st {
+        Some(s) => ate_aligned(gt, est, s.drift.alignment)?,
+        None => ate(gt, est, alignment)?,
+    };
+    Ok((ate, st))
+}
+
 /// ATE of associated pose lists after a given alignment `s` of the estimate.
 pub fn ate_aligned(gt: &[Pose], est: &[Pose], s: Sim3) -> Result<AteResult, MetricsError> {
     if gt.len() != est.len() {
@@ -263,18 +279,7 @@ pub fn evaluate(
     let matched = associate_trajectories(gt, est, opts.max_diff_ns)?;
     let g: Vec<Pose> = matched.gt.iter().map(|s| s.pose).collect();
     let e: Vec<Pose> = matched.est.iter().map(|s| s.pose).collect();
-    let static_trajectory = match ill_posed_alignment(&g, opts.alignment) {
-        Some(reason) => Some(StaticTrajectory {
-            reason,
-            drift: anchored_drift(&g, &e, opts.alignment == Alignment::PosYaw)?,
-        }),
-        None => None,
-    };
-    // A static trajectory's ATE is taken after the anchoring at its first pose.
-    let ate = match &static_trajectory {
-        Some(st) => ate_aligned(&g, &e, st.drift.alignment)?,
-        None => ate(&g, &e, opts.alignment)?,
-    };
+    let (ate, static_trajectory) = ate_or_anchored(&g, &e, opts.alignment)?;
     let aligned: Vec<Pose> = e.iter().map(|p| ate.alignment.transform_pose(p)).collect();
     let rpe = opts.rpe.iter().map(|o| rpe(&g, &aligned, o)).collect();
     Ok(Evaluation {

@@ -117,8 +117,6 @@ pub struct Evaluation {
     /// from the first evaluated pose. `ate` then holds the errors after that anchoring, and
     /// the report's ATE figures are `null`.
     pub static_trajectory: Option<StaticTrajectory>,
-    /// The ground truth's spread in the directions the alignment needs (m).
-    pub ground_truth_spread_m: f64,
 }
 
 impl Evaluation {
@@ -189,15 +187,9 @@ pub fn evaluate(run: &RunOutput, suite: SuiteSpec) -> Evaluation {
         SuiteSpec::StereoImu | SuiteSpec::MonoImu => Alignment::PosYaw,
         SuiteSpec::Stereo => Alignment::Se3,
     };
-    let positions: Vec<_> = gt.iter().map(|p| p.p).collect();
-    let ground_truth_spread_m = metrics::alignment_spread(&positions, alignment);
-    let static_trajectory = metrics::ill_posed_alignment(&gt, alignment).and_then(|reason| {
-        let drift = metrics::anchored_drift(&gt, &est, alignment == Alignment::PosYaw).ok()?;
-        Some(StaticTrajectory { reason, drift })
-    });
-    let ate = match &static_trajectory {
-        Some(st) => metrics::ate_aligned(&gt, &est, st.drift.alignment),
-        None => metrics::ate(&gt, &est, alignment),
+    let (ate, static_trajectory) = match metrics::ate_or_anchored(&gt, &est, alignment) {
+        Ok((ate, st)) => (Ok(ate), st),
+        Err(e) => (Err(e), None),
     };
     let rpe = metrics::rpe(&gt, &est, &RpeOptions::meters(RPE_DELTA_M));
     let last = evaluated.last().map(|&i| &run.frames[i]);
@@ -223,7 +215,6 @@ pub fn evaluate(run: &RunOutput, suite: SuiteSpec) -> Evaluation {
         gyro_bias_error_rad_s,
         accel_bias_error_m_s2,
         static_trajectory,
-        ground_truth_spread_m,
     }
 }
 
@@ -573,7 +564,7 @@ pub fn build_report_in(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> 
             .static_trajectory
             .as_ref()
             .filter(|_| ctx.ground_truth)
-            .map(|st| StaticTrajectoryReport::new(st, eval.ground_truth_spread_m)),
+            .map(StaticTrajectoryReport::new),
         rest: rest::rest_report(
             run,
             if ctx.recorded {

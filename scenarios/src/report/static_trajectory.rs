@@ -1,5 +1,5 @@
 //! `report.json` → `static_trajectory`: a run whose ground truth is too short or static to
-//! determine the alignment ([`crate::metrics::ill_posed_alignment`]) is scored from its first evaluated
+//! determine the alignment ([`crate::metrics::static_trajectory`]) is scored from its first evaluated
 //! pose: position drift, rotation drift and tilt error replace the aligned ATE (see
 //! `metrics::anchored`).
 
@@ -31,14 +31,13 @@ pub struct StaticTrajectoryReport {
 }
 
 impl StaticTrajectoryReport {
-    /// The report section of a trajectory scored from its first pose; `spread_m` is the ground
-    /// truth's [`crate::metrics::alignment_spread`].
-    pub fn new(st: &StaticTrajectory, spread_m: f64) -> Self {
+    /// The report section of a trajectory scored from its first pose.
+    pub fn new(st: &StaticTrajectory) -> Self {
         let d = &st.drift;
         let tilt = d.tilt_deg();
         Self {
             reason: st.reason.clone(),
-            ground_truth_spread_m: spread_m,
+            ground_truth_spread_m: st.spread_m,
             anchored: if d.gravity_aligned {
                 "position_yaw"
             } else {
