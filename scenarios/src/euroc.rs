@@ -8,12 +8,12 @@
 //! first measurement is at 0 (the run's clock; `estimate_source_time.tum` has the dataset's
 //! own). Measurements go to the estimator in time order, IMU first at equal stamps, as in a
 //! simulated run, up to the last frame (IMU samples past it and the time offset's range are
-//! not read). With ground truth
-//! the run is evaluated exactly like `vio run` (the truth of an estimate is the ground truth
-//! interpolated at its time; estimates outside the ground truth's span are left out; a ground
-//! truth that stands still is scored from the first pose, see `metrics::anchored`); without it
-//! the report has no error metrics. The report's `frontend_tracks` says what the image front
-//! end did (features, track lengths, stereo matches, rejections).
+//! not read). With ground truth the run is evaluated exactly like `vio run` (the truth of an
+//! estimate is the ground truth interpolated at its time; estimates outside the ground truth's
+//! span are left out; a ground truth that stands still is scored from the first pose, see
+//! `metrics::anchored`); without it the report has no error metrics, and only the expectations
+//! that need none are checked. The report's `frontend_tracks` says what the image front end did
+//! (features, track lengths, stereo matches, rejections).
 //!
 //! Instead of the images, `features.csv` (`vio export`'s feature tracks) can feed the estimator
 //! directly: the feature-track path of the same run.

@@ -107,8 +107,8 @@ pub(super) struct Rest {
 }
 
 /// Whether one sensor's samples `x` (mean `m`) stand still: their spread within the white-noise
-/// χ² quantile at σ `s` (`limit` for `3(n−1)` degrees of freedom), or, where that fails, the
-/// segment means within theirs against the noise measured inside the segments (see the module
+/// χ² quantile (`3(n−1)` degrees of freedom) at σ `s`, or, where that fails, the segment means
+/// within theirs against the noise measured inside the segments (see the module
 /// documentation). Returns the per-sample σ that explains the samples.
 fn sensor_at_rest(
     x: &[Vector3<f64>],
