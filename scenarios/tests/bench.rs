@@ -4,16 +4,21 @@ mod common;
 
 use common::vio;
 
-#[test]
-fn one_benchmark_row_has_every_stage() {
-    let out = vio(&["bench", "--one", "room_figure8_stereo_imu", "--quick"]);
+/// `vio bench --one NAME --quick`'s row; asserts it exits 0.
+fn row(name: &str) -> scenarios::bench::BenchRow {
+    let out = vio(&["bench", "--one", name, "--quick"]);
     assert_eq!(
         out.status.code(),
         Some(0),
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let row: scenarios::bench::BenchRow = serde_json::from_slice(&out.stdout).unwrap();
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+#[test]
+fn one_benchmark_row_has_every_stage() {
+    let row = row("room_figure8_stereo_imu");
     // 8 s at 20 Hz, both ends included; with the time offset estimated the last frame's IMU
     // time `t + td` may fall after the last IMU sample, and it then waits for IMU past the end.
     assert!((160..=161).contains(&row.frames), "{} frames", row.frames);
@@ -35,14 +40,7 @@ fn one_benchmark_row_has_every_stage() {
 /// pose (measured 2.2 mm).
 #[test]
 fn the_real_frames_row_tracks_images() {
-    let out = vio(&["bench", "--one", "euroc_V1_01_easy_excerpt", "--quick"]);
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let row: scenarios::bench::BenchRow = serde_json::from_slice(&out.stdout).unwrap();
+    let row = row("euroc_V1_01_easy_excerpt");
     assert_eq!((row.mode.as_str(), row.frames), ("recorded", 20));
     assert!(row.render_ms.is_none());
     assert!(row.frontend_ms.median > 0.0 && row.backend_ms.median > 0.0);
