@@ -45,6 +45,8 @@ const ENTRIES: &[Entry] = &[
     entry!("room_figure8_time_offset_stereo_imu"),
     entry!("room_replay_v1_01_time_offset_stereo_imu"),
     entry!("room_replay_v1_01_real_imu_stereo_imu"),
+    entry!("room_replay_v1_01_fitted_imu_stereo_imu"),
+    entry!("room_replay_v1_01_datasheet_imu_stereo_imu"),
     entry!("room_fast_rotation_imu_saturation_stereo_imu"),
     entry!("room_figure8_stops_stereo_imu"),
     entry!("room_figure8_calibration_stereo_imu"),
@@ -94,6 +96,26 @@ const DATA: &[(&str, &[u8])] = &[
         include_bytes!("../catalog/data/euroc_V1_01_easy_excerpt/mav0/imu0/data.csv"),
     ),
 ];
+
+/// Built-in IMU error models (`rig.imu.error_model = "<name>"`), each a file in
+/// `catalog/imu_models/`.
+const IMU_ERROR_MODELS: &[(&str, &str)] = &[(
+    "euroc_mav",
+    include_str!("../catalog/imu_models/euroc_mav.toml"),
+)];
+
+/// A built-in IMU error model's text by name.
+pub fn imu_error_model(name: &str) -> Option<&'static str> {
+    IMU_ERROR_MODELS
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, t)| *t)
+}
+
+/// The names of the built-in IMU error models.
+pub fn imu_error_model_names() -> Vec<&'static str> {
+    IMU_ERROR_MODELS.iter().map(|(n, _)| *n).collect()
+}
 
 /// Every built-in scenario, the default first.
 pub fn entries() -> &'static [Entry] {

@@ -23,9 +23,18 @@
 //! `ω̃ = sat(M_g·ω + b_g + n_g)`, `ã = sat(M_a·f + b_a + n_a)` with `n ~ N(0, σ_c²/Δ)` and the
 //! biases stepping `b ← b + N(0, σ_w²·Δ)` after each sample, starting from the configured initial
 //! biases. The bias of sample `k` is recorded with it as ground truth.
+//!
+//! Two optional error sources real hardware adds, each drawing from its own random stream so a
+//! datasheet IMU's samples are the same with or without them in the build:
+//! - [`crate::bias_instability`]: a Gauss–Markov wander added to the bias (and to its ground
+//!   truth);
+//! - [`crate::vibration`]: band noise and lines, blended between a rest and a motion profile by
+//!   the ground-truth speed, added to the reading (not to the bias).
 
+use crate::bias_instability::{BiasInstability, BiasWander};
 use crate::motion::{TruthBuffer, ideal_imu};
 use crate::rng::sensor_rng;
+use crate::vibration::{Vibration, VibrationSource};
 use estimator::imu::{ImuNoise, ImuSample};
 use nalgebra::{Matrix3, Vector3};
 use rand_chacha::ChaCha8Rng;
@@ -65,6 +74,10 @@ pub struct ImuConfig {
     pub gyro_range: Option<f64>,
     /// Per-axis accelerometer range (m/s²); readings are clamped to ±this.
     pub accel_range: Option<f64>,
+    /// Platform vibration; `None`: none.
+    pub vibration: Option<Vibration>,
+    /// Bias instability; `None`: the bias is a pure random walk.
+    pub bias_instability: Option<BiasInstability>,
 }
 
 impl Default for ImuConfig {
@@ -81,6 +94,8 @@ impl Default for ImuConfig {
             accel_matrix: Matrix3::identity(),
             gyro_range: Some(300f64.to_radians()),
             accel_range: Some(18.0 * 9.81),
+            vibration: None,
+            bias_instability: None,
         }
     }
 }
@@ -124,11 +139,25 @@ pub struct ImuSim {
     next_k: i64,
     rng: ChaCha8Rng,
     bias: ImuBias,
+    vibration: Option<VibrationSource>,
+    wander: Option<BiasWander>,
 }
 
 fn gauss3(rng: &mut ChaCha8Rng, sigma: f64) -> Vector3<f64> {
     let mut n = || -> f64 { StandardNormal.sample(rng) };
     Vector3::new(n(), n(), n()) * sigma
+}
+
+/// The ground-truth speed at the physics state at or before `t_ns`.
+fn speed_at(truth: &mut TruthBuffer, t_ns: i64) -> f64 {
+    let h = truth.step_ns();
+    let origin = truth.oldest_ns();
+    let tj = origin + (t_ns - origin).div_euclid(h) * h;
+    truth
+        .state_at(tj)
+        .expect("IMU sample precedes the buffered ground truth")
+        .v
+        .norm()
 }
 
 fn clamp3(v: Vector3<f64>, range: Option<f64>) -> Vector3<f64> {
@@ -142,6 +171,21 @@ impl ImuSim {
     /// An IMU whose first sample is at `t = 0`, drawing noise from the stream of `cfg.name`.
     pub fn new(cfg: ImuConfig, seed: u64) -> Self {
         let rng = sensor_rng(seed, &cfg.name);
+        let vibration = cfg.vibration.as_ref().map(|v| {
+            VibrationSource::new(
+                v,
+                cfg.rate_hz,
+                sensor_rng(seed, &format!("{}/vibration", cfg.name)),
+            )
+        });
+        let period_s = cfg.period_ns() as f64 * 1e-9;
+        let wander = cfg.bias_instability.as_ref().map(|b| {
+            BiasWander::new(
+                b,
+                period_s,
+                sensor_rng(seed, &format!("{}/bias_instability", cfg.name)),
+            )
+        });
         let bias = ImuBias {
             t_ns: 0,
             gyro: cfg.initial_gyro_bias,
@@ -153,6 +197,8 @@ impl ImuSim {
             next_k: 0,
             rng,
             bias,
+            vibration,
+            wander,
         }
     }
 
@@ -209,9 +255,21 @@ impl ImuSim {
         let t_ns = self.next_time_ns();
         let (f, w) = self.ideal(truth, t_ns);
         let dt = self.period_ns as f64 * 1e-9;
-        let bias = ImuBias { t_ns, ..self.bias };
+        let mut bias = ImuBias { t_ns, ..self.bias };
+        if let Some(wander) = &mut self.wander {
+            let (g, a) = wander.current();
+            bias.gyro += g;
+            bias.accel += a;
+            wander.step();
+        }
         let mut gyro = self.cfg.gyro_matrix * w + bias.gyro;
         let mut accel = self.cfg.accel_matrix * f + bias.accel;
+        if let Some(vibration) = &mut self.vibration {
+            let speed = speed_at(truth, t_ns);
+            let (g, a) = vibration.next(t_ns as f64 * 1e-9, speed);
+            gyro += g;
+            accel += a;
+        }
         if let Some(n) = self.cfg.noise {
             gyro += gauss3(&mut self.rng, n.gyroscope_noise_density / dt.sqrt());
             accel += gauss3(&mut self.rng, n.accelerometer_noise_density / dt.sqrt());

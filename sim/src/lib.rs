@@ -20,6 +20,7 @@
 //! comes from a ChaCha8 stream derived from (seed, sensor name) ([`rng::sensor_rng`]).
 
 pub mod aiding;
+pub mod bias_instability;
 pub mod camera;
 pub mod faults;
 pub mod imu;
@@ -29,8 +30,10 @@ pub mod render;
 mod render_worker;
 pub mod rng;
 pub mod scene;
+pub mod shaped_noise;
 pub mod stream;
 pub mod validate;
+pub mod vibration;
 
 use crate::aiding::{GnssConfig, GnssSim, WheelConfig, WheelSim};
 use crate::camera::{RigConfig, RigSim};

@@ -5,6 +5,7 @@
 use crate::faults::Fault;
 use crate::motion::Reference;
 use crate::scene::{Aabb, SceneConfig};
+use crate::vibration::Vibration;
 use crate::{SimError, TrajectoryConfig, WorldConfig};
 
 /// Resource bounds: far above any realistic run, far below what would exhaust a machine.
@@ -50,6 +51,48 @@ fn finite_non_negative(what: &str, v: f64) -> Result<(), SimError> {
             "{what} must be finite and ≥ 0, got {v}"
         )))
     }
+}
+
+fn validate_vibration(v: &Vibration, rate_hz: f64) -> Result<(), SimError> {
+    let a = &v.activity;
+    finite_non_negative("vibration speed at rest (m/s)", a.speed_at_rest_m_s)?;
+    within(
+        "vibration speed in flight (m/s)",
+        a.speed_in_flight_m_s,
+        a.speed_at_rest_m_s,
+        f64::MAX,
+        "at least the speed at rest",
+    )?;
+    finite_non_negative("vibration time constant (s)", a.time_constant_s)?;
+    let nyquist = rate_hz / 2.0;
+    for p in [&v.rest, &v.flight] {
+        for b in &p.bands {
+            finite_non_negative("vibration band lower edge (Hz)", b.lo_hz)?;
+            within(
+                "vibration band upper edge (Hz)",
+                b.hi_hz,
+                b.lo_hz + f64::MIN_POSITIVE,
+                nyquist,
+                "above the lower edge and at most half the IMU rate",
+            )?;
+            for x in b.gyro_rms.iter().chain(b.accel_rms.iter()) {
+                finite_non_negative("vibration band RMS", *x)?;
+            }
+        }
+        for l in &p.lines {
+            within(
+                "vibration line frequency (Hz)",
+                l.freq_hz,
+                0.0,
+                nyquist,
+                "at most half the IMU rate",
+            )?;
+            for x in l.gyro_rms.iter().chain(l.accel_rms.iter()) {
+                finite_non_negative("vibration line RMS", *x)?;
+            }
+        }
+    }
+    Ok(())
 }
 
 fn within(what: &str, v: f64, lo: f64, hi: f64, why: &str) -> Result<(), SimError> {
@@ -269,6 +312,14 @@ impl WorldConfig {
             if let Some(r) = r {
                 finite_positive(what, r)?;
             }
+        }
+        if let Some(b) = &imu.bias_instability {
+            finite_non_negative("gyroscope bias instability", b.gyro_rad_s)?;
+            finite_non_negative("accelerometer bias instability", b.accel_m_s2)?;
+            finite_positive("bias instability correlation time (s)", b.correlation_s)?;
+        }
+        if let Some(v) = &imu.vibration {
+            validate_vibration(v, imu.rate_hz)?;
         }
         within(
             "landmark density (per m²)",

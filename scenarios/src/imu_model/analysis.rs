@@ -6,6 +6,7 @@ use nalgebra::Vector3;
 
 use super::allan::allan_deviation;
 use super::comparison::compare;
+use super::error_model::fit_error_model;
 use super::fit::{NoiseFit, SlopeReadoff, fit_noise_model, slope_readoff};
 use super::motion::check_motion;
 use super::report::{
@@ -145,6 +146,7 @@ pub fn analyze(input: &Input, opts: &Options) -> Result<ImuModel, String> {
             residual_flight: None,
             residual_rest: None,
         },
+        error_model: None,
         notes,
     };
     if let Some((path, gt)) = &input.groundtruth {
@@ -285,7 +287,10 @@ fn with_groundtruth(
     model.spectrum.residual_flight = spectra(r_gyro, r_accel, &c.flight, dt, line_min);
     model.spectrum.residual_rest = spectra(r_gyro, r_accel, &c.rest, dt, line_min);
     let n_rest = c.section.rest_samples;
-    model.groundtruth = Some(c.section);
+    model.groundtruth = Some(c.section.clone());
+    let measure =
+        |g: &[Vector3<f64>], a: &[Vector3<f64>], mask: &[bool]| spectra(g, a, mask, dt, line_min);
+    model.error_model = fit_error_model(model, &c, &measure);
     model.notes.push(format!(
         "ground truth every {gt_period:.4} s through a cubic B-spline with knots every {knots:.4} s: the implied IMU is valid below {bandwidth:.2} Hz; residual content above it is sensor noise and vibration, below it also the ground truth's error"
     ));

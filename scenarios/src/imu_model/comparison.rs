@@ -33,6 +33,8 @@ pub struct Comparison {
     pub rest: Vec<bool>,
     /// …and in flight.
     pub flight: Vec<bool>,
+    /// The ground truth's speed at each sample (m/s; 0 where it does not cover).
+    pub speed: Vec<f64>,
 }
 
 fn stats(r: &[Vector3<f64>], mask: &[bool]) -> (Option<[f64; 3]>, Option<[f64; 3]>) {
@@ -195,5 +197,6 @@ pub fn compare(
         covered: implied.covered,
         rest,
         flight,
+        speed: implied.speed,
     })
 }

@@ -5,6 +5,7 @@
 pub mod allan;
 pub mod analysis;
 pub mod comparison;
+pub mod error_model;
 pub mod fit;
 pub mod input;
 pub mod motion;
@@ -13,9 +14,11 @@ pub mod report;
 pub mod residual;
 pub mod spectrum;
 pub mod summary;
+pub mod synthesis;
 
 pub use allan::{AllanCurve, allan_deviation};
 pub use analysis::{Input, MIN_SAMPLES, Options, analyze};
+pub use error_model::{FittedErrorModel, fit_error_model};
 pub use fit::{NoiseFit, SlopeReadoff, fit_noise_model, slope_readoff};
 pub use input::load;
 pub use report::{ImuModel, write_outputs};

@@ -32,6 +32,9 @@ pub struct ImuModel {
     pub groundtruth: Option<GroundTruthSection>,
     /// Power spectral densities.
     pub spectrum: SpectrumSection,
+    /// With ground truth: the fitted IMU error model and its check.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error_model: Option<super::error_model::FittedErrorModel>,
     /// What the numbers mean and where they cannot be trusted.
     pub notes: Vec<String>,
 }
@@ -194,8 +197,8 @@ pub struct SensorSpectrum {
     pub lines: Vec<Line>,
 }
 
-/// Writes `imu_model.json`, `allan.png` and `spectrum.png` into `dir` (created); returns the
-/// paths written.
+/// Writes `imu_model.json`, `allan.png` and `spectrum.png` into `dir` (created), and with a
+/// ground truth `error_model.toml` (the fitted IMU error model); returns the paths written.
 pub fn write_outputs(dir: &Path, model: &ImuModel) -> Result<Vec<PathBuf>, String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let mut written = Vec::new();
@@ -209,6 +212,12 @@ pub fn write_outputs(dir: &Path, model: &ImuModel) -> Result<Vec<PathBuf>, Strin
     ] {
         let path = dir.join(name);
         std::fs::write(&path, png).map_err(|e| format!("{}: {e}", path.display()))?;
+        written.push(path);
+    }
+    if let Some(fitted) = &model.error_model {
+        let path = dir.join("error_model.toml");
+        let text = toml::to_string(&fitted.model).map_err(|e| e.to_string())?;
+        std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
         written.push(path);
     }
     Ok(written)

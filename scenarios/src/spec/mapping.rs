@@ -531,6 +531,8 @@ impl Scenario {
             accel_matrix: Matrix3::identity(),
             gyro_range: imu.gyro_range_rad_s,
             accel_range: imu.accel_range_m_s2,
+            vibration: self.imu_error_model().and_then(|m| m.vibration.clone()),
+            bias_instability: self.imu_error_model().and_then(|m| m.bias_instability),
         };
         let faults = (0..s.faults.len())
             .map(|i| self.fault(i))

@@ -72,6 +72,7 @@ use crate::catalog;
 
 pub mod error;
 pub(crate) mod exact;
+pub mod imu_error_model;
 mod mapping;
 pub(crate) mod overlay;
 mod recorded_imu;
@@ -79,6 +80,7 @@ pub mod schema;
 mod validate;
 
 pub use error::SpecError;
+pub use imu_error_model::{ImuErrorModel, ImuErrorModelSpec};
 pub use recorded_imu::RecordedImuLog;
 pub use schema::*;
 
@@ -115,6 +117,8 @@ pub struct Scenario {
     recording: Option<Arc<(Replay, RecordingReport)>>,
     /// A recorded IMU log on the replay's clock, read and checked once (`rig.imu.recorded`).
     recorded_imu: Option<Arc<RecordedImuLog>>,
+    /// The simulated IMU's error model, read and checked once (`rig.imu.error_model`).
+    imu_error_model: Option<Arc<ImuErrorModel>>,
 }
 
 impl Scenario {
@@ -189,6 +193,7 @@ impl Scenario {
             models: Vec::new(),
             recording: None,
             recorded_imu: None,
+            imu_error_model: None,
         };
         s.validate()?;
         let models = (0..s.spec.rig.cameras.len())
@@ -200,6 +205,11 @@ impl Scenario {
         let s = Self { recording, ..s };
         let recorded_imu = s.load_recorded_imu()?.map(Arc::new);
         let s = Self { recorded_imu, ..s };
+        let imu_error_model = s.load_imu_error_model()?.map(Arc::new);
+        let s = Self {
+            imu_error_model,
+            ..s
+        };
         s.validate_free_space()?;
         Ok(s)
     }

@@ -192,7 +192,7 @@ impl Scenario {
 
     /// A data file's path as errors name it: relative to the scenario file, or as written for
     /// catalog scenarios.
-    fn data_path(&self, rel: &str) -> PathBuf {
+    pub(super) fn data_path(&self, rel: &str) -> PathBuf {
         match &self.origin {
             Origin::Catalog => PathBuf::from(rel),
             Origin::File(p) => p.parent().unwrap_or(Path::new(".")).join(rel),

@@ -598,6 +598,10 @@ pub struct ImuSpec {
     /// A recorded IMU log (EuRoC ASL `imu0/data.csv`, the replayed recording's clock, relative
     /// to the scenario file) the run uses instead of the simulated IMU; replay trajectories only.
     pub recorded: Option<String>,
+    /// What the simulated IMU adds to the densities above: a built-in preset (`"euroc_mav"`,
+    /// the EuRoC MAV's ADIS16448 fitted to its V1_01 log) or an error-model TOML file relative
+    /// to the scenario (`vio imu-model --gt` writes one): bias instability and vibration.
+    pub error_model: Option<String>,
 }
 
 /// Fault kinds.
