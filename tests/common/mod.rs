@@ -44,10 +44,15 @@ pub fn run_catalog(name: &str, duration_s: Option<f64>) -> Arc<Done> {
 /// Runs `scenario` with its own seed for `duration_s` (None: its full length), evaluates it and
 /// builds its report (printing the summary).
 pub fn run_scenario(scenario: Scenario, duration_s: Option<f64>) -> Done {
+    run_seeded(scenario, None, duration_s)
+}
+
+/// [`run_scenario`] with `seed` instead of the scenario's own (None: its own).
+pub fn run_seeded(scenario: Scenario, seed: Option<u64>, duration_s: Option<f64>) -> Done {
     let output = run(
         &scenario,
         &RunOptions {
-            seed: None,
+            seed,
             duration_s,
             ..Default::default()
         },

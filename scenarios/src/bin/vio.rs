@@ -197,7 +197,8 @@ enum Command {
     /// Characterize a recorded IMU (EuRoC `imu0/data.csv`): Allan deviation of each axis with a
     /// fit of the Kalibr noise densities and random walks, spectra and vibration lines; with
     /// `--gt` also the residual against the IMU the ground truth implies, the clock lag and the
-    /// frame check. Writes `OUT/imu_model.json`, `OUT/allan.png`, `OUT/spectrum.png`.
+    /// frame check, and the IMU error model fitted to that residual (`OUT/error_model.toml`, for
+    /// `[rig.imu] error_model`). Writes `OUT/imu_model.json`, `OUT/allan.png`, `OUT/spectrum.png`.
     ImuModel(ImuModelArgs),
 }
 

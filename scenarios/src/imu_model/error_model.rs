@@ -111,7 +111,7 @@ fn bands(s: &SensorSpectrum, floor: &Floor, lines: &[(f64, [f64; 3])]) -> Vec<(B
                     .sum();
                 *r = (p - floor.power(band) - in_lines).max(0.0).sqrt();
             }
-            Some((band.clone(), rms))
+            Some((*band, rms))
         })
         .collect()
 }
@@ -250,15 +250,18 @@ pub type Measure<'a> =
     &'a dyn Fn(&[Vector3<f64>], &[Vector3<f64>], &[bool]) -> Option<SensorPair<SensorSpectrum>>;
 
 /// Per-axis power of each octave (`None` where the estimate does not reach).
-fn axis_powers(s: &SensorSpectrum) -> Vec<[Option<f64>; 3]> {
+fn axis_powers(s: &SensorSpectrum) -> AxisPowers {
     let n = s.octaves_per_axis.first().map_or(0, Vec::len);
     (0..n)
         .map(|o| std::array::from_fn(|a| s.octaves_per_axis[a][o].power))
         .collect()
 }
 
-/// Predicted per-axis octave powers (gyro, accel) of each profile's samples, mean over seeds.
-type Predicted = [Option<(Vec<[Option<f64>; 3]>, Vec<[Option<f64>; 3]>)>; 2];
+/// Per-axis power of each octave.
+type AxisPowers = Vec<[Option<f64>; 3]>;
+/// Predicted per-axis octave powers (gyro, accel) of each profile's samples (flight, rest),
+/// mean over seeds.
+type Predicted = [Option<(AxisPowers, AxisPowers)>; 2];
 
 fn predict(
     spec: &ImuErrorModelSpec,
@@ -272,7 +275,7 @@ fn predict(
         .map(|s| synthesis::residual(spec, white, &c.speed, dt, *s))
         .collect();
     [&c.flight, &c.rest].map(|mask| {
-        let mut sum: Option<(Vec<[Option<f64>; 3]>, Vec<[Option<f64>; 3]>)> = None;
+        let mut sum: Option<(AxisPowers, AxisPowers)> = None;
         for r in &runs {
             let sp = measure(&r.gyro, &r.accel, mask)?;
             let (g, a) = (axis_powers(&sp.gyro), axis_powers(&sp.accel));
@@ -286,14 +289,14 @@ fn predict(
     })
 }
 
-fn add(a: &[[Option<f64>; 3]], b: &[[Option<f64>; 3]]) -> Vec<[Option<f64>; 3]> {
+fn add(a: &[[Option<f64>; 3]], b: &[[Option<f64>; 3]]) -> AxisPowers {
     a.iter()
         .zip(b)
         .map(|(x, y)| std::array::from_fn(|i| Some(x[i]? + y[i]?)))
         .collect()
 }
 
-fn scale(a: &[[Option<f64>; 3]], k: f64) -> Vec<[Option<f64>; 3]> {
+fn scale(a: &[[Option<f64>; 3]], k: f64) -> AxisPowers {
     a.iter().map(|x| x.map(|v| v.map(|v| v * k))).collect()
 }
 

@@ -248,10 +248,57 @@ pub fn summary(m: &ImuModel) -> String {
             lines_row(&mut out, "gyro", "rad/s", Some(&r.gyro));
             lines_row(&mut out, "accel", "m/s²", Some(&r.accel));
         }
+        if let Some(f) = &m.error_model {
+            error_model_rows(&mut out, f);
+        }
     } else if let Some(r) = &m.spectrum.raw {
         out.push_str("spectrum of the raw log minus its mean:\n");
         lines_row(&mut out, "gyro", "rad/s", Some(&r.gyro));
         lines_row(&mut out, "accel", "m/s²", Some(&r.accel));
     }
     out
+}
+
+/// The fitted error model: what it holds and how its predicted residual compares per octave.
+fn error_model_rows(out: &mut String, f: &super::error_model::FittedErrorModel) {
+    let bands = f
+        .model
+        .vibration
+        .as_ref()
+        .map_or(0, |v| v.rest.bands.len() + v.flight.bands.len());
+    let lines = f
+        .model
+        .vibration
+        .as_ref()
+        .map_or(0, |v| v.rest.lines.len() + v.flight.lines.len());
+    let _ = writeln!(
+        out,
+        "error model (error_model.toml, for `[rig.imu] error_model`): {bands} bands, {lines} lines, bias instability {}; calibrated in {} rounds",
+        if f.model.bias_instability.is_some() {
+            "yes"
+        } else {
+            "no"
+        },
+        f.iterations
+    );
+    for profile in ["flight", "rest"] {
+        for sensor in ["gyro", "accel"] {
+            let ratios: Vec<f64> = f
+                .check
+                .iter()
+                .filter(|c| c.profile == profile && c.sensor == sensor && c.real_power > 0.0)
+                .map(|c| c.predicted_power / c.real_power)
+                .collect();
+            if ratios.is_empty() {
+                continue;
+            }
+            let lo = ratios.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = ratios.iter().copied().fold(0.0, f64::max);
+            let _ = writeln!(
+                out,
+                "  predicted / real residual power per octave, {profile} {sensor}: {lo:.2}–{hi:.2} ({} octaves)",
+                ratios.len()
+            );
+        }
+    }
 }

@@ -11,10 +11,12 @@ pub(super) struct ImuModelArgs {
     /// The IMU log: an EuRoC ASL `imu0/data.csv` (or the `imu0` or `mav0` folder holding it).
     log: PathBuf,
     /// EuRoC ground truth (`state_groundtruth_estimate0/data.csv`) of the same run: adds the
-    /// residual against the IMU it implies, the clock lag and the frame check.
+    /// residual against the IMU it implies, the clock lag, the frame check and the fitted error
+    /// model.
     #[arg(long)]
     gt: Option<PathBuf>,
-    /// Output folder (`imu_model.json`, `allan.png`, `spectrum.png`).
+    /// Output folder (`imu_model.json`, `allan.png`, `spectrum.png`; with --gt also
+    /// `error_model.toml`).
     #[arg(long)]
     out: PathBuf,
     /// Analyse from this time (s from the log's first sample), e.g. the start of a rest.
