@@ -10,6 +10,12 @@
 //! The baseline is JSON: `{"scenarios": {NAME: {METRIC: {"value": v, "rel": r, "abs": a}}}}`;
 //! `--update-baseline` writes it from the current run with the default tolerances of
 //! [`METRICS`], keeping tolerances already in the file.
+//!
+//! A baseline is checked before anything runs ([`check_baseline`]): unknown keys, scenario
+//! names the catalog does not hold, metric names that are not compared, negative or non-finite
+//! tolerances are refused with the file, line and key; and a baseline that would compare
+//! nothing (no scenario of the catalog with a value for a compared metric) is an error, never
+//! a green "0 regressed".
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -45,6 +51,7 @@ pub const METRICS: &[(&str, Worse, f64, f64)] = &[
 
 /// One stored metric.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Stored {
     /// Its value (`null`: could not be computed).
     pub value: Option<f64>,
@@ -56,6 +63,7 @@ pub struct Stored {
 
 /// The baseline file.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Baseline {
     /// Scenario → metric → stored value.
     pub scenarios: BTreeMap<String, BTreeMap<String, Stored>>,
@@ -285,15 +293,97 @@ pub fn catalog_files(dir: &Path) -> Result<Vec<PathBuf>, String> {
     Ok(files)
 }
 
-/// Reads a baseline file (`None`: none there yet).
-pub fn read_baseline(path: &Path) -> Result<Option<Baseline>, String> {
+/// Reads a baseline file with its text (`None`: none there yet); syntax and schema errors
+/// name the file and line.
+pub fn read_baseline(path: &Path) -> Result<Option<(Baseline, String)>, String> {
     match std::fs::read_to_string(path) {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
         Err(e) => Err(format!("--baseline {}: {e}", path.display())),
         Ok(text) => serde_json::from_str(&text)
-            .map(Some)
-            .map_err(|e| format!("--baseline {}: {e}", path.display())),
+            .map(|b| Some((b, text)))
+            .map_err(|e| format!("--baseline {}:{}: {e}", path.display(), e.line())),
     }
+}
+
+/// The 1-based line of the JSON key path `keys` in `text` (each key searched after the one
+/// before it), when found.
+fn json_line(text: &str, keys: &[&str]) -> Option<usize> {
+    let mut at = 0;
+    for k in keys {
+        at += text[at..].find(&format!("\"{k}\""))?;
+    }
+    Some(text[..at].matches('\n').count() + 1)
+}
+
+/// The scenario names of a catalog's files (their stems, as `vio regress` names them).
+pub fn catalog_names(files: &[PathBuf]) -> Vec<String> {
+    files
+        .iter()
+        .filter_map(|f| f.file_stem().map(|s| s.to_string_lossy().into_owned()))
+        .collect()
+}
+
+/// Checks a baseline read from `text` (the file `path`) against the catalog's scenario names:
+/// see the module documentation. The error names the file, the line and the key.
+pub fn check_baseline(
+    baseline: &Baseline,
+    text: &str,
+    path: &Path,
+    catalog: &[String],
+) -> Result<(), String> {
+    let err = |keys: &[&str], msg: String| {
+        let line = json_line(text, keys).map_or(String::new(), |l| format!(":{l}"));
+        let key = std::iter::once("scenarios")
+            .chain(keys.iter().copied())
+            .collect::<Vec<_>>()
+            .join(".");
+        Err(format!(
+            "--baseline {}{line}: key `{key}`: {msg}",
+            path.display()
+        ))
+    };
+    let metric_names: Vec<&str> = METRICS.iter().map(|m| m.0).collect();
+    let mut compared = 0;
+    for (name, metrics) in &baseline.scenarios {
+        if !catalog.contains(name) {
+            return err(
+                &[name],
+                format!(
+                    "no scenario of that name in the catalog (catalog: {})",
+                    catalog.join(", ")
+                ),
+            );
+        }
+        for (metric, stored) in metrics {
+            if !metric_names.contains(&metric.as_str()) {
+                return err(
+                    &[name, metric],
+                    format!(
+                        "not a compared metric (metrics: {})",
+                        metric_names.join(", ")
+                    ),
+                );
+            }
+            for (field, v) in [("rel", stored.rel), ("abs", stored.abs)] {
+                if !(v.is_finite() && v >= 0.0) {
+                    return err(
+                        &[name, metric, field],
+                        format!("a tolerance must be finite and ≥ 0, got {v}"),
+                    );
+                }
+            }
+            if stored.value.is_some() {
+                compared += 1;
+            }
+        }
+    }
+    if compared == 0 {
+        return Err(format!(
+            "--baseline {}: compares nothing: no scenario of the catalog has a stored value (rewrite it with --update-baseline)",
+            path.display()
+        ));
+    }
+    Ok(())
 }
 
 /// Runs every scenario file; `(name, report)` in order, or the first error.
@@ -369,6 +459,44 @@ mod tests {
         assert_eq!(verdicts(0.01, 0.98).1, Verdict::Improved);
         // A value that disappears fails.
         assert_eq!(verdicts(f64::NAN, 0.95).0, Verdict::Missing);
+    }
+
+    #[test]
+    fn baselines_that_compare_nothing_or_name_unknown_things_are_refused() {
+        let path = Path::new("b.json");
+        let catalog = vec!["a".to_string(), "b".to_string()];
+        let check = |text: &str| {
+            let b: Baseline = serde_json::from_str(text).map_err(|e| e.to_string())?;
+            check_baseline(&b, text, path, &catalog)
+        };
+        let good = "{\"scenarios\": {\"a\": {\"ate_rmse_m\": {\"value\": 0.01, \"rel\": 0.1, \"abs\": 0.001}}}}";
+        assert_eq!(check(good), Ok(()));
+        for (text, expect) in [
+            ("{\"scenarios\": {}}", "compares nothing"),
+            (
+                "{\"scenarios\": {\"a\": {\"ate_rmse_m\": {\"value\": null, \"rel\": 0.1, \"abs\": 0.0}}}}",
+                "compares nothing",
+            ),
+            (
+                "{\"scenarios\": {\n\"zz\": {\"ate_rmse_m\": {\"value\": 1.0, \"rel\": 0.1, \"abs\": 0.0}}}}",
+                "b.json:2: key `scenarios.zz`: no scenario",
+            ),
+            (
+                "{\"scenarios\": {\"a\": {\n\n\"ate_rmse\": {\"value\": 1.0, \"rel\": 0.1, \"abs\": 0.0}}}}",
+                "b.json:3: key `scenarios.a.ate_rmse`: not a compared metric",
+            ),
+            (
+                "{\"scenarios\": {\"a\": {\"ate_rmse_m\": {\"value\": 1.0, \"rel\": -0.1, \"abs\": 0.0}}}}",
+                "key `scenarios.a.ate_rmse_m.rel`: a tolerance must be finite and ≥ 0, got -0.1",
+            ),
+            (
+                "{\"scenarios\": {\"a\": {\"ate_rmse_m\": {\"vlaue\": 1.0, \"rel\": 0.1, \"abs\": 0.0}}}}",
+                "unknown field `vlaue`",
+            ),
+        ] {
+            let e = check(text).expect_err(text);
+            assert!(e.contains(expect), "{text}: {e}");
+        }
     }
 
     #[test]

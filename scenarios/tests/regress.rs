@@ -78,3 +78,51 @@ fn a_degraded_setting_fails_naming_the_metric() {
     assert!(xml.contains("ate_rmse_m: value n/a"), "{xml}");
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn a_baseline_that_compares_nothing_or_an_unwritable_junit_is_refused_before_running() {
+    let dir = scratch("regress-refusals");
+    let catalog = dir.join("catalog");
+    std::fs::create_dir_all(&catalog).unwrap();
+    write(&catalog, "short.toml", &default_text(6.0));
+    let cat = catalog.to_str().unwrap();
+    let cases = [
+        ("{\"scenarios\": {}}", "compares nothing"),
+        (
+            "{\"scenarios\": {\"other_catalogs_scenario\": {\"ate_rmse_m\": {\"value\": 0.01, \"rel\": 0.1, \"abs\": 0.001}}}}",
+            "key `scenarios.other_catalogs_scenario`",
+        ),
+        (
+            "{\"scenarios\": {\"short\": {\"ate_rmse_m\": {\"value\": 0.01, \"rel\": -1.0, \"abs\": 0.001}}}}",
+            "key `scenarios.short.ate_rmse_m.rel`",
+        ),
+    ];
+    for (text, expect) in cases {
+        write(&catalog, "baseline.json", text);
+        let out = vio(&["regress", "--catalog", cat]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{text}: {stderr}");
+        assert!(stderr.contains("baseline.json"), "{stderr}");
+        assert!(stderr.contains(expect), "{text}: {stderr}");
+        // Refused before any scenario ran.
+        assert!(!stderr.contains("running short"), "{stderr}");
+    }
+    write(
+        &catalog,
+        "baseline.json",
+        "{\"scenarios\": {\"short\": {\"ate_rmse_m\": {\"value\": 0.01, \"rel\": 0.1, \"abs\": 0.001}}}}",
+    );
+    let junit = dir.join("no-such-folder").join("junit.xml");
+    let out = vio(&[
+        "regress",
+        "--catalog",
+        cat,
+        "--junit",
+        junit.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("--junit"), "{stderr}");
+    assert!(!stderr.contains("running short"), "{stderr}");
+    let _ = std::fs::remove_dir_all(dir);
+}

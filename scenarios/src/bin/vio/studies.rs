@@ -148,11 +148,28 @@ pub(super) fn regress_command(
         Ok(b) => b,
         Err(e) => return bad(e),
     };
-    if old.is_none() && !update {
-        return bad(format!(
-            "no baseline at {} (write one with --update-baseline)",
-            baseline_path.display()
-        ));
+    match &old {
+        None if !update => {
+            return bad(format!(
+                "no baseline at {} (write one with --update-baseline)",
+                baseline_path.display()
+            ));
+        }
+        Some((b, text)) if !update => {
+            let names = regress::catalog_names(&files);
+            if let Err(e) = regress::check_baseline(b, text, &baseline_path, &names) {
+                return bad(e);
+            }
+        }
+        _ => {}
+    }
+    let old = old.map(|(b, _)| b);
+    // The JUnit file is opened before the catalog runs, so a path that cannot be written is
+    // found in a second, not after every scenario has run.
+    if let Some(path) = &junit
+        && let Err(e) = std::fs::File::create(path)
+    {
+        return bad(format!("--junit {}: {e}", path.display()));
     }
     let reports = match regress::run_catalog(&files, &mut |name| eprintln!("running {name}")) {
         Ok(r) => r,
