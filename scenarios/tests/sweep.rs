@@ -151,6 +151,43 @@ fn a_bad_sweep_file_exits_2_naming_the_key() {
             SWEEP.replace("\"tracking_fraction\"]", "\"speed\"]"),
             "metrics",
         ),
+        (
+            "nan",
+            SWEEP.replace("values = [0.5, 1.5]", "values = [0.5, nan]"),
+            "axes[0].values[1]",
+        ),
+        (
+            "inf-in-array",
+            SWEEP.replace("values = [0.5, 1.5]", "values = [[0.5, 0.5], [1.5, inf]]"),
+            "axes[0].values[1]",
+        ),
+        (
+            "scale",
+            SWEEP.replace(
+                "values = [0.5, 1.5]",
+                "scale = [1.0, -inf]\nvalues = [0.5, 1.5]",
+            ),
+            "axes[0].scale[1]",
+        ),
+        (
+            "duplicate-name",
+            SWEEP.replace("name = \"features\"", "name = \"pixel_sigma\""),
+            "axes[1].name",
+        ),
+        (
+            // 65 axes of 2 values: 2^65 points overflow a 64-bit count.
+            "overflow",
+            {
+                let mut t = SWEEP.to_string();
+                for i in 0..65 {
+                    t += &format!(
+                        "\n[[axes]]\nname = \"a{i}\"\nkeys = [\"world.seed\"]\nvalues = [1, 2]\n"
+                    );
+                }
+                t
+            },
+            "more than the limit",
+        ),
     ] {
         let f = write(&dir, &format!("{tag}.toml"), &text);
         let out = vio(&[
@@ -162,6 +199,100 @@ fn a_bad_sweep_file_exits_2_naming_the_key() {
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{tag}: {err}");
         assert!(err.contains(key), "{tag}: `{key}` not named: {err}");
+    }
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn a_whole_number_is_scaled_like_its_float_twin() {
+    let dir = scratch("sweep-int-scale");
+    let base = SWEEP.replace(
+        "values = [0.5, 1.5]",
+        "scale = [0.5, 0.5]\nvalues = [VALUE]",
+    );
+    let pixel = |value: &str| {
+        let f = write(&dir, "s.toml", &base.replace("VALUE", value));
+        let sweep = scenarios::sweep::Sweep::load(&f).unwrap_or_else(|e| panic!("{e}"));
+        let s = sweep.scenario(&[0, 0]).unwrap();
+        s.spec.rig.cameras[0].pixel_sigma_px
+    };
+    assert_eq!(pixel("3"), 1.5);
+    assert_eq!(pixel("3.0"), 1.5);
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn a_merge_refuses_shard_results_it_cannot_trust_naming_file_and_line() {
+    let dir = scratch("sweep-merge-bad");
+    let file = write(
+        &dir,
+        "s.toml",
+        &SWEEP.replace("seeds = [1, 2]", "seeds = [1]"),
+    );
+    let shard = dir.join("shard");
+    let out = vio(&[
+        "sweep",
+        file.to_str().unwrap(),
+        "--out",
+        shard.to_str().unwrap(),
+        "--jobs",
+        "1",
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let csv = std::fs::read_to_string(shard.join("results.csv")).unwrap();
+    let json = std::fs::read_to_string(shard.join("sweep.json")).unwrap();
+    let rows: Vec<&str> = csv.lines().collect();
+    assert_eq!(rows.len(), 5, "{csv}");
+    // The last cell of row 2 (file line 3) replaced, a row beyond the sweep, a cut last row.
+    let with_cell = |cell: &str| {
+        let mut r: Vec<String> = rows.iter().map(|s| s.to_string()).collect();
+        let mut cells: Vec<&str> = rows[2].split(',').collect();
+        *cells.last_mut().unwrap() = cell;
+        r[2] = cells.join(",");
+        r.join("\n") + "\n"
+    };
+    let beyond = csv.clone() + &rows[4].replacen('3', "7", 1) + "\n";
+    let cut = csv[..csv.len() - 3].to_string();
+    for (tag, text, expect) in [
+        (
+            "nan",
+            with_cell("NaN"),
+            "results.csv:3: `NaN` is not a finite number",
+        ),
+        (
+            "inf",
+            with_cell("inf"),
+            "results.csv:3: `inf` is not a finite number",
+        ),
+        (
+            "beyond",
+            beyond,
+            "results.csv:6: run 7 is beyond the sweep's 4 runs",
+        ),
+        ("cut", cut, "truncated"),
+    ] {
+        let d = dir.join(tag);
+        std::fs::create_dir_all(&d).unwrap();
+        std::fs::write(d.join("results.csv"), text).unwrap();
+        std::fs::write(d.join("sweep.json"), &json).unwrap();
+        let out = vio(&[
+            "sweep-merge",
+            d.to_str().unwrap(),
+            "--out",
+            dir.join(format!("m-{tag}")).to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{tag}: {err}");
+        assert!(err.contains(expect), "{tag}: `{expect}` not in: {err}");
+        assert!(
+            !dir.join(format!("m-{tag}")).exists(),
+            "{tag}: wrote output"
+        );
     }
     let _ = std::fs::remove_dir_all(dir);
 }

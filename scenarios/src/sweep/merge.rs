@@ -36,6 +36,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>, String> {
     let json = read(first.join("sweep.json"))?;
     let meta: SweepMeta = serde_json::from_str(&json)
         .map_err(|e| format!("{}: {e}", first.join("sweep.json").display()))?;
+    check_meta(&meta).map_err(|e| format!("{}: {e}", first.join("sweep.json").display()))?;
     let mut header = None;
     let mut rows: BTreeMap<usize, String> = BTreeMap::new();
     for d in dirs {
@@ -47,6 +48,12 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>, String> {
             ));
         }
         let csv = read(d.join("results.csv"))?;
+        if !csv.is_empty() && !csv.ends_with('\n') {
+            return Err(format!(
+                "{}/results.csv: the last row has no line end: the file is truncated (a shard stopped while writing)",
+                d.display()
+            ));
+        }
         let mut lines = csv.lines();
         let h = lines
             .next()
@@ -55,13 +62,19 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>, String> {
             return Err(format!("{}: results.csv has another header", d.display()));
         }
         for (n, line) in lines.enumerate() {
+            let at = |m: String| format!("{}/results.csv:{}: {m}", d.display(), n + 2);
             let run: usize = line
                 .split(',')
                 .next()
                 .and_then(|r| r.parse().ok())
-                .ok_or_else(|| {
-                    format!("{}/results.csv line {}: no run index", d.display(), n + 2)
-                })?;
+                .ok_or_else(|| at("no run index".into()))?;
+            if run >= meta.runs {
+                return Err(at(format!(
+                    "run {run} is beyond the sweep's {} runs",
+                    meta.runs
+                )));
+            }
+            parse_row(line, &meta).map_err(at)?;
             if rows.insert(run, line.to_string()).is_some() {
                 return Err(format!("run {run} appears in two shards"));
             }
@@ -105,35 +118,68 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>, String> {
 type Table = Vec<(Vec<f64>, Vec<Option<f64>>)>;
 
 fn parse_rows(csv: &str, meta: &SweepMeta) -> Result<Table, String> {
-    let na = meta.axes.len();
     csv.lines()
         .skip(1)
-        .map(|line| {
-            let cells: Vec<&str> = line.split(',').collect();
-            if cells.len() != 3 + na + meta.metrics.len() {
-                return Err(format!(
-                    "results.csv: a row with {} cells: {line}",
-                    cells.len()
-                ));
-            }
-            let num = |c: &str| c.parse::<f64>().map_err(|_| format!("results.csv: `{c}`"));
-            let xs = cells[3..3 + na]
-                .iter()
-                .map(|c| num(c))
-                .collect::<Result<_, _>>()?;
-            let vs = cells[3 + na..]
-                .iter()
-                .map(|c| {
-                    if c.is_empty() {
-                        Ok(None)
-                    } else {
-                        num(c).map(Some)
-                    }
-                })
-                .collect::<Result<_, _>>()?;
-            Ok((xs, vs))
-        })
+        .map(|line| parse_row(line, meta).map_err(|e| format!("results.csv: {e}")))
         .collect()
+}
+
+/// One row's axis values and metrics: every cell present, every number finite (an empty
+/// metric cell is a metric the run could not compute).
+fn parse_row(line: &str, meta: &SweepMeta) -> Result<(Vec<f64>, Vec<Option<f64>>), String> {
+    let na = meta.axes.len();
+    let cells: Vec<&str> = line.split(',').collect();
+    let want = 3 + na + meta.metrics.len();
+    if cells.len() != want {
+        return Err(format!(
+            "a row with {} cells, expected {want}: {line}",
+            cells.len()
+        ));
+    }
+    let num = |c: &str| match c.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        _ => Err(format!("`{c}` is not a finite number")),
+    };
+    let xs = cells[3..3 + na]
+        .iter()
+        .map(|c| num(c))
+        .collect::<Result<_, _>>()?;
+    let vs = cells[3 + na..]
+        .iter()
+        .map(|c| {
+            if c.is_empty() {
+                Ok(None)
+            } else {
+                num(c).map(Some)
+            }
+        })
+        .collect::<Result<_, _>>()?;
+    Ok((xs, vs))
+}
+
+/// `sweep.json` is what `vio sweep` writes: a run count within the limit, finite axis positions,
+/// one label per position.
+fn check_meta(meta: &SweepMeta) -> Result<(), String> {
+    if meta.runs == 0 || meta.runs > super::MAX_RUNS {
+        return Err(format!(
+            "`runs` is {}, expected 1 to {}",
+            meta.runs,
+            super::MAX_RUNS
+        ));
+    }
+    for (i, a) in meta.axes.iter().enumerate() {
+        if let Some(j) = a.x.iter().position(|x| !x.is_finite()) {
+            return Err(format!("`axes[{i}].x[{j}]` is not a finite number"));
+        }
+        if a.labels.len() != a.x.len() {
+            return Err(format!(
+                "`axes[{i}]`: {} labels for {} positions",
+                a.labels.len(),
+                a.x.len()
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// One line of a plot: `(x, mean, min, max)` per axis value.

@@ -19,7 +19,9 @@
 //! ```
 //!
 //! A value may also be an array with one entry per key (`values = [[1.6e-4, 2e-3], …]`), then
-//! `x` gives each point's position on the plot's axis and `labels` its tick names. Points are the
+//! `x` gives each point's position on the plot's axis and `labels` its tick names. Values, scales
+//! and `x` must be finite; a whole number is scaled like its float twin (`3` as `3.0`); axis
+//! names are unique; at most [`MAX_RUNS`] runs, counted without overflow. Points are the
 //! Cartesian product of the axes (the last axis varies fastest); runs are points × seeds, in
 //! that order. `--shard i/n` (0 ≤ i < n) runs the runs whose index is `i` modulo `n`; `vio sweep-merge`
 //! joins shards into what one process would have written, byte for byte.
@@ -40,6 +42,19 @@ pub const DEFAULT_METRICS: &[&str] = &[
     "rpe_trans_rmse_m",
     "tracking_fraction",
 ];
+
+/// Most runs (points × seeds) one sweep may hold.
+pub const MAX_RUNS: usize = 100_000;
+
+/// The first value in `v` (an axis value, possibly an array) that is not a finite number, as
+/// written; strings, booleans and tables are left to the scenario's own checks.
+fn non_finite(v: &toml::Value) -> Option<String> {
+    match v {
+        toml::Value::Float(f) if !f.is_finite() => Some(f.to_string()),
+        toml::Value::Array(a) => a.iter().find_map(non_finite),
+        _ => None,
+    }
+}
 
 /// A sweep file as written.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
@@ -144,6 +159,31 @@ impl Sweep {
         }
         for (i, a) in spec.axes.iter().enumerate() {
             let k = |n: &str| format!("axes[{i}].{n}");
+            if let Some(j) = spec.axes[..i].iter().position(|b| b.name == a.name) {
+                return Err(at(
+                    &k("name"),
+                    format!(
+                        "`{}` already names axes[{j}]: each axis needs its own name (its column and plot)",
+                        a.name
+                    ),
+                ));
+            }
+            for (j, v) in a.values.iter().enumerate() {
+                if let Some(bad) = non_finite(v) {
+                    return Err(at(
+                        &k(&format!("values[{j}]")),
+                        format!("{bad} is not a finite number"),
+                    ));
+                }
+            }
+            for (n, list) in [("scale", a.scale.as_ref()), ("x", a.x.as_ref())] {
+                if let Some(j) = list.and_then(|l| l.iter().position(|v| !v.is_finite())) {
+                    return Err(at(
+                        &k(&format!("{n}[{j}]")),
+                        format!("{} is not a finite number", list.unwrap()[j]),
+                    ));
+                }
+            }
             if a.keys.is_empty() || a.values.is_empty() {
                 return Err(at(&k("keys"), "expected keys and values".into()));
             }
@@ -176,9 +216,19 @@ impl Sweep {
                 }
             }
         }
-        if spec.axes.iter().map(|a| a.values.len()).product::<usize>() * spec.seeds.len() > 100_000
-        {
-            return Err(at("axes", "more than 100,000 runs".into()));
+        // Counted without overflow: many axes multiply past 2^64 long before they are refused.
+        let runs = spec
+            .axes
+            .iter()
+            .try_fold(spec.seeds.len(), |n, a| n.checked_mul(a.values.len()));
+        if runs.is_none_or(|n| n > MAX_RUNS) {
+            return Err(at(
+                "axes",
+                format!(
+                    "{} runs (points × seeds), more than the limit of {MAX_RUNS}",
+                    runs.map_or("more than 2^64".to_string(), |n| n.to_string())
+                ),
+            ));
         }
         let metrics = spec
             .metrics
@@ -266,8 +316,13 @@ impl Sweep {
             for (k, key) in axis.keys.iter().enumerate() {
                 let value = match &axis.values[i] {
                     toml::Value::Array(arr) => arr[k].clone(),
+                    // A whole number is a number like its float twin: with a scale it is
+                    // scaled (and becomes a float), without one it stays as written.
                     toml::Value::Float(f) => {
                         toml::Value::Float(f * axis.scale.as_ref().map_or(1.0, |s| s[k]))
+                    }
+                    toml::Value::Integer(n) if axis.scale.is_some() => {
+                        toml::Value::Float(*n as f64 * axis.scale.as_ref().map_or(1.0, |s| s[k]))
                     }
                     v => v.clone(),
                 };
