@@ -33,7 +33,8 @@ use nalgebra::Vector3;
 use sim::stream::GroundTruth;
 
 use crate::dataset::{
-    CameraSensor, DatasetError, EurocDataset, GroundTruthState, read_euroc, read_features_csv,
+    CameraSensor, DatasetError, EurocDataset, GroundTruthState, read_euroc_cameras,
+    read_features_csv,
 };
 use crate::frontend::GyroIntegrator;
 use crate::report::RunContext;
@@ -269,9 +270,9 @@ pub fn run_euroc(
     options: &EurocOptions,
     progress: &mut dyn FnMut(f64),
 ) -> Result<EurocRun, EurocError> {
-    let data = read_euroc(mav0)?;
     let suite = options.suite.suite();
     let n_cams = suite.cameras();
+    let data = read_euroc_cameras(mav0, n_cams)?;
     let imu_yaml = mav0.join("imu0/sensor.yaml");
     let imu_sensor = data.imu_sensor.as_ref().ok_or_else(|| {
         input(

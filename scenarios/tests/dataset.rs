@@ -13,7 +13,8 @@ use scenarios::dataset::{
     CameraFrame, CameraSensor, DatasetError, EurocCamera, EurocDataset, GroundTruthState,
     ImuSensor, SensorYaml, StampedPose, format_features_csv, format_tum, parse_camera_csv,
     parse_features_csv, parse_groundtruth_csv, parse_imu_csv, parse_sensor_yaml, parse_tum,
-    read_euroc, read_features_csv, read_tum, write_euroc, write_features_csv, write_tum,
+    read_euroc, read_euroc_cameras, read_features_csv, read_tum, write_euroc, write_features_csv,
+    write_tum,
 };
 
 fn tmp(name: &str) -> PathBuf {
@@ -520,4 +521,60 @@ fn parsers_never_panic_on_garbage() {
             let _ = parse_sensor_yaml(&t, p);
         }
     }
+}
+
+/// A copy of the EuRoC fixture's `mav0` in a fresh folder.
+fn fixture_copy(name: &str) -> PathBuf {
+    let mav0 = tmp(name).join("mav0");
+    let src = fixtures().join("euroc/mav0");
+    for sub in ["cam0", "imu0", "state_groundtruth_estimate0"] {
+        std::fs::create_dir_all(mav0.join(sub)).unwrap();
+        for f in std::fs::read_dir(src.join(sub)).unwrap() {
+            let f = f.unwrap().path();
+            std::fs::copy(&f, mav0.join(sub).join(f.file_name().unwrap())).unwrap();
+        }
+    }
+    mav0
+}
+
+#[test]
+fn empty_files_are_errors_a_bom_is_not_data_and_unused_camera_folders_are_not_read() {
+    let good = read_euroc(fixtures().join("euroc/mav0")).unwrap();
+    assert!(!good.groundtruth.is_empty());
+
+    // A 0-byte or header-only file is an error naming it, not an absent file.
+    for (file, what) in [
+        (
+            "state_groundtruth_estimate0/data.csv",
+            "no ground-truth rows",
+        ),
+        ("imu0/data.csv", "no IMU samples"),
+        ("cam0/data.csv", "no frames"),
+    ] {
+        for (tag, text) in [("empty", String::new()), ("header", "#t,a,b\n".to_string())] {
+            let mav0 = fixture_copy(&format!("empty-{tag}-{}", file.replace('/', "-")));
+            std::fs::write(mav0.join(file), text).unwrap();
+            let e = read_euroc(&mav0).unwrap_err().to_string();
+            assert!(e.contains(file) && e.contains(what), "{file} {tag}: {e}");
+        }
+    }
+
+    // A byte-order mark before the header (spreadsheet exports) reads the same data.
+    let mav0 = fixture_copy("bom");
+    for file in [
+        "imu0/data.csv",
+        "state_groundtruth_estimate0/data.csv",
+        "cam0/data.csv",
+    ] {
+        let text = std::fs::read_to_string(mav0.join(file)).unwrap();
+        std::fs::write(mav0.join(file), format!("\u{feff}{text}")).unwrap();
+    }
+    assert_eq!(read_euroc(&mav0).unwrap(), good);
+
+    // A stray cam1/ without data.csv: a run using one camera does not read it.
+    let mav0 = fixture_copy("stray-camera");
+    std::fs::create_dir_all(mav0.join("cam1")).unwrap();
+    let e = read_euroc(&mav0).unwrap_err().to_string();
+    assert!(e.contains("cam1/data.csv"), "{e}");
+    assert_eq!(read_euroc_cameras(&mav0, 1).unwrap(), good);
 }

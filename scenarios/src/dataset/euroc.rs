@@ -730,8 +730,18 @@ fn expect_camera(path: PathBuf, s: SensorYaml) -> Result<CameraSensor, DatasetEr
 
 /// Reads an EuRoC ASL `mav0` folder: `imu0/data.csv` is required; `imu0/sensor.yaml`, the ground
 /// truth and the camera folders `cam0`, `cam1`, ... (read in order until one is missing) are
-/// optional.
+/// optional. A file that is there but holds no data rows (0 bytes, or a header only) is an
+/// error naming it, never taken for an absent one.
 pub fn read_euroc(mav0: impl AsRef<Path>) -> Result<EurocDataset, DatasetError> {
+    read_euroc_cameras(mav0, usize::MAX)
+}
+
+/// [`read_euroc`] reading at most `max_cameras` camera folders (`cam0` … ): the folders a run
+/// does not use are not read, so a stray `cam2/` cannot stop a stereo run.
+pub fn read_euroc_cameras(
+    mav0: impl AsRef<Path>,
+    max_cameras: usize,
+) -> Result<EurocDataset, DatasetError> {
     let mav0 = mav0.as_ref();
     if !mav0.is_dir() {
         return Err(invalid(
@@ -739,7 +749,17 @@ pub fn read_euroc(mav0: impl AsRef<Path>) -> Result<EurocDataset, DatasetError> 
             "not a folder (expected an EuRoC `mav0` folder)",
         ));
     }
-    let imu = read_imu_csv(mav0.join("imu0/data.csv"))?;
+    let no_rows = |p: PathBuf, what: &str| {
+        invalid(
+            &p,
+            format!("holds no {what} (0 bytes or a header only); remove it if there is none"),
+        )
+    };
+    let imu_csv = mav0.join("imu0/data.csv");
+    let imu = read_imu_csv(&imu_csv)?;
+    if imu.is_empty() {
+        return Err(no_rows(imu_csv, "IMU samples"));
+    }
     let imu_yaml = mav0.join("imu0/sensor.yaml");
     let imu_sensor = if imu_yaml.is_file() {
         match read_sensor_yaml(&imu_yaml)? {
@@ -755,18 +775,29 @@ pub fn read_euroc(mav0: impl AsRef<Path>) -> Result<EurocDataset, DatasetError> 
         None
     };
     let gt_csv = mav0.join("state_groundtruth_estimate0/data.csv");
-    let groundtruth = if gt_csv.is_file() {
-        read_groundtruth_csv(&gt_csv)?
+    let groundtruth = if gt_csv.exists() {
+        if !gt_csv.is_file() {
+            return Err(invalid(&gt_csv, "not a regular file"));
+        }
+        let rows = read_groundtruth_csv(&gt_csv)?;
+        if rows.is_empty() {
+            return Err(no_rows(gt_csv, "ground-truth rows"));
+        }
+        rows
     } else {
         Vec::new()
     };
     let mut cameras = Vec::new();
-    for i in 0.. {
+    for i in 0..max_cameras {
         let dir = mav0.join(format!("cam{i}"));
         if !dir.is_dir() {
             break;
         }
-        let frames = read_camera_csv(dir.join("data.csv"))?;
+        let csv = dir.join("data.csv");
+        let frames = read_camera_csv(&csv)?;
+        if frames.is_empty() {
+            return Err(no_rows(csv, "frames"));
+        }
         let yaml = dir.join("sensor.yaml");
         let sensor = if yaml.is_file() {
             Some(expect_camera(yaml.clone(), read_sensor_yaml(&yaml)?)?)

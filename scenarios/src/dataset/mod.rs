@@ -20,8 +20,8 @@ pub use euroc::{
     CameraFrame, CameraSensor, EurocCamera, EurocDataset, GroundTruthState, ImuSensor, SensorYaml,
     format_camera_csv, format_groundtruth_csv, format_imu_csv, format_sensor_yaml,
     parse_camera_csv, parse_groundtruth_csv, parse_imu_csv, parse_sensor_yaml, read_camera_csv,
-    read_euroc, read_groundtruth_csv, read_imu_csv, read_sensor_yaml, write_camera_csv,
-    write_euroc, write_groundtruth_csv, write_imu_csv, write_sensor_yaml,
+    read_euroc, read_euroc_cameras, read_groundtruth_csv, read_imu_csv, read_sensor_yaml,
+    write_camera_csv, write_euroc, write_groundtruth_csv, write_imu_csv, write_sensor_yaml,
 };
 pub use features::{
     format_features_csv, parse_features_csv, read_features_csv, write_features_csv,
@@ -130,7 +130,10 @@ pub(crate) fn write_text(path: &Path, text: &str) -> Result<(), DatasetError> {
 /// The data lines of a text file: `(1-based line number, trimmed content)`, skipping blank lines
 /// and `#` comments. Handles `\n` and `\r\n` endings.
 pub(crate) fn data_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
-    text.lines()
+    // A byte-order mark (spreadsheet exports write one) is not part of the first cell.
+    text.strip_prefix('\u{feff}')
+        .unwrap_or(text)
+        .lines()
         .enumerate()
         .map(|(i, l)| (i + 1, l.trim()))
         .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'))
