@@ -346,7 +346,18 @@ pub fn run_euroc(
             }
             Frames::Features(f)
         }
-        None => Frames::Images(image_frames(&data, mav0, n_cams)),
+        None => {
+            if let Some(c) = data.cameras[..n_cams]
+                .iter()
+                .position(|c| c.frames.is_empty())
+            {
+                return Err(input(
+                    mav0.join(format!("cam{c}/data.csv")),
+                    "lists no images (0 bytes or a header only): the run needs them, or `--features`",
+                ));
+            }
+            Frames::Images(image_frames(&data, mav0, n_cams))
+        }
     };
     let stamps = frames.stamps();
     if stamps.is_empty() {

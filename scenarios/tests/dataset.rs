@@ -549,7 +549,6 @@ fn empty_files_are_errors_a_bom_is_not_data_and_unused_camera_folders_are_not_re
             "no ground-truth rows",
         ),
         ("imu0/data.csv", "no IMU samples"),
-        ("cam0/data.csv", "no frames"),
     ] {
         for (tag, text) in [("empty", String::new()), ("header", "#t,a,b\n".to_string())] {
             let mav0 = fixture_copy(&format!("empty-{tag}-{}", file.replace('/', "-")));
@@ -577,4 +576,20 @@ fn empty_files_are_errors_a_bom_is_not_data_and_unused_camera_folders_are_not_re
     let e = read_euroc(&mav0).unwrap_err().to_string();
     assert!(e.contains("cam1/data.csv"), "{e}");
     assert_eq!(read_euroc_cameras(&mav0, 1).unwrap(), good);
+}
+
+#[test]
+fn a_run_on_images_refuses_a_camera_that_lists_none_naming_its_file() {
+    use scenarios::euroc::{EurocOptions, run_euroc};
+    use scenarios::spec::SuiteSpec;
+    let mav0 = fixture_copy("no-images");
+    std::fs::write(mav0.join("cam0/data.csv"), "#timestamp [ns],filename\n").unwrap();
+    let e = run_euroc(&mav0, &EurocOptions::new(SuiteSpec::MonoImu), &mut |_| {})
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(
+        e.contains("cam0/data.csv") && e.contains("lists no images"),
+        "{e}"
+    );
 }

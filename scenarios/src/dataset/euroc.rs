@@ -730,8 +730,8 @@ fn expect_camera(path: PathBuf, s: SensorYaml) -> Result<CameraSensor, DatasetEr
 
 /// Reads an EuRoC ASL `mav0` folder: `imu0/data.csv` is required; `imu0/sensor.yaml`, the ground
 /// truth and the camera folders `cam0`, `cam1`, ... (read in order until one is missing) are
-/// optional. A file that is there but holds no data rows (0 bytes, or a header only) is an
-/// error naming it, never taken for an absent one.
+/// optional. An IMU log or ground truth that is there but holds no data rows (0 bytes, or a
+/// header only) is an error naming it, never taken for an absent one.
 pub fn read_euroc(mav0: impl AsRef<Path>) -> Result<EurocDataset, DatasetError> {
     read_euroc_cameras(mav0, usize::MAX)
 }
@@ -793,11 +793,9 @@ pub fn read_euroc_cameras(
         if !dir.is_dir() {
             break;
         }
-        let csv = dir.join("data.csv");
-        let frames = read_camera_csv(&csv)?;
-        if frames.is_empty() {
-            return Err(no_rows(csv, "frames"));
-        }
+        // An empty frame list is legitimate here: `vio export` of feature-level cameras lists
+        // no images (the run refuses it when it needs images).
+        let frames = read_camera_csv(dir.join("data.csv"))?;
         let yaml = dir.join("sensor.yaml");
         let sensor = if yaml.is_file() {
             Some(expect_camera(yaml.clone(), read_sensor_yaml(&yaml)?)?)
