@@ -280,6 +280,14 @@ fn batch_reference_writes_its_trajectories() {
     for t in [&batch, &window] {
         assert!(t.windows(2).all(|w| w[0] < w[1]), "{t:?}");
     }
+    // A plain run into the same folder leaves none of the earlier run's files behind, and
+    // keeps a file of the user's.
+    std::fs::write(out_dir.join("notes.txt"), "mine").unwrap();
+    let out = run_file(&file, &out_dir, &[]);
+    assert_eq!(out.status.code(), Some(0), "{out:?}");
+    assert!(out_dir.join("estimate.tum").exists());
+    assert!(!out_dir.join("batch.tum").exists() && !out_dir.join("window.tum").exists());
+    assert!(out_dir.join("notes.txt").exists());
     // Initialization takes 0.45 s: 0.3 s never tracks, and the batch reference is absent.
     let never = write(&dir, "never.toml", &default_text(0.3));
     let out = run_file(&never, &dir.join("never"), &["--batch-reference"]);

@@ -666,8 +666,23 @@ pub fn plot_data(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> PlotDa
     }
 }
 
+/// Every file a run may write into its output folder. Each run first removes those of them a
+/// previous run left there (and nothing else), so a folder never mixes two runs' outputs: a
+/// plain run after a `--batch-reference` one no longer leaves the old `batch.tum` beside it.
+pub const RUN_OUTPUT_FILES: [&str; 9] = [
+    "estimate.tum",
+    "estimate_source_time.tum",
+    "groundtruth.tum",
+    "batch.tum",
+    "window.tum",
+    "report.json",
+    "trajectory.png",
+    "calibration.png",
+    "gnss.png",
+];
+
 /// Writes `estimate.tum`, `groundtruth.tum`, `report.json` and `trajectory.png` into `dir`
-/// (created if needed).
+/// (created if needed), after removing what an earlier run left there ([`RUN_OUTPUT_FILES`]).
 pub fn write_outputs(
     dir: &Path,
     scenario: &Scenario,
@@ -690,6 +705,18 @@ pub fn write_outputs_in(
 ) -> Result<(), String> {
     let io = |what: &str, e: std::io::Error| format!("cannot write {what}: {e}");
     std::fs::create_dir_all(dir).map_err(|e| io(&dir.display().to_string(), e))?;
+    for name in RUN_OUTPUT_FILES {
+        let p = dir.join(name);
+        match std::fs::remove_file(&p) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                return Err(format!(
+                    "cannot remove the earlier run's {}: {e}",
+                    p.display()
+                ));
+            }
+            _ => {}
+        }
+    }
     let est: Vec<StampedPose> = eval
         .evaluated
         .iter()
