@@ -40,7 +40,7 @@ fn the_fitted_imu_predicts_the_real_ate_and_the_datasheet_does_not() {
     println!(
         "real {real:.4} m; fitted {fitted:.4} m ({rf:.2}×); datasheet {datasheet:.4} m ({rd:.2}×)"
     );
-    // Measured: real 0.0263 m, fitted 0.0219 m (0.83×), datasheet 0.0058 m (0.22×).
+    // Measured: real 0.0263 m, fitted 0.0219 m (0.83×), datasheet 0.0057 m (0.22×).
     assert!((0.7..=1.4).contains(&rf), "fitted / real {rf}");
     assert!(rd < 0.5, "datasheet / real {rd}");
     assert!(real_resets.iter().all(|r| *r == 0), "{real_resets:?}");
