@@ -38,7 +38,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>, String> {
         .map_err(|e| format!("{}: {e}", first.join("sweep.json").display()))?;
     check_meta(&meta).map_err(|e| format!("{}: {e}", first.join("sweep.json").display()))?;
     let mut header = None;
-    let mut rows: BTreeMap<usize, String> = BTreeMap::new();
+    // Each row as written and as parsed (checked once, here, and plotted from the same parse).
+    let mut rows: BTreeMap<usize, (String, Row)> = BTreeMap::new();
     for d in dirs {
         if read(d.join("sweep.json"))? != json {
             return Err(format!(
@@ -74,8 +75,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>, String> {
                     meta.runs
                 )));
             }
-            parse_row(line, &meta).map_err(at)?;
-            if rows.insert(run, line.to_string()).is_some() {
+            let parsed = parse_row(line, &meta).map_err(at)?;
+            if rows.insert(run, (line.to_string(), parsed)).is_some() {
                 return Err(format!("run {run} appears in two shards"));
             }
         }
@@ -90,7 +91,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>, String> {
     }
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
     let mut csv = header.unwrap_or_default() + "\n";
-    for line in rows.values() {
+    for (line, _) in rows.values() {
         csv.push_str(line);
         csv.push('\n');
     }
@@ -104,7 +105,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>, String> {
         write("results.csv", csv.as_bytes())?,
         write("sweep.json", json.as_bytes())?,
     ];
-    let table = parse_rows(&csv, &meta)?;
+    let table: Table = rows.into_values().map(|(_, row)| row).collect();
     for (mi, metric) in meta.metrics.iter().enumerate() {
         for (ai, axis) in meta.axes.iter().enumerate() {
             let png = plot(&meta, &table, mi, ai)?;
@@ -114,19 +115,14 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>, String> {
     Ok(files)
 }
 
-/// Rows as (axis x values, metric values).
-type Table = Vec<(Vec<f64>, Vec<Option<f64>>)>;
-
-fn parse_rows(csv: &str, meta: &SweepMeta) -> Result<Table, String> {
-    csv.lines()
-        .skip(1)
-        .map(|line| parse_row(line, meta).map_err(|e| format!("results.csv: {e}")))
-        .collect()
-}
+/// One row: (axis x values, metric values).
+type Row = (Vec<f64>, Vec<Option<f64>>);
+/// Rows in run order.
+type Table = Vec<Row>;
 
 /// One row's axis values and metrics: every cell present, every number finite (an empty
 /// metric cell is a metric the run could not compute).
-fn parse_row(line: &str, meta: &SweepMeta) -> Result<(Vec<f64>, Vec<Option<f64>>), String> {
+fn parse_row(line: &str, meta: &SweepMeta) -> Result<Row, String> {
     let na = meta.axes.len();
     let cells: Vec<&str> = line.split(',').collect();
     let want = 3 + na + meta.metrics.len();
