@@ -150,9 +150,7 @@ fn gauss3(rng: &mut ChaCha8Rng, sigma: f64) -> Vector3<f64> {
 
 /// The ground-truth speed at the physics state at or before `t_ns`.
 fn speed_at(truth: &mut TruthBuffer, t_ns: i64) -> f64 {
-    let h = truth.step_ns();
-    let origin = truth.oldest_ns();
-    let tj = origin + (t_ns - origin).div_euclid(h) * h;
+    let tj = truth.step_at_or_before(t_ns);
     truth
         .state_at(tj)
         .expect("IMU sample precedes the buffered ground truth")
@@ -230,8 +228,7 @@ impl ImuSim {
             ImuWindow::Forward => (t_ns, t_ns + self.period_ns),
         };
         let h = truth.step_ns();
-        let origin = truth.oldest_ns();
-        let mut tj = origin + (a - origin).div_euclid(h) * h;
+        let mut tj = truth.step_at_or_before(a);
         let mut f = Vector3::zeros();
         let mut w = Vector3::zeros();
         while tj < b {

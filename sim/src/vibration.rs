@@ -97,7 +97,11 @@ struct ProfileSource {
     lines: Vec<(VibrationLine, [f64; 6])>,
 }
 
-fn band_density(bands: &[VibrationBand], rms: fn(&VibrationBand) -> f64) -> impl Fn(f64) -> f64 {
+/// The one-sided density of `bands` for the RMS `rms` picks out of each (one axis of one sensor).
+fn band_density(
+    bands: &[VibrationBand],
+    rms: impl Fn(&VibrationBand) -> f64,
+) -> impl Fn(f64) -> f64 {
     let flat: Vec<(f64, f64, f64)> = bands
         .iter()
         .map(|b| (b.lo_hz, b.hi_hz, rms(b).powi(2) / (b.hi_hz - b.lo_hz)))
@@ -112,23 +116,13 @@ fn band_density(bands: &[VibrationBand], rms: fn(&VibrationBand) -> f64) -> impl
 
 impl ProfileSource {
     fn new(p: &VibrationProfile, fs_hz: f64, rng: &mut ChaCha8Rng) -> Self {
-        let axis = |rng: &mut ChaCha8Rng, gyro: bool, a: usize| {
-            let pick: fn(&VibrationBand) -> f64 = match (gyro, a) {
-                (true, 0) => |b| b.gyro_rms.x,
-                (true, 1) => |b| b.gyro_rms.y,
-                (true, _) => |b| b.gyro_rms.z,
-                (false, 0) => |b| b.accel_rms.x,
-                (false, 1) => |b| b.accel_rms.y,
-                (false, _) => |b| b.accel_rms.z,
-            };
-            ShapedNoise::new(fs_hz, band_density(&p.bands, pick), rng)
-        };
-        let gyro = [axis(rng, true, 0), axis(rng, true, 1), axis(rng, true, 2)];
-        let accel = [
-            axis(rng, false, 0),
-            axis(rng, false, 1),
-            axis(rng, false, 2),
-        ];
+        // Drawn in this order: gyro x, y, z, then accel x, y, z.
+        let gyro: [ShapedNoise; 3] = std::array::from_fn(|a| {
+            ShapedNoise::new(fs_hz, band_density(&p.bands, |b| b.gyro_rms[a]), rng)
+        });
+        let accel: [ShapedNoise; 3] = std::array::from_fn(|a| {
+            ShapedNoise::new(fs_hz, band_density(&p.bands, |b| b.accel_rms[a]), rng)
+        });
         let lines = p
             .lines
             .iter()

@@ -312,6 +312,12 @@ impl TruthBuffer {
         self.states[0].t_ns
     }
 
+    /// Time of the physics state at or before `t_ns` (on the step grid of the buffer).
+    pub fn step_at_or_before(&self, t_ns: i64) -> i64 {
+        let (h, origin) = (self.step_ns(), self.oldest_ns());
+        origin + (t_ns - origin).div_euclid(h) * h
+    }
+
     /// Steps the physics until a state at or after `t_ns` is buffered.
     pub fn ensure(&mut self, t_ns: i64) {
         while self.states.back().is_some_and(|s| s.t_ns < t_ns) {
