@@ -56,15 +56,10 @@ const SPEED_AT_REST_M_S: f64 = 0.02;
 const SPEED_IN_FLIGHT_M_S: f64 = 0.05;
 const ACTIVITY_LAG_S: f64 = 1.0;
 
-/// What the model outside the bands puts into one octave of one axis: the white noise.
-struct Floor {
-    white_density: f64,
-}
-
-impl Floor {
-    fn power(&self, b: &Band) -> f64 {
-        2.0 * self.white_density.powi(2) * (b.hi_hz - b.lo_hz)
-    }
+/// What the model outside the bands puts into one octave of one axis: the power of white
+/// noise of `density` (one-sided level `2N²`).
+fn white_power(density: f64, b: &Band) -> f64 {
+    2.0 * density.powi(2) * (b.hi_hz - b.lo_hz)
 }
 
 /// Per-axis line power (x, y, z) of each line of `s`, split like the axes' power in its octave.
@@ -92,8 +87,9 @@ fn lines_per_axis(s: &SensorSpectrum) -> Vec<(f64, [f64; 3])> {
         .collect()
 }
 
-/// Band RMS per axis for one sensor's residual spectrum, less `floor` and the lines.
-fn bands(s: &SensorSpectrum, floor: &Floor, lines: &[(f64, [f64; 3])]) -> Vec<(Band, [f64; 3])> {
+/// Band RMS per axis for one sensor's residual spectrum, less white noise of `white` density
+/// and the lines.
+fn bands(s: &SensorSpectrum, white: f64, lines: &[(f64, [f64; 3])]) -> Vec<(Band, [f64; 3])> {
     let Some(first) = s.octaves_per_axis.first() else {
         return Vec::new();
     };
@@ -109,7 +105,7 @@ fn bands(s: &SensorSpectrum, floor: &Floor, lines: &[(f64, [f64; 3])]) -> Vec<(B
                     .filter(|(f, _)| *f >= band.lo_hz && *f < band.hi_hz)
                     .map(|(_, p)| p[axis])
                     .sum();
-                *r = (p - floor.power(band) - in_lines).max(0.0).sqrt();
+                *r = (p - white_power(white, band) - in_lines).max(0.0).sqrt();
             }
             Some((*band, rms))
         })
@@ -119,14 +115,14 @@ fn bands(s: &SensorSpectrum, floor: &Floor, lines: &[(f64, [f64; 3])]) -> Vec<(B
 fn profile(
     gyro: Option<&SensorSpectrum>,
     accel: Option<&SensorSpectrum>,
-    floors: (&Floor, &Floor),
+    white: (f64, f64),
 ) -> ems::ProfileSpec {
     let (Some(g), Some(a)) = (gyro, accel) else {
         return ems::ProfileSpec::default();
     };
     let (gl, al) = (lines_per_axis(g), lines_per_axis(a));
-    let gb = bands(g, floors.0, &gl);
-    let ab = bands(a, floors.1, &al);
+    let gb = bands(g, white.0, &gl);
+    let ab = bands(a, white.1, &al);
     let bands = gb
         .iter()
         .filter_map(|(b, grms)| {
@@ -157,9 +153,9 @@ fn profile(
     ems::ProfileSpec { bands, lines }
 }
 
-/// The first guess at the error model from `m`'s residual, before calibration; `None` without
-/// ground truth or a flight residual.
-fn first_guess(m: &ImuModel) -> Option<ImuErrorModelSpec> {
+/// The first guess at the error model from `m`'s residual, before calibration, with the white
+/// noise densities `white` (gyro, accel); `None` without ground truth or a flight residual.
+fn first_guess(m: &ImuModel, white: (f64, f64)) -> Option<ImuErrorModelSpec> {
     let gt = m.groundtruth.as_ref()?;
     let flight = m.spectrum.residual_flight.as_ref()?;
     let residual_allan = m.allan.residual.as_ref()?;
@@ -176,11 +172,6 @@ fn first_guess(m: &ImuModel) -> Option<ImuErrorModelSpec> {
         }),
         _ => None,
     };
-    let (gn, an) = m.sensor_yaml.as_ref().map_or((0.0, 0.0), |k| {
-        (k.gyroscope_noise_density, k.accelerometer_noise_density)
-    });
-    let gyro_floor = Floor { white_density: gn };
-    let accel_floor = Floor { white_density: an };
     let rest = m.spectrum.residual_rest.as_ref();
     let description = format!(
         "Fitted by `vio imu-model` to {} against {} ({} samples in flight, {} at rest): bands are the residual's octave power less {} and the lines, calibrated until the predicted residual's spectrum matches; the bias instability is the residual's Allan floor. Below {:.1} Hz (the ground truth's valid bandwidth) the bands also hold the ground truth's own error.",
@@ -202,16 +193,8 @@ fn first_guess(m: &ImuModel) -> Option<ImuErrorModelSpec> {
             speed_at_rest_m_s: SPEED_AT_REST_M_S,
             speed_in_flight_m_s: SPEED_IN_FLIGHT_M_S,
             time_constant_s: ACTIVITY_LAG_S,
-            rest: profile(
-                rest.map(|r| &r.gyro),
-                rest.map(|r| &r.accel),
-                (&gyro_floor, &accel_floor),
-            ),
-            flight: profile(
-                Some(&flight.gyro),
-                Some(&flight.accel),
-                (&gyro_floor, &accel_floor),
-            ),
+            rest: profile(rest.map(|r| &r.gyro), rest.map(|r| &r.accel), white),
+            flight: profile(Some(&flight.gyro), Some(&flight.accel), white),
         }),
     })
 }
@@ -334,11 +317,12 @@ fn update(
 /// The error model fitted to `m`'s residual (from `c`, measured with `measure`), calibrated;
 /// `None` without ground truth or a flight residual.
 pub fn fit_error_model(m: &ImuModel, c: &Comparison, measure: Measure) -> Option<FittedErrorModel> {
-    let mut spec = first_guess(m)?;
-    let dt = m.selection.period_s;
+    // The white noise the simulator adds anyway: sensor.yaml's densities, none without one.
     let white = m.sensor_yaml.as_ref().map_or((0.0, 0.0), |k| {
         (k.gyroscope_noise_density, k.accelerometer_noise_density)
     });
+    let mut spec = first_guess(m, white)?;
+    let dt = m.selection.period_s;
     let real = [
         m.spectrum.residual_flight.as_ref(),
         m.spectrum.residual_rest.as_ref(),

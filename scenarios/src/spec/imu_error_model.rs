@@ -162,6 +162,18 @@ impl ImuErrorModelSpec {
             );
         }
         non_negative("vibration.time_constant_s".into(), v.time_constant_s)?;
+        // A band's or line's per-axis RMS values, under the entry's keys.
+        let rms_non_negative = |key: &dyn Fn(&str) -> String,
+                                gyro: [f64; 3],
+                                accel: [f64; 3]|
+         -> Result<(), (String, String)> {
+            for (k, x) in [("gyro_rms_rad_s", gyro), ("accel_rms_m_s2", accel)] {
+                for (j, v) in x.iter().enumerate() {
+                    non_negative(format!("{}[{j}]", key(k)), *v)?;
+                }
+            }
+            Ok(())
+        };
         let nyquist = rate_hz / 2.0;
         for (name, p) in [("rest", &v.rest), ("flight", &v.flight)] {
             for (i, b) in p.bands.iter().enumerate() {
@@ -176,14 +188,7 @@ impl ImuErrorModelSpec {
                         ),
                     );
                 }
-                for (k, x) in [
-                    ("gyro_rms_rad_s", b.gyro_rms_rad_s),
-                    ("accel_rms_m_s2", b.accel_rms_m_s2),
-                ] {
-                    for (j, v) in x.iter().enumerate() {
-                        non_negative(format!("{}[{j}]", key(k)), *v)?;
-                    }
-                }
+                rms_non_negative(&key, b.gyro_rms_rad_s, b.accel_rms_m_s2)?;
             }
             for (i, l) in p.lines.iter().enumerate() {
                 let key = |k: &str| format!("vibration.{name}.lines[{i}].{k}");
@@ -196,14 +201,7 @@ impl ImuErrorModelSpec {
                         ),
                     );
                 }
-                for (k, x) in [
-                    ("gyro_rms_rad_s", l.gyro_rms_rad_s),
-                    ("accel_rms_m_s2", l.accel_rms_m_s2),
-                ] {
-                    for (j, v) in x.iter().enumerate() {
-                        non_negative(format!("{}[{j}]", key(k)), *v)?;
-                    }
-                }
+                rms_non_negative(&key, l.gyro_rms_rad_s, l.accel_rms_m_s2)?;
             }
         }
         Ok(())
