@@ -11,20 +11,24 @@
 mod euroc;
 mod features;
 pub mod kalibr;
+mod sensor_yaml;
 mod tum;
 mod yaml;
 
 use std::path::{Path, PathBuf};
 
 pub use euroc::{
-    CameraFrame, CameraSensor, EurocCamera, EurocDataset, GroundTruthState, ImuSensor, SensorYaml,
-    format_camera_csv, format_groundtruth_csv, format_imu_csv, format_sensor_yaml,
-    parse_camera_csv, parse_groundtruth_csv, parse_imu_csv, parse_sensor_yaml, read_camera_csv,
-    read_euroc, read_euroc_cameras, read_groundtruth_csv, read_imu_csv, read_sensor_yaml,
-    write_camera_csv, write_euroc, write_groundtruth_csv, write_imu_csv, write_sensor_yaml,
+    CameraFrame, EurocCamera, EurocDataset, GroundTruthState, format_camera_csv,
+    format_groundtruth_csv, format_imu_csv, parse_camera_csv, parse_groundtruth_csv, parse_imu_csv,
+    read_camera_csv, read_euroc, read_euroc_cameras, read_groundtruth_csv, read_imu_csv,
+    write_camera_csv, write_euroc, write_groundtruth_csv, write_imu_csv,
 };
 pub use features::{
     format_features_csv, parse_features_csv, read_features_csv, write_features_csv,
+};
+pub use sensor_yaml::{
+    CameraSensor, ImuSensor, SensorYaml, format_sensor_yaml, parse_sensor_yaml, read_sensor_yaml,
+    write_sensor_yaml,
 };
 pub use tum::{StampedPose, format_tum, parse_tum, read_tum, write_tum};
 
