@@ -4,9 +4,8 @@
 
 mod common;
 
-use common::{run_catalog, run_scenario};
+use common::{run_catalog, run_edited};
 use scenarios::report::Report;
-use scenarios::spec::{Origin, Scenario};
 
 /// The largest global error of the report's series over `[from_s, to_s)`.
 fn max_error(report: &Report, from_s: f64, to_s: f64) -> f64 {
@@ -58,15 +57,13 @@ fn a_20_s_outage_is_bridged_and_the_fixes_pull_the_estimate_back() {
 
 #[test]
 fn a_receiver_removed_mid_run_leaves_the_odometry_running() {
-    let text = scenarios::catalog::get("outdoor_figure8_gnss_stereo_imu")
-        .unwrap()
-        .text
-        .replace(
+    let report = run_edited("outdoor_figure8_gnss_stereo_imu", None, |text| {
+        text.replace(
             "[expectations]",
             "[[faults]]\nkind = \"gnss_outage\"\nstart_s = 30.0\nend_s = 1000.0\n\n[expectations]",
-        );
-    let scenario = Scenario::parse("removed", Origin::Catalog, &text).unwrap();
-    let report = run_scenario(scenario, None).report;
+        )
+    })
+    .report;
     // Measured: ATE 0.0452 m, largest global error after the removal 0.111 m (the alignment
     // keeps what the fixes taught it; the odometry drifts from there).
     assert_eq!(report.resets, 0);

@@ -8,23 +8,21 @@
 mod common;
 
 use common::{run_edited, run_scenario};
-use scenarios::report::{self, Report};
-use scenarios::spec::{Origin, Scenario};
+use scenarios::report::Report;
+use scenarios::spec::Scenario;
 
 fn run_with_td(true_td_s: f64) -> Report {
-    let text = scenarios::catalog::get(scenarios::catalog::DEFAULT)
-        .unwrap()
-        .text
-        .replace(
+    run_edited(scenarios::catalog::DEFAULT, None, |text| {
+        text.replace(
             "time_offset_s = 0.0",
             &format!("time_offset_s = {true_td_s:?}"),
-        );
-    let text = text.replace(
-        "[expectations]",
-        "[estimator]\nestimate_td = true\n\n[expectations]",
-    );
-    let scenario = Scenario::parse("td", Origin::Catalog, &text).unwrap();
-    run_scenario(scenario, None).report
+        )
+        .replace(
+            "[expectations]",
+            "[estimator]\nestimate_td = true\n\n[expectations]",
+        )
+    })
+    .report
 }
 
 #[test]
@@ -75,15 +73,12 @@ fn extrinsics_are_estimated_where_the_motion_determines_them() {
     // translation (σ about 13 mm if free: a horizontal lever arm looks like an accelerometer
     // bias). Measured: rotation released at 2.1 s, a 0.51° excursion at 3 s, at most 0.17°
     // after 10 s; translation held, 0.19 mm; ATE 0.0108 m.
-    let text = scenarios::catalog::get(scenarios::catalog::DEFAULT)
-        .unwrap()
-        .text
-        .replace(
+    let done = run_edited(scenarios::catalog::DEFAULT, Some(20.0), |text| {
+        text.replace(
             "[expectations]",
             "[estimator]\nestimate_extrinsics = true\nestimate_td = false\n\n[expectations]",
-        );
-    let scenario = Scenario::parse("extrinsics", Origin::Catalog, &text).unwrap();
-    let done = run_scenario(scenario, Some(20.0));
+        )
+    });
     let r = &done.report;
     let released: Vec<_> = r
         .events
@@ -105,11 +100,9 @@ fn extrinsics_are_estimated_where_the_motion_determines_them() {
     assert_eq!(r.resets, 0);
     assert!(r.ate_rmse_m.unwrap() < 0.013);
     // A run that studies calibration draws its errors over time.
-    let dir = std::env::temp_dir().join(format!("vio-calibration-{}", std::process::id()));
-    report::write_outputs(&dir, &done.scenario, &done.output, &done.eval, r).unwrap();
-    let png = std::fs::read(dir.join("calibration.png")).unwrap();
+    let dir = common::written(&done);
+    let png = std::fs::read(dir.path().join("calibration.png")).unwrap();
     assert!(png.starts_with(b"\x89PNG"), "not a PNG");
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]

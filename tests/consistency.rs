@@ -1,9 +1,10 @@
 //! Marginalization consistency at scenario level: the sliding window against the full batch
 //! over its own keyframes on the same measurements (`vio run --batch-reference`).
 
+mod common;
+
 use scenarios::batch::BatchReport;
-use scenarios::report;
-use scenarios::run::{RunOptions, run};
+use scenarios::run::RunOptions;
 use scenarios::spec::Scenario;
 
 fn batch_reference(name: &str, duration_s: Option<f64>) -> BatchReport {
@@ -13,11 +14,8 @@ fn batch_reference(name: &str, duration_s: Option<f64>) -> BatchReport {
         batch_reference: true,
         ..Default::default()
     };
-    let output = run(&scenario, &options, &mut |_| {}).unwrap_or_else(|e| panic!("{e}"));
-    let eval = report::evaluate(&output, scenario.spec.suite);
-    let report = report::build_report(&scenario, &output, &eval);
-    println!("{}", report::summary(&report, None));
-    report.batch_reference.expect("a batch reference")
+    let done = common::run_with(scenario, &options);
+    done.report.batch_reference.expect("a batch reference")
 }
 
 #[test]

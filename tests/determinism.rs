@@ -1,58 +1,43 @@
 //! Determinism: two runs of the same scenario and seed write byte-identical `estimate.tum` and
 //! `groundtruth.tum` files; a different seed gives a different estimate.
 
-use std::path::PathBuf;
+mod common;
 
 use scenarios::report;
-use scenarios::run::{RunOptions, run};
+use scenarios::run::RunOptions;
 use scenarios::spec::Scenario;
-
-fn out_dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("vio-determinism-{}-{tag}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    d
-}
+use tempfile::TempDir;
 
 /// Runs catalog scenario `name` for `duration_s` with `seed` (None: its own), writes its files
 /// into a fresh folder and returns the folder and the report.
-fn run_into(
-    name: &str,
-    duration_s: f64,
-    tag: &str,
-    seed: Option<u64>,
-) -> (PathBuf, report::Report) {
+fn run_into(name: &str, duration_s: f64, seed: Option<u64>) -> (TempDir, report::Report) {
     let scenario = Scenario::load(name).unwrap();
     let options = RunOptions {
         seed,
         duration_s: Some(duration_s),
         ..Default::default()
     };
-    let output = run(&scenario, &options, &mut |_| {}).unwrap();
-    let eval = report::evaluate(&output, scenario.spec.suite);
-    let rep = report::build_report(&scenario, &output, &eval);
-    let dir = out_dir(tag);
-    report::write_outputs(&dir, &scenario, &output, &eval, &rep).unwrap();
-    (dir, rep)
+    let done = common::run_with(scenario, &options);
+    let dir = common::scratch();
+    done.write_outputs(dir.path()).unwrap();
+    (dir, done.report)
 }
 
 #[test]
 fn two_runs_write_identical_trajectories() {
     let default = scenarios::catalog::DEFAULT;
-    let a = run_into(default, 6.0, "a", None).0;
-    let b = run_into(default, 6.0, "b", None).0;
-    let c = run_into(default, 6.0, "c", Some(12345)).0;
+    let a = run_into(default, 6.0, None).0;
+    let b = run_into(default, 6.0, None).0;
+    let c = run_into(default, 6.0, Some(12345)).0;
     for name in ["estimate.tum", "groundtruth.tum"] {
-        let fa = std::fs::read(a.join(name)).unwrap();
-        let fb = std::fs::read(b.join(name)).unwrap();
+        let fa = std::fs::read(a.path().join(name)).unwrap();
+        let fb = std::fs::read(b.path().join(name)).unwrap();
         assert!(fa.len() > 1000, "{name} is too short");
         assert!(fa == fb, "{name} differs between two identical runs");
     }
-    let ea = std::fs::read(a.join("estimate.tum")).unwrap();
-    let ec = std::fs::read(c.join("estimate.tum")).unwrap();
+    let ea = std::fs::read(a.path().join("estimate.tum")).unwrap();
+    let ec = std::fs::read(c.path().join("estimate.tum")).unwrap();
     assert!(ea != ec, "another seed gives the same estimate");
-    for d in [a, b, c] {
-        let _ = std::fs::remove_dir_all(d);
-    }
 }
 
 #[test]
@@ -63,10 +48,10 @@ fn aiding_sensors_keep_runs_identical() {
         "outdoor_figure8_gnss_stereo_imu",
         "hall_ground_vehicle_wheel_mono_imu",
     ] {
-        let (a, ra) = run_into(name, 8.0, "aid-a", None);
-        let (b, rb) = run_into(name, 8.0, "aid-b", None);
-        let fa = std::fs::read(a.join("estimate.tum")).unwrap();
-        let fb = std::fs::read(b.join("estimate.tum")).unwrap();
+        let (a, ra) = run_into(name, 8.0, None);
+        let (b, rb) = run_into(name, 8.0, None);
+        let fa = std::fs::read(a.path().join("estimate.tum")).unwrap();
+        let fb = std::fs::read(b.path().join("estimate.tum")).unwrap();
         assert!(fa.len() > 1000, "{name}: estimate.tum is too short");
         assert!(
             fa == fb,

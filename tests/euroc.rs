@@ -1,5 +1,5 @@
 //! `vio euroc` round trips: a scenario exported in the EuRoC ASL layout, its stamps moved to a
-//! real recording's clock (~1.4e18 ns), run through `scenarios::euroc::run_euroc` gives the
+//! real recording's clock (~1.4e18 ns), run through `vio euroc`'s pipeline gives the
 //! ATE `vio run` gives on the scenario, from the rendered images (image front end) and from
 //! the exported feature tracks; and bad datasets name their file.
 //!
@@ -8,10 +8,14 @@
 use std::path::{Path, PathBuf};
 
 use scenarios::dataset::{read_euroc, read_features_csv, write_euroc, write_features_csv};
-use scenarios::euroc::{EurocError, EurocOptions, run_euroc};
+mod common;
+
 use scenarios::export::export;
 use scenarios::report::{self, Report};
-use scenarios::run::{RunOptions, run};
+use scenarios::run::{
+    DEFAULT_SEED, EurocOptions, ReportedRun, RunControl, RunError, RunInput, RunOptions,
+    run_to_report,
+};
 use scenarios::spec::{Scenario, SuiteSpec};
 
 /// The first IMU stamp of EuRoC V1_01_easy (ns).
@@ -20,21 +24,22 @@ const EUROC_T0_NS: i64 = 1_403_715_273_262_142_976;
 /// Both runs last this long (s).
 const SECONDS: f64 = 4.0;
 
-fn scratch(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("vio-euroc-{}-{tag}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    d
-}
-
 /// `vio run`'s report on `name` for [`SECONDS`].
 fn run_report(scenario: &Scenario) -> Report {
-    let options = RunOptions {
-        duration_s: Some(SECONDS),
+    common::run_scenario(scenario.clone(), Some(SECONDS)).report
+}
+
+/// `vio euroc` on `mav0` with the front end's `seed`.
+fn euroc(mav0: &Path, options: &EurocOptions, seed: u64) -> Result<ReportedRun, RunError> {
+    let run = RunOptions {
+        seed: Some(seed),
         ..Default::default()
     };
-    let out = run(scenario, &options, &mut |_| {}).unwrap();
-    let eval = report::evaluate(&out, scenario.spec.suite);
-    report::build_report(scenario, &out, &eval)
+    run_to_report(
+        RunInput::Euroc { mav0, options },
+        &run,
+        RunControl::default(),
+    )
 }
 
 /// Exports `scenario` for [`SECONDS`] into `dir` and moves every stamp (IMU, cameras, ground
@@ -77,17 +82,15 @@ fn options(scenario: &Scenario, features: Option<PathBuf>) -> EurocOptions {
                 .join(format!("{}.toml", scenario.name)),
         ),
         pixel_sigma_px: 1.0,
-        seed: scenario.spec.world.seed,
-        duration_s: None,
     }
 }
 
-fn euroc_report(mav0: &Path, options: &EurocOptions) -> Report {
-    let r = run_euroc(mav0, options, &mut |_| {}).unwrap();
+/// The report of `vio euroc` on a dataset on the V1_01 clock (`seed`: of the front end).
+fn euroc_report(mav0: &Path, options: &EurocOptions, seed: u64) -> Report {
+    let r = euroc(mav0, options, seed).unwrap();
     assert_eq!(r.without_truth, 0);
     assert_eq!(r.context.source_time_offset_ns, Some(EUROC_T0_NS));
-    let eval = report::evaluate(&r.output, options.suite);
-    report::build_report_in(&r.context, &r.output, &eval)
+    r.report
 }
 
 /// Same measurements, same estimate: the ATEs agree to round-off (measured: 1e-10 m relative
@@ -104,34 +107,34 @@ fn assert_same_accuracy(a: &Report, b: &Report) {
 #[test]
 fn rendered_export_through_vio_euroc_matches_vio_run() {
     let scenario = Scenario::load("room_figure8_rendered_stereo_imu").unwrap();
-    let dir = scratch("rendered");
-    export_on_euroc_clock(&scenario, &dir);
+    let dir = common::scratch();
+    let dir = dir.path();
+    export_on_euroc_clock(&scenario, dir);
     let expected = run_report(&scenario);
-    let got = euroc_report(&dir.join("mav0"), &options(&scenario, None));
+    let seed = scenario.spec.world.seed;
+    let got = euroc_report(&dir.join("mav0"), &options(&scenario, None), seed);
     assert_same_accuracy(&expected, &got);
     assert_eq!(got.camera_mode, "recorded");
     assert!(report::summary(&got, None).contains("s recorded"));
     // It did track images: the ATE is the image front end's, not the ideal tracks'.
     assert!(got.timing_ms.frontend.median > 0.0);
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
 fn exported_feature_tracks_reproduce_the_run() {
     let scenario = Scenario::load("room_figure8_stereo_imu").unwrap();
-    let dir = scratch("features");
-    export_on_euroc_clock(&scenario, &dir);
+    let dir = common::scratch();
+    let dir = dir.path();
+    export_on_euroc_clock(&scenario, dir);
     let expected = run_report(&scenario);
+    let seed = scenario.spec.world.seed;
     let opts = options(&scenario, Some(dir.join("features.csv")));
-    let got = euroc_report(&dir.join("mav0"), &opts);
-    assert_same_accuracy(&expected, &got);
+    let r = euroc(&dir.join("mav0"), &opts, seed).unwrap();
+    assert_same_accuracy(&expected, &r.report);
 
     // The written files: the estimate on the run's clock and on the dataset's.
-    let r = run_euroc(&dir.join("mav0"), &opts, &mut |_| {}).unwrap();
-    let eval = report::evaluate(&r.output, opts.suite);
-    let rep = report::build_report_in(&r.context, &r.output, &eval);
     let out = dir.join("out");
-    report::write_outputs_in(&out, &r.context, &r.output, &eval, &rep).unwrap();
+    r.write_outputs(&out).unwrap();
     let source = std::fs::read_to_string(out.join("estimate_source_time.tum")).unwrap();
     let first: f64 = source
         .lines()
@@ -151,28 +154,28 @@ fn exported_feature_tracks_reproduce_the_run() {
     // Without ground truth it runs unevaluated: no error metrics, no ground-truth file; only
     // the tracking bound, which needs none, is checked.
     std::fs::remove_dir_all(dir.join("mav0/state_groundtruth_estimate0")).unwrap();
-    let r = run_euroc(&dir.join("mav0"), &opts, &mut |_| {}).unwrap();
+    let r = euroc(&dir.join("mav0"), &opts, seed).unwrap();
     assert!(!r.context.ground_truth);
-    let eval = report::evaluate(&r.output, opts.suite);
-    let rep = report::build_report_in(&r.context, &r.output, &eval);
+    let rep = &r.report;
     assert_eq!(rep.frames, expected.frames);
     assert!(rep.ate_rmse_m.is_none() && rep.passed);
     let checked: Vec<&str> = rep.expectations.iter().map(|e| e.metric).collect();
     assert_eq!(checked, ["tracking_fraction"]);
     let out = dir.join("out-no-gt");
-    report::write_outputs_in(&out, &r.context, &r.output, &eval, &rep).unwrap();
+    r.write_outputs(&out).unwrap();
     assert!(out.join("estimate.tum").exists() && !out.join("groundtruth.tum").exists());
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
 fn bad_datasets_name_the_file() {
     let scenario = Scenario::load("room_figure8_stereo_imu").unwrap();
-    let dir = scratch("bad");
-    export_on_euroc_clock(&scenario, &dir);
+    let dir = common::scratch();
+    let dir = dir.path();
+    export_on_euroc_clock(&scenario, dir);
     let mav0 = dir.join("mav0");
+    let seed = scenario.spec.world.seed;
     let features = Some(dir.join("features.csv"));
-    let message = |opts: &EurocOptions| match run_euroc(&mav0, opts, &mut |_| {}) {
+    let message = |opts: &EurocOptions| match euroc(&mav0, opts, seed) {
         Err(e) => e.to_string(),
         Ok(_) => panic!("accepted"),
     };
@@ -209,16 +212,15 @@ fn bad_datasets_name_the_file() {
 
     // A stereo suite on a one-camera dataset.
     std::fs::remove_dir_all(mav0.join("cam1")).unwrap();
-    let e = run_euroc(&mav0, &options(&scenario, features.clone()), &mut |_| {}).unwrap_err();
-    assert!(matches!(e, EurocError::Input { .. }), "{e}");
+    let e = euroc(&mav0, &options(&scenario, features.clone()), seed).unwrap_err();
+    assert!(matches!(e, RunError::Input { .. }), "{e}");
     assert!(e.to_string().contains("needs 2 camera"), "{e}");
     // … which mono+IMU runs.
     let opts = EurocOptions {
         suite: SuiteSpec::MonoImu,
         ..options(&scenario, features)
     };
-    assert!(run_euroc(&mav0, &opts, &mut |_| {}).is_ok());
-    let _ = std::fs::remove_dir_all(dir);
+    assert!(euroc(&mav0, &opts, seed).is_ok());
 }
 
 /// The real EuRoC V1_01 excerpt committed in the catalog's data (20 stereo pairs, the MAV on
@@ -240,7 +242,7 @@ fn real_frames_at_rest_track_and_score_drift_and_tilt() {
         settings: Some(dir.join("zero_velocity.toml")),
         ..EurocOptions::new(SuiteSpec::StereoImu)
     };
-    let rep = euroc_report(&dir.join("mav0"), &opts);
+    let rep = euroc_report(&dir.join("mav0"), &opts, DEFAULT_SEED);
     assert_eq!(rep.frames, 20);
     assert!(
         rep.tracking_frames >= 10,
@@ -286,8 +288,8 @@ fn real_frames_at_rest_track_and_score_drift_and_tilt() {
 /// black images never tracks and fails.
 #[test]
 fn a_run_without_ground_truth_that_never_tracks_fails() {
-    let dir = scratch("no-truth");
-    let mav0 = dir.join("mav0");
+    let dir = common::scratch();
+    let mav0 = dir.path().join("mav0");
     let src = real_excerpt().join("mav0");
     for sub in ["cam0/data", "cam1/data", "imu0"] {
         std::fs::create_dir_all(mav0.join(sub)).unwrap();
@@ -313,10 +315,9 @@ fn a_run_without_ground_truth_that_never_tracks_fails() {
     };
     let opts = EurocOptions::new(SuiteSpec::StereoImu);
     let report_of = |mav0: &Path| {
-        let r = run_euroc(mav0, &opts, &mut |_| {}).unwrap();
+        let r = euroc(mav0, &opts, DEFAULT_SEED).unwrap();
         assert!(!r.context.ground_truth);
-        let eval = report::evaluate(&r.output, opts.suite);
-        report::build_report_in(&r.context, &r.output, &eval)
+        r.report
     };
     for cam in ["cam0", "cam1"] {
         for e in images(cam) {
@@ -343,5 +344,4 @@ fn a_run_without_ground_truth_that_never_tracks_fails() {
         .find(|e| e.metric == "tracking_fraction")
         .expect("the tracking bound is checked without ground truth");
     assert!(!check.passed);
-    let _ = std::fs::remove_dir_all(dir);
 }

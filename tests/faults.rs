@@ -186,38 +186,23 @@ fn healthy_runs_raise_no_alarm() {
 /// expects the refusal passes.
 #[test]
 fn a_run_that_never_tracks_fails_on_the_default_expectations() {
-    let text = scenarios::catalog::get("room_circle_stereo_imu")
-        .expect("catalog")
-        .text;
-    let text = text.replace("suite = \"stereo_imu\"", "suite = \"mono_imu\"");
-    let text = &text[..text.find("[expectations]").expect("has expectations")];
-    let scenario = scenarios::spec::Scenario::parse(
-        "circle_mono_without_expectations",
-        scenarios::spec::Origin::Catalog,
-        text,
-    )
-    .expect("valid");
-    let options = scenarios::run::RunOptions {
-        seed: None,
-        duration_s: Some(20.0),
-        ..Default::default()
+    let without_expectations = |text: &str| {
+        let text = text.replace("suite = \"stereo_imu\"", "suite = \"mono_imu\"");
+        text[..text.find("[expectations]").expect("has expectations")].to_string()
     };
-    let output = scenarios::run::run(&scenario, &options, &mut |_| {}).expect("runs");
-    let eval = scenarios::report::evaluate(&output, scenario.spec.suite);
-    let r = scenarios::report::build_report(&scenario, &output, &eval);
+    let scenario = common::catalog_edited("room_circle_stereo_imu", without_expectations);
+    let done = common::run_scenario(scenario, Some(20.0));
+    let r = &done.report;
     let metrics: Vec<&str> = r.expectations.iter().map(|e| e.metric).collect();
     assert_eq!(metrics, ["ate_rmse_m", "tracking_fraction"]);
     assert_eq!(r.tracking_fraction, 0.0);
     assert!(!r.passed);
     // Expecting the refusal (`tracking_fraction = { max = 0 }`) passes, with no ATE bound.
-    let expecting = format!("{text}[expectations]\ntracking_fraction = {{ max = 0.0 }}\n");
-    let scenario = scenarios::spec::Scenario::parse(
-        "circle_mono_expecting_no_start",
-        scenarios::spec::Origin::Catalog,
-        &expecting,
-    )
-    .expect("valid");
-    let r = scenarios::report::build_report(&scenario, &output, &eval);
+    let scenario = common::catalog_edited("room_circle_stereo_imu", |text| {
+        without_expectations(text) + "[expectations]\ntracking_fraction = { max = 0.0 }\n"
+    });
+    let context = scenarios::report::RunContext::with_run(&scenario, &done.output);
+    let r = scenarios::report::build_report(&context, &done.output, &done.eval);
     let metrics: Vec<&str> = r.expectations.iter().map(|e| e.metric).collect();
     assert_eq!(metrics, ["tracking_fraction"]);
     assert!(r.passed);
@@ -226,10 +211,8 @@ fn a_run_that_never_tracks_fails_on_the_default_expectations() {
 /// The default scenario's rig with a 1 cm stereo baseline, 20 s, `[estimator]` settings
 /// `settings` added, run and reported.
 fn run_with_1cm_baseline(settings: &str) -> scenarios::report::Report {
-    let text = scenarios::catalog::get("room_figure8_stereo_imu")
-        .unwrap()
-        .text
-        .replace(
+    let scenario = common::catalog_edited("room_figure8_stereo_imu", |text| {
+        text.replace(
             "translation_m = [0.0, 0.055, 0.0]",
             "translation_m = [0.0, 0.005, 0.0]",
         )
@@ -240,10 +223,8 @@ fn run_with_1cm_baseline(settings: &str) -> scenarios::report::Report {
         .replace(
             "[expectations]",
             &format!("[estimator]\n{settings}\n\n[expectations]"),
-        );
-    let scenario =
-        scenarios::spec::Scenario::parse("baseline_1cm", scenarios::spec::Origin::Catalog, &text)
-            .unwrap();
+        )
+    });
     common::run_scenario(scenario, Some(20.0)).report
 }
 

@@ -3,8 +3,9 @@
 //!
 //! Needs Mesa's llvmpipe (`bash .ci/install-deps`). The full-length catalog runs are `--ignored`.
 
-use scenarios::report::{self, Report};
-use scenarios::run::{RunOptions, run};
+mod common;
+
+use scenarios::report::Report;
 use scenarios::spec::Scenario;
 
 // Bounds: what was measured (seed 1 unless named, llvmpipe GL), with the margin stated.
@@ -30,25 +31,15 @@ const SHORT: &[(&str, f64, usize, f64)] = &[
 
 fn run_report(name: &str, seconds: Option<f64>) -> (Report, Vec<u8>) {
     let scenario = Scenario::load(name).unwrap();
-    let options = RunOptions {
-        seed: None,
-        duration_s: seconds,
-        ..Default::default()
-    };
-    let output = run(&scenario, &options, &mut |_| {}).unwrap();
-    let eval = report::evaluate(&output, scenario.spec.suite);
-    let rep = report::build_report(&scenario, &output, &eval);
-    let dir = std::env::temp_dir().join(format!("vio-frontend-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    report::write_outputs(&dir, &scenario, &output, &eval, &rep).unwrap();
-    let bytes = std::fs::read(dir.join("estimate.tum")).unwrap();
-    let json = std::fs::read_to_string(dir.join("report.json")).unwrap();
+    let done = common::run_scenario(scenario, seconds);
+    let dir = common::written(&done);
+    let bytes = std::fs::read(dir.path().join("estimate.tum")).unwrap();
+    let json = std::fs::read_to_string(dir.path().join("report.json")).unwrap();
     assert!(
         json.contains("\"track_error_median_px\""),
         "report.json lacks frontend"
     );
-    let _ = std::fs::remove_dir_all(&dir);
-    (rep, bytes)
+    (done.report, bytes)
 }
 
 fn print(name: &str, r: &Report) {

@@ -2,36 +2,26 @@
 //! EuRoC V1_01 flight (4 s at rest, then take-off) track without a reset, the log's checks
 //! against the replayed ground truth find its clock and frame, and the run is deterministic.
 
-use std::path::PathBuf;
+mod common;
 
-use scenarios::report::{self, Report};
-use scenarios::run::{RunOptions, run};
+use scenarios::report::Report;
 use scenarios::spec::Scenario;
+use tempfile::TempDir;
 
 const NAME: &str = "room_replay_v1_01_real_imu_stereo_imu";
 const DURATION_S: f64 = 15.0;
 
 /// Runs the scenario for [`DURATION_S`], writes its files into a fresh folder and returns the
 /// folder and the report.
-fn run_into(tag: &str) -> (PathBuf, Report) {
+fn run_into() -> (TempDir, Report) {
     let scenario = Scenario::load(NAME).unwrap_or_else(|e| panic!("{e}"));
-    let options = RunOptions {
-        duration_s: Some(DURATION_S),
-        ..Default::default()
-    };
-    let output = run(&scenario, &options, &mut |_| {}).unwrap_or_else(|e| panic!("{e}"));
-    let eval = report::evaluate(&output, scenario.spec.suite);
-    let rep = report::build_report(&scenario, &output, &eval);
-    println!("{}", report::summary(&rep, None));
-    let dir = std::env::temp_dir().join(format!("vio-recorded-imu-{}-{tag}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    report::write_outputs(&dir, &scenario, &output, &eval, &rep).unwrap();
-    (dir, rep)
+    let done = common::run_scenario(scenario, Some(DURATION_S));
+    (common::written(&done), done.report)
 }
 
 #[test]
 fn a_recorded_imu_log_tracks_and_its_clock_and_frame_check_out() {
-    let (a, rep) = run_into("a");
+    let (a, rep) = run_into();
     assert_eq!(rep.resets, 0, "resets");
     assert!(rep.tracking_fraction > 0.9, "{}", rep.tracking_fraction);
     let ate = rep.ate_rmse_m.expect("an ATE");
@@ -61,23 +51,20 @@ fn a_recorded_imu_log_tracks_and_its_clock_and_frame_check_out() {
         "{rms:?}"
     );
 
-    let (b, _) = run_into("b");
+    let (b, _) = run_into();
     for name in [
         "estimate.tum",
         "estimate_source_time.tum",
         "groundtruth.tum",
     ] {
-        let fa = std::fs::read(a.join(name)).unwrap();
-        let fb = std::fs::read(b.join(name)).unwrap();
+        let fa = std::fs::read(a.path().join(name)).unwrap();
+        let fb = std::fs::read(b.path().join(name)).unwrap();
         assert!(fa.len() > 1000, "{name} is too short");
         assert!(fa == fb, "{name} differs between two identical runs");
     }
     // Source time: the recording's own stamps (the log's and the ground truth's first is
     // 1403715273262142976 ns, the run's 0).
-    let source = std::fs::read_to_string(a.join("estimate_source_time.tum")).unwrap();
+    let source = std::fs::read_to_string(a.path().join("estimate_source_time.tum")).unwrap();
     let first = source.lines().find(|l| !l.starts_with('#')).unwrap();
     assert!(first.starts_with("1403715273."), "{first}");
-    for d in [a, b] {
-        let _ = std::fs::remove_dir_all(d);
-    }
 }

@@ -2,30 +2,19 @@
 //! honest tracking status when vision gives nothing, and faults that used to end in nonsense
 //! (camera 0 dead from the start, an IMU dropout longer than the ground-truth retention).
 
-use scenarios::report::{self, Report};
-use scenarios::run::{RunOptions, run};
-use scenarios::spec::{Origin, Scenario};
+mod common;
+
+use scenarios::report::Report;
+use scenarios::spec::Scenario;
 
 /// Runs `scenario` with `seed` and `duration_s`; the report.
 fn run_report(scenario: &Scenario, seed: Option<u64>, duration_s: Option<f64>) -> Report {
-    let options = RunOptions {
-        seed,
-        duration_s,
-        ..Default::default()
-    };
-    let output = run(scenario, &options, &mut |_| {}).unwrap_or_else(|e| panic!("{e}"));
-    let eval = report::evaluate(&output, scenario.spec.suite);
-    let r = report::build_report(scenario, &output, &eval);
-    println!("{}", report::summary(&r, None));
-    r
+    common::run_seeded(scenario.clone(), seed, duration_s).report
 }
 
 /// The default scenario with `edit` applied to its text.
 fn default_with(edit: impl Fn(&str) -> String) -> Scenario {
-    let text = scenarios::catalog::get(scenarios::catalog::DEFAULT)
-        .unwrap()
-        .text;
-    Scenario::parse("edited", Origin::Catalog, &edit(text)).unwrap_or_else(|e| panic!("{e}"))
+    common::catalog_edited(scenarios::catalog::DEFAULT, edit)
 }
 
 #[test]

@@ -5,8 +5,10 @@
 //!
 //! Needs Mesa's llvmpipe (`bash .ci/install-deps`).
 
+mod common;
+
 use scenarios::report;
-use scenarios::run::{RunOptions, run};
+use scenarios::run::RunOptions;
 use scenarios::spec::{Origin, Scenario};
 
 fn catalog_text(name: &str) -> String {
@@ -37,25 +39,15 @@ fn estimate_bytes(name: &str, seconds: f64) -> (Vec<u8>, report::Report) {
 }
 
 fn scenario_bytes(scenario: &Scenario, seconds: f64) -> (Vec<u8>, report::Report) {
-    let name = scenario.name.clone();
-    let options = RunOptions {
-        seed: None,
-        duration_s: Some(seconds),
-        ..Default::default()
-    };
-    let output = run(scenario, &options, &mut |_| {}).unwrap();
-    let eval = report::evaluate(&output, scenario.spec.suite);
-    let rep = report::build_report(scenario, &output, &eval);
-    let dir = std::env::temp_dir().join(format!("vio-rendered-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    report::write_outputs(&dir, scenario, &output, &eval, &rep).unwrap();
-    let bytes = std::fs::read(dir.join("estimate.tum")).unwrap();
-    let json = std::fs::read_to_string(dir.join("report.json")).unwrap();
+    let done = common::run_scenario(scenario.clone(), Some(seconds));
+    let dir = common::written(&done);
+    let bytes = std::fs::read(dir.path().join("estimate.tum")).unwrap();
+    let json = std::fs::read_to_string(dir.path().join("report.json")).unwrap();
     assert!(
         json.contains("\"camera_mode\""),
         "report.json lacks camera_mode"
     );
-    (bytes, rep)
+    (bytes, done.report)
 }
 
 /// Mono+IMU on the rendered default scenario's stereo rig: the front end tracks the first
@@ -102,14 +94,14 @@ fn rendering_changes_no_measurement_and_reports_its_adapter_and_timing() {
 #[test]
 fn export_writes_rendered_images_in_the_euroc_layout() {
     let scenario = Scenario::load("room_figure8_rendered_stereo_imu").unwrap();
-    let dir = std::env::temp_dir().join(format!("vio-rendered-export-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let dir = common::scratch();
+    let dir = dir.path();
     let options = RunOptions {
         seed: None,
         duration_s: Some(0.2),
         ..Default::default()
     };
-    let s = scenarios::export::export(&scenario, &options, &dir).unwrap();
+    let s = scenarios::export::export(&scenario, &options, dir).unwrap();
     assert_eq!(s.frames, 5);
     assert_eq!(s.images, 10);
     for cam in 0..2 {

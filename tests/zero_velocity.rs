@@ -5,7 +5,7 @@
 mod common;
 
 use common::{run_catalog, run_scenario};
-use scenarios::spec::{Origin, Scenario};
+use scenarios::spec::Scenario;
 
 #[test]
 fn rest_is_detected_from_the_imu_and_the_images_and_never_while_moving() {
@@ -27,15 +27,13 @@ fn rest_is_detected_from_the_imu_and_the_images_and_never_while_moving() {
 
 /// The default scenario with zero-velocity detection on and the figure-eight's period set.
 fn default_with_detection(period_s: f64) -> Scenario {
-    let text = scenarios::catalog::get(scenarios::catalog::DEFAULT)
-        .unwrap()
-        .text
-        .replace("period_s = 20.0", &format!("period_s = {period_s:?}"))
-        .replace(
-            "[expectations]",
-            "[estimator.zero_velocity]\nenabled = true\n\n[expectations]",
-        );
-    Scenario::parse("moving", Origin::Catalog, &text).unwrap()
+    common::catalog_edited(scenarios::catalog::DEFAULT, |text| {
+        text.replace("period_s = 20.0", &format!("period_s = {period_s:?}"))
+            .replace(
+                "[expectations]",
+                "[estimator.zero_velocity]\nenabled = true\n\n[expectations]",
+            )
+    })
 }
 
 #[test]
@@ -63,11 +61,10 @@ fn a_slow_creep_is_not_called_at_rest() {
 
 #[test]
 fn overlapping_stops_are_refused_naming_the_key() {
-    let text = scenarios::catalog::get("room_figure8_stops_stereo_imu")
-        .unwrap()
-        .text
-        .replace("at_s = 28.0", "at_s = 15.0");
-    let err = Scenario::parse("stops", Origin::Catalog, &text).unwrap_err();
+    let err = Scenario::catalog_edited("room_figure8_stops_stereo_imu", |text| {
+        text.replace("at_s = 28.0", "at_s = 15.0")
+    })
+    .unwrap_err();
     let message = err.to_string();
     assert!(
         message.contains("trajectory.stops[1].at_s") && message.contains("before the previous"),

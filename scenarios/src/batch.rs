@@ -14,7 +14,7 @@ use estimator::geometry::Pose;
 use serde::Serialize;
 
 use crate::metrics::{self, Alignment};
-use crate::run::RunOutput;
+use crate::run_output::RunOutput;
 
 /// `report.json`'s `batch_reference`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]

@@ -13,9 +13,8 @@ use serde::{Deserialize, Serialize};
 
 use std::path::Path;
 
-use crate::euroc::{EurocOptions, run_euroc};
-use crate::report::{self, Stats};
-use crate::run::{RunOptions, run};
+use crate::report::Stats;
+use crate::run::{EurocOptions, RunControl, RunInput, RunOptions, run_to_report};
 use crate::spec::{Scenario, SuiteSpec};
 
 /// `(catalog scenario, mode, duration s, quick duration s)` of the benchmark; mode `recorded`
@@ -107,27 +106,27 @@ pub fn bench_one(name: &str, quick: bool) -> Result<BenchRow, String> {
         .find(|s| s.0 == name)
         .ok_or_else(|| format!("`{name}` is not a benchmark scenario"))?;
     let start = Instant::now();
-    let (out, rep) = if mode == "recorded" {
-        let options = EurocOptions::new(SuiteSpec::StereoImu);
-        let r =
-            run_euroc(Path::new(REAL_FRAMES), &options, &mut |_| {}).map_err(|e| e.to_string())?;
-        let eval = report::evaluate(&r.output, options.suite);
-        let rep = report::build_report_in(&r.context, &r.output, &eval);
-        (r.output, rep)
+    let euroc = EurocOptions::new(SuiteSpec::StereoImu);
+    let scenario;
+    let (input, options) = if mode == "recorded" {
+        let input = RunInput::Euroc {
+            mav0: Path::new(REAL_FRAMES),
+            options: &euroc,
+        };
+        (input, RunOptions::default())
     } else {
-        let scenario = Scenario::load(name).map_err(|e| e.to_string())?;
+        scenario = Scenario::load(name).map_err(|e| e.to_string())?;
         let duration = if quick { short } else { full };
         let options = RunOptions {
             duration_s: Some(duration),
             ..Default::default()
         };
-        let out = run(&scenario, &options, &mut |_| {}).map_err(|e| e.to_string())?;
-        let eval = report::evaluate(&out, scenario.spec.suite);
-        let rep = report::build_report(&scenario, &out, &eval);
-        (out, rep)
+        (RunInput::Scenario(&scenario), options)
     };
+    let run = run_to_report(input, &options, RunControl::default()).map_err(|e| e.to_string())?;
+    let (out, rep) = (run.output, run.report);
     let wall_s = start.elapsed().as_secs_f64();
-    let stage = |f: &dyn Fn(&crate::run::FrameRecord) -> f64| -> StageStats {
+    let stage = |f: &dyn Fn(&crate::run_output::FrameRecord) -> f64| -> StageStats {
         Stats::from_seconds(out.frames.iter().map(f)).into()
     };
     Ok(BenchRow {

@@ -26,7 +26,9 @@ use nalgebra::{DMatrix, Matrix3, SMatrix, Vector3, Vector6};
 use serde::Serialize;
 
 use crate::metrics::{self, Alignment};
-use crate::run::{RunError, RunOptions, RunOutput, run};
+use crate::run::{
+    ReportedRun, RunControl, RunError, RunInput, RunOptions, RunOutput, run_to_report,
+};
 use crate::spec::{Scenario, SuiteSpec};
 
 /// The metrics, in report order: name and degrees of freedom.
@@ -111,7 +113,7 @@ pub fn run_nees(scenario: &Scenario, options: &NeesOptions) -> Result<NeesReport
         });
     }
     let n = options.seeds.len();
-    let results: Mutex<Vec<Option<Result<RunOutput, RunError>>>> =
+    let results: Mutex<Vec<Option<Result<ReportedRun, RunError>>>> =
         Mutex::new((0..n).map(|_| None).collect());
     let next = AtomicUsize::new(0);
     std::thread::scope(|s| {
@@ -128,7 +130,11 @@ pub fn run_nees(scenario: &Scenario, options: &NeesOptions) -> Result<NeesReport
                         covariance: true,
                         ..Default::default()
                     };
-                    let out = run(scenario, &run_options, &mut |_| {});
+                    let out = run_to_report(
+                        RunInput::Scenario(scenario),
+                        &run_options,
+                        RunControl::default(),
+                    );
                     results.lock().expect("no worker panicked")[i] = Some(out);
                 }
             });
@@ -207,12 +213,12 @@ fn run_nees_series(out: &RunOutput) -> Vec<(i64, FrameNees)> {
         .collect()
 }
 
-fn report(scenario: &Scenario, options: &NeesOptions, runs: &[RunOutput]) -> NeesReport {
+fn report(scenario: &Scenario, options: &NeesOptions, runs: &[ReportedRun]) -> NeesReport {
     let n = runs.len();
     // Per metric: frame time → (sum, count) over the runs.
     let mut sums: Vec<BTreeMap<i64, (f64, usize)>> = vec![BTreeMap::new(); METRICS.len()];
-    for out in runs {
-        for (t, values) in run_nees_series(out) {
+    for r in runs {
+        for (t, values) in run_nees_series(&r.output) {
             for (m, v) in values.iter().enumerate() {
                 if let Some(v) = v {
                     let e = sums[m].entry(t).or_insert((0.0, 0));
@@ -251,13 +257,10 @@ fn report(scenario: &Scenario, options: &NeesOptions, runs: &[RunOutput]) -> Nee
         .collect::<Vec<_>>();
     let mut backend: Vec<f64> = runs
         .iter()
-        .flat_map(|r| r.frames.iter().map(|f| f.timing.backend_s * 1e3))
+        .flat_map(|r| r.output.frames.iter().map(|f| f.timing.backend_s * 1e3))
         .collect();
     backend.sort_by(f64::total_cmp);
-    let ate_rmse_m = runs
-        .iter()
-        .map(|r| crate::report::evaluate(r, scenario.spec.suite).ate_rmse_m())
-        .collect();
+    let ate_rmse_m = runs.iter().map(|r| r.evaluation.ate_rmse_m()).collect();
     NeesReport {
         scenario: scenario.name.clone(),
         seeds: options.seeds.clone(),

@@ -23,8 +23,8 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::report::{self, Report};
-use crate::run::{RunOptions, run};
+use crate::report::Report;
+use crate::run::{RunControl, RunInput, RunOptions, run_to_report};
 use crate::spec::Scenario;
 
 /// Which way a metric gets worse.
@@ -396,13 +396,13 @@ pub fn run_catalog(
         let path = f.to_string_lossy().into_owned();
         let scenario = Scenario::load(&path).map_err(|e| e.to_string())?;
         progress(&scenario.name);
-        let output =
-            run(&scenario, &RunOptions::default(), &mut |_| {}).map_err(|e| e.to_string())?;
-        let eval = report::evaluate(&output, scenario.spec.suite);
-        out.push((
-            scenario.name.clone(),
-            report::build_report(&scenario, &output, &eval),
-        ));
+        let run = run_to_report(
+            RunInput::Scenario(&scenario),
+            &RunOptions::default(),
+            RunControl::default(),
+        )
+        .map_err(|e| e.to_string())?;
+        out.push((scenario.name.clone(), run.report));
     }
     Ok(out)
 }

@@ -70,13 +70,14 @@ fn replay_knot_spacings_outside_their_range_are_refused() {
     for (tag, v) in [("knots-tiny", "1e-7"), ("knots-huge", "100.0")] {
         let text = base.replace("knot_spacing_s = 0.04", &format!("knot_spacing_s = {v}"));
         let dir = scratch(tag);
+        let dir = dir.path();
         std::fs::create_dir_all(dir.join("data")).unwrap();
         std::fs::write(
             dir.join("data/euroc_V2_02_medium_20s.txt"),
             scenarios::catalog::data("data/euroc_V2_02_medium_20s.txt").unwrap(),
         )
         .unwrap();
-        let p = write(&dir, "bad.toml", &text);
+        let p = write(dir, "bad.toml", &text);
         let out = vio(&[
             "run",
             p.to_str().unwrap(),
@@ -212,6 +213,7 @@ fn a_trajectory_outside_the_scene_or_through_a_box_is_refused() {
 #[test]
 fn a_glitchy_replay_is_refused_naming_the_line_and_a_latin1_comment_is_read() {
     let dir = scratch("glitchy");
+    let dir = dir.path();
     std::fs::create_dir_all(dir.join("data")).unwrap();
     let name = "data/euroc_V2_02_medium_20s_glitchy.txt";
     let bytes = std::fs::read(
@@ -229,7 +231,7 @@ fn a_glitchy_replay_is_refused_naming_the_line_and_a_latin1_comment_is_read() {
         .unwrap()
         .text
         .replace(", repair = true", "");
-    let p = write(&dir, "bad.toml", &text);
+    let p = write(dir, "bad.toml", &text);
     let out = vio(&[
         "run",
         p.to_str().unwrap(),
@@ -248,8 +250,9 @@ fn a_glitchy_replay_is_refused_naming_the_line_and_a_latin1_comment_is_read() {
 #[test]
 fn an_unwritable_out_is_found_before_the_run() {
     let dir = scratch("unwritable");
-    let blocker = write(&dir, "file", "not a folder");
-    let p = write(&dir, "ok.toml", &default_text(2.0));
+    let dir = dir.path();
+    let blocker = write(dir, "file", "not a folder");
+    let p = write(dir, "ok.toml", &default_text(2.0));
     let out = vio(&[
         "run",
         p.to_str().unwrap(),

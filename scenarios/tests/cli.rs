@@ -257,7 +257,8 @@ fn unknown_scenario_name_exits_2() {
 #[test]
 fn batch_reference_writes_its_trajectories() {
     let dir = scratch("batch");
-    let file = write(&dir, "short.toml", &default_text(3.0));
+    let dir = dir.path();
+    let file = write(dir, "short.toml", &default_text(3.0));
     let out_dir = dir.join("out");
     let out = run_file(&file, &out_dir, &["--batch-reference"]);
     let stdout = String::from_utf8_lossy(&out.stdout);
@@ -289,7 +290,7 @@ fn batch_reference_writes_its_trajectories() {
     assert!(!out_dir.join("batch.tum").exists() && !out_dir.join("window.tum").exists());
     assert!(out_dir.join("notes.txt").exists());
     // Initialization takes 0.45 s: 0.3 s never tracks, and the batch reference is absent.
-    let never = write(&dir, "never.toml", &default_text(0.3));
+    let never = write(dir, "never.toml", &default_text(0.3));
     let out = run_file(&never, &dir.join("never"), &["--batch-reference"]);
     assert_ne!(out.status.code(), Some(101), "{out:?}");
     assert!(!dir.join("never/batch.tum").exists());
@@ -298,8 +299,9 @@ fn batch_reference_writes_its_trajectories() {
 #[test]
 fn run_writes_the_report_files_and_exits_by_expectations() {
     let dir = scratch("run");
+    let dir = dir.path();
     // Passing expectations: exit 0 and every file.
-    let ok = write(&dir, "short.toml", &default_text(3.0));
+    let ok = write(dir, "short.toml", &default_text(3.0));
     let out_ok = dir.join("ok");
     let out = run_file(&ok, &out_ok, &[]);
     let stdout = String::from_utf8_lossy(&out.stdout);
@@ -351,7 +353,7 @@ fn run_writes_the_report_files_and_exits_by_expectations() {
     // An expectation that cannot hold: exit 1, files still written.
     let strict =
         default_text(3.0).replace("ate_rmse_m = { max = 0.15 }", "ate_rmse_m = { max = 1e-9 }");
-    let bad = write(&dir, "strict.toml", &strict);
+    let bad = write(dir, "strict.toml", &strict);
     let out_bad = dir.join("bad");
     let out = run_file(&bad, &out_bad, &["--seed", "7"]);
     let stdout = String::from_utf8_lossy(&out.stdout);
@@ -369,6 +371,7 @@ fn run_writes_the_report_files_and_exits_by_expectations() {
 #[test]
 fn export_writes_an_euroc_folder_that_reads_back() {
     let dir = scratch("export");
+    let dir = dir.path();
     let out = vio(&["export", "--out", dir.to_str().unwrap(), "--duration", "2"]);
     assert!(
         out.status.success(),
@@ -414,8 +417,9 @@ fn export_writes_an_euroc_folder_that_reads_back() {
 
 #[test]
 fn render_writes_a_stereo_pair_with_depth_and_rejects_a_time_outside_the_run() {
-    let dir = std::env::temp_dir().join(format!("vio-cli-render-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let dir = scratch("render");
+    let dir = dir.path();
+    let _ = std::fs::remove_dir_all(dir);
     let d = dir.to_str().unwrap();
     let out = vio(&[
         "render",
@@ -456,8 +460,9 @@ fn render_writes_a_stereo_pair_with_depth_and_rejects_a_time_outside_the_run() {
 
 #[test]
 fn render_tracks_draws_the_front_end_tracks_over_the_stereo_pair() {
-    let dir = std::env::temp_dir().join(format!("vio-cli-tracks-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let dir = scratch("tracks");
+    let dir = dir.path();
+    let _ = std::fs::remove_dir_all(dir);
     let out = vio(&[
         "render",
         "room_figure8_rendered_stereo_imu",
@@ -502,6 +507,7 @@ fn render_tracks_draws_the_front_end_tracks_over_the_stereo_pair() {
 #[test]
 fn euroc_runs_an_exported_folder_and_writes_the_run_files() {
     let dir = scratch("euroc");
+    let dir = dir.path();
     let exp = dir.join("exp");
     let out = vio(&["export", "--out", exp.to_str().unwrap(), "--duration", "3"]);
     assert!(out.status.success());

@@ -580,11 +580,15 @@ fn empty_files_are_errors_a_bom_is_not_data_and_unused_camera_folders_are_not_re
 
 #[test]
 fn a_run_on_images_refuses_a_camera_that_lists_none_naming_its_file() {
-    use scenarios::euroc::{EurocOptions, run_euroc};
+    use scenarios::run::{EurocOptions, RunControl, RunInput, RunOptions, run_to_report};
     use scenarios::spec::SuiteSpec;
     let mav0 = fixture_copy("no-images");
     std::fs::write(mav0.join("cam0/data.csv"), "#timestamp [ns],filename\n").unwrap();
-    let e = match run_euroc(&mav0, &EurocOptions::new(SuiteSpec::MonoImu), &mut |_| {}) {
+    let input = RunInput::Euroc {
+        mav0: &mav0,
+        options: &EurocOptions::new(SuiteSpec::MonoImu),
+    };
+    let e = match run_to_report(input, &RunOptions::default(), RunControl::default()) {
         Ok(_) => panic!("a camera without images was run"),
         Err(e) => e.to_string(),
     };

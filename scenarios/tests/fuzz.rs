@@ -11,7 +11,7 @@
 
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
-use scenarios::run::{RunOptions, run};
+use scenarios::run::{RunOptions, run_scenario};
 use scenarios::spec::{Origin, Scenario};
 
 fn base_text() -> String {
@@ -176,7 +176,7 @@ fn exercise(text: &str) -> Result<(), String> {
         duration_s: Some(1.0),
         ..Default::default()
     };
-    run(&scenario, &options, &mut |_| {}).map_err(|e| e.to_string())?;
+    run_scenario(&scenario, &options).map_err(|e| e.to_string())?;
     Ok(())
 }
 

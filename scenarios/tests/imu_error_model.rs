@@ -35,11 +35,12 @@ fn flight_spectrum(log: &Path, gt: &Path) -> (SensorSpectrum, SensorSpectrum) {
 fn simulated(name: &str, seed: u64) -> (SensorSpectrum, SensorSpectrum) {
     let scenario = Scenario::load(name).unwrap_or_else(|e| panic!("{e}"));
     let dir = scratch(&format!("error-model-{name}-{seed}"));
+    let dir = dir.path();
     let options = RunOptions {
         seed: Some(seed),
         ..RunOptions::default()
     };
-    export(&scenario, &options, &dir).unwrap_or_else(|e| panic!("{e}"));
+    export(&scenario, &options, dir).unwrap_or_else(|e| panic!("{e}"));
     let mav = dir.join("mav0");
     let out = flight_spectrum(
         &mav.join("imu0/data.csv"),

@@ -179,6 +179,7 @@ fn imu_rows(n: usize) -> String {
 #[test]
 fn bad_input_is_refused_with_the_file_named() {
     let dir = scratch("imu-model-bad");
+    let dir = dir.path();
     let out = dir.join("out");
     let check = |tag: &str, (code, stderr): (Option<i32>, String), expect: &[&str]| {
         assert_eq!(code, Some(2), "{tag}: stderr: {stderr}");
@@ -200,21 +201,21 @@ fn bad_input_is_refused_with_the_file_named() {
         + &imu_rows(2)
         + "10000000,0.1,abc,0.3,0.0,0.0,9.8\n"
         + &imu_rows(300);
-    let bad_row = write(&dir, "bad_row.csv", &text);
+    let bad_row = write(dir, "bad_row.csv", &text);
     check(
         "malformed row",
         imu_model(&[bad_row.to_str().unwrap()], &out),
         &["bad_row.csv:4", "w_y", "abc"],
     );
 
-    let short = write(&dir, "short.csv", &(IMU_HEADER.to_string() + &imu_rows(50)));
+    let short = write(dir, "short.csv", &(IMU_HEADER.to_string() + &imu_rows(50)));
     check(
         "too short",
         imu_model(&[short.to_str().unwrap()], &out),
         &["short.csv", "50 samples", "at least 100"],
     );
 
-    let good = write(&dir, "good.csv", &(IMU_HEADER.to_string() + &imu_rows(400)));
+    let good = write(dir, "good.csv", &(IMU_HEADER.to_string() + &imu_rows(400)));
     let g = good.to_str().unwrap();
     check(
         "from after to",
@@ -231,7 +232,7 @@ fn bad_input_is_refused_with_the_file_named() {
     let gt_row = |t: i64, qw: f64| format!("{t},0,0,0,{qw},0,0,0,0,0,0,0,0,0,0,0,0\n");
     let gt_text =
         "#timestamp, p, q, v, bw, ba\n".to_string() + &gt_row(0, 1.0) + &gt_row(50_000_000, 2.0);
-    let bad_gt = write(&dir, "bad_gt.csv", &gt_text);
+    let bad_gt = write(dir, "bad_gt.csv", &gt_text);
     check(
         "malformed ground truth",
         imu_model(&[g, "--gt", bad_gt.to_str().unwrap()], &out),
@@ -242,7 +243,7 @@ fn bad_input_is_refused_with_the_file_named() {
     let far: String = (0..40)
         .map(|k| gt_row(1_000_000_000_000 + k * 50_000_000, 1.0))
         .collect();
-    let far_gt = write(&dir, "far_gt.csv", &("#t\n".to_string() + &far));
+    let far_gt = write(dir, "far_gt.csv", &("#t\n".to_string() + &far));
     check(
         "ground truth elsewhere",
         imu_model(&[g, "--gt", far_gt.to_str().unwrap()], &out),
@@ -256,6 +257,7 @@ fn a_simulated_flight_matches_its_ground_truth_and_the_output_is_deterministic()
     // `vio export`: the default scenario's IMU and ground truth (200 Hz, true biases) and the
     // sensor.yaml with its densities.
     let dir = scratch("imu-model-export");
+    let dir = dir.path();
     let o = vio(&["export", "--out", dir.to_str().unwrap(), "--duration", "30"]);
     assert_eq!(
         o.status.code(),

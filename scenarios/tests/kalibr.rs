@@ -2,6 +2,8 @@
 //! the dataset's own `sensor.yaml` files) gives the same rig as the catalog's hand-written EuRoC
 //! scenario, and malformed files give file, key and line.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use scenarios::spec::Scenario;
@@ -13,8 +15,8 @@ fn fixtures() -> PathBuf {
 /// The replay catalog scenario with its rig replaced by `rig.kalibr`, written next to copies of
 /// the fixtures (`camchain` text given).
 fn scenario_with(tag: &str, camchain: &str, imu_keys: &str) -> Result<Scenario, String> {
-    let dir = std::env::temp_dir().join(format!("vio-kalibr-{}-{tag}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    // Kept: the scenario reads its rig files from there.
+    let dir = common::scratch(&format!("kalibr-{tag}")).keep();
     std::fs::create_dir_all(dir.join("data")).unwrap();
     std::fs::write(dir.join("camchain.yaml"), camchain).unwrap();
     std::fs::copy(fixtures().join("euroc-imu.yaml"), dir.join("imu.yaml")).unwrap();

@@ -9,6 +9,7 @@ use common::{default_text, scratch, vio, write};
 #[test]
 fn a_degraded_setting_fails_naming_the_metric() {
     let dir = scratch("regress");
+    let dir = dir.path();
     let catalog = dir.join("catalog");
     std::fs::create_dir_all(&catalog).unwrap();
     let text = default_text(6.0);
@@ -82,6 +83,7 @@ fn a_degraded_setting_fails_naming_the_metric() {
 #[test]
 fn a_baseline_that_compares_nothing_or_an_unwritable_junit_is_refused_before_running() {
     let dir = scratch("regress-refusals");
+    let dir = dir.path();
     let catalog = dir.join("catalog");
     std::fs::create_dir_all(&catalog).unwrap();
     write(&catalog, "short.toml", &default_text(6.0));

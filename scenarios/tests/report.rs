@@ -4,7 +4,7 @@
 use scenarios::dataset::read_tum;
 use scenarios::metrics::{Alignment, EvalOptions, RpeOptions, evaluate};
 use scenarios::report;
-use scenarios::run::{RunOptions, run};
+use scenarios::run::{RunOptions, run_scenario};
 use scenarios::spec::Scenario;
 
 #[test]
@@ -16,19 +16,19 @@ fn short_run_has_no_rpe_and_matches_eval_of_its_files() {
         duration_s: Some(1.0),
         ..Default::default()
     };
-    let output = run(&scenario, &options, &mut |_| {}).unwrap();
-    let eval = report::evaluate(&output, scenario.spec.suite);
-    let rep = report::build_report(&scenario, &output, &eval);
+    let run = run_scenario(&scenario, &options).unwrap();
+    let (eval, rep) = (&run.evaluation, &run.report);
     assert_eq!(eval.alignment, Alignment::PosYaw);
     assert!(!eval.evaluated.is_empty(), "no tracking frames in 1 s");
     assert!(eval.rpe.is_err());
     assert_eq!(rep.rpe_trans_rmse_m, None);
-    assert!(report::summary(&rep, None).contains("RPE (1 m)     n/a"));
+    assert!(report::summary(rep, None).contains("RPE (1 m)     n/a"));
     let ate = rep.ate_rmse_m.expect("ATE with tracking frames");
 
-    let dir = std::env::temp_dir().join(format!("vio-report-test-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    report::write_outputs(&dir, &scenario, &output, &eval, &rep).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+
+    let dir = dir.path();
+    run.write_outputs(dir).unwrap();
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
     assert!(json["rpe_trans_rmse_m"].is_null());
@@ -39,7 +39,7 @@ fn short_run_has_no_rpe_and_matches_eval_of_its_files() {
     let gt = read_tum(dir.join("groundtruth.tum")).unwrap();
     let est = read_tum(dir.join("estimate.tum")).unwrap();
     assert_eq!(est.len(), eval.evaluated.len());
-    assert_eq!(gt.len(), output.frames.len());
+    assert_eq!(gt.len(), run.output.frames.len());
     let ev = evaluate(
         &gt,
         &est,
@@ -68,10 +68,8 @@ fn short_run_has_no_rpe_and_matches_eval_of_its_files() {
 /// |[12, −12, 10] mm| = 19.70 mm, −10 ms). Scenarios that do not study calibration have no block.
 #[test]
 fn calibration_errors_are_reported_against_the_truth() {
-    let text = scenarios::catalog::get(scenarios::catalog::DEFAULT)
-        .unwrap()
-        .text
-        .replace("time_offset_s = 0.0", "time_offset_s = 0.01")
+    let scenario = Scenario::catalog_edited(scenarios::catalog::DEFAULT, |text| {
+        text.replace("time_offset_s = 0.0", "time_offset_s = 0.01")
         // Held at 0: the report's errors are then known exactly.
         .replace(
             "[expectations]",
@@ -80,8 +78,9 @@ fn calibration_errors_are_reported_against_the_truth() {
         .replace(
             "pixel_sigma_px = 1.0",
             "pixel_sigma_px = 1.0\ncalibration_error = { rotation_deg = [1.2, -1.2, 1.0], translation_m = [0.012, -0.012, 0.01] }",
-        );
-    let scenario = Scenario::parse("calibration", scenarios::spec::Origin::Catalog, &text).unwrap();
+        )
+    })
+    .unwrap();
     let truth = scenario.calibration_truth().unwrap();
     assert_eq!(truth.td_s, 0.01);
     let est = scenario.estimator_config().unwrap();
@@ -93,9 +92,8 @@ fn calibration_errors_are_reported_against_the_truth() {
         duration_s: Some(3.0),
         ..Default::default()
     };
-    let output = run(&scenario, &options, &mut |_| {}).unwrap();
-    let eval = report::evaluate(&output, scenario.spec.suite);
-    let rep = report::build_report(&scenario, &output, &eval);
+    let run = run_scenario(&scenario, &options).unwrap();
+    let rep = &run.report;
     let c = rep.calibration.as_ref().expect("a calibration block");
     assert_eq!(c.td_true_ms, 10.0);
     assert!((c.td_error_ms + 10.0).abs() < 1e-9);
@@ -105,7 +103,7 @@ fn calibration_errors_are_reported_against_the_truth() {
         assert!((cam.translation_error_mm - 19.698).abs() < 1e-2, "{cam:?}");
     }
     assert_eq!(c.history.len(), 3, "one sample per second");
-    assert!(report::summary(&rep, None).contains("calibration   final td error -10.000 ms"));
+    assert!(report::summary(rep, None).contains("calibration   final td error -10.000 ms"));
 
     // Stereo only: no IMU, so no time offset is estimated, and nothing else is studied.
     let plain = Scenario::load("room_figure8_stereo").unwrap();
@@ -113,14 +111,13 @@ fn calibration_errors_are_reported_against_the_truth() {
     // The default estimates the offset; a `camera_time_offset` fault steps its truth.
     let default = Scenario::load(scenarios::catalog::DEFAULT).unwrap();
     assert_eq!(default.calibration_truth().unwrap().td_at(0), 0.0);
-    let text = scenarios::catalog::get(scenarios::catalog::DEFAULT)
-        .unwrap()
-        .text
-        .replace(
+    let stepped = Scenario::catalog_edited(scenarios::catalog::DEFAULT, |text| {
+        text.replace(
             "[rig]",
             "[[faults]]\nkind = \"camera_time_offset\"\nat_s = 10.0\ntd_s = 0.015\n\n[rig]",
-        );
-    let stepped = Scenario::parse("stepped", scenarios::spec::Origin::Catalog, &text).unwrap();
+        )
+    })
+    .unwrap();
     let truth = stepped.calibration_truth().unwrap();
     assert_eq!(truth.td_at(9_999_999_999), 0.0);
     assert_eq!(truth.td_at(10_000_000_000), 0.015);

@@ -44,7 +44,8 @@ fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
 #[test]
 fn merged_shards_equal_one_process_byte_for_byte() {
     let dir = scratch("sweep");
-    let file = write(&dir, "s.toml", SWEEP);
+    let dir = dir.path();
+    let file = write(dir, "s.toml", SWEEP);
     let f = file.to_str().unwrap();
     let run = |args: &[&str]| {
         let out = vio(args);
@@ -130,6 +131,7 @@ fn merged_shards_equal_one_process_byte_for_byte() {
 #[test]
 fn a_bad_sweep_file_exits_2_naming_the_key() {
     let dir = scratch("sweep-bad");
+    let dir = dir.path();
     for (tag, text, key) in [
         (
             "seeds",
@@ -189,7 +191,7 @@ fn a_bad_sweep_file_exits_2_naming_the_key() {
             "more than the limit",
         ),
     ] {
-        let f = write(&dir, &format!("{tag}.toml"), &text);
+        let f = write(dir, &format!("{tag}.toml"), &text);
         let out = vio(&[
             "sweep",
             f.to_str().unwrap(),
@@ -206,12 +208,13 @@ fn a_bad_sweep_file_exits_2_naming_the_key() {
 #[test]
 fn a_whole_number_is_scaled_like_its_float_twin() {
     let dir = scratch("sweep-int-scale");
+    let dir = dir.path();
     let base = SWEEP.replace(
         "values = [0.5, 1.5]",
         "scale = [0.5, 0.5]\nvalues = [VALUE]",
     );
     let pixel = |value: &str| {
-        let f = write(&dir, "s.toml", &base.replace("VALUE", value));
+        let f = write(dir, "s.toml", &base.replace("VALUE", value));
         let sweep = scenarios::sweep::Sweep::load(&f).unwrap_or_else(|e| panic!("{e}"));
         let s = sweep.scenario(&[0, 0]).unwrap();
         s.spec.rig.cameras[0].pixel_sigma_px
@@ -224,8 +227,9 @@ fn a_whole_number_is_scaled_like_its_float_twin() {
 #[test]
 fn a_merge_refuses_shard_results_it_cannot_trust_naming_file_and_line() {
     let dir = scratch("sweep-merge-bad");
+    let dir = dir.path();
     let file = write(
-        &dir,
+        dir,
         "s.toml",
         &SWEEP.replace("seeds = [1, 2]", "seeds = [1]"),
     );

@@ -2,16 +2,16 @@
 //!
 //! Exit codes: 0 ok, 1 an expectation is not met, 2 bad input.
 
-use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use scenarios::run::RunOptions;
+use scenarios::catalog;
+use scenarios::run::{RunInput, RunOptions};
 use scenarios::spec::Scenario;
-use scenarios::{catalog, report};
 
+#[path = "vio/attended.rs"]
+mod attended;
 #[path = "vio/euroc.rs"]
 mod euroc;
 #[path = "vio/eval.rs"]
@@ -21,6 +21,7 @@ mod imu_model;
 #[path = "vio/studies.rs"]
 mod studies;
 
+use attended::{finish_attended, run_attended};
 use euroc::{EurocArgs, euroc_command};
 use eval::{EvalArgs, eval};
 use imu_model::{ImuModelArgs, imu_model_command};
@@ -493,9 +494,6 @@ fn check_out_dir(dir: &std::path::Path) -> Result<(), ExitCode> {
     })
 }
 
-/// Set by Ctrl-C: the run stops and writes what it has; a second Ctrl-C exits at once.
-static INTERRUPTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
-
 fn run_command(scenario: Option<String>, out: Option<PathBuf>, options: RunOptions) -> ExitCode {
     let scenario = match load_scenario(scenario.as_deref()) {
         Ok(s) => s,
@@ -515,72 +513,13 @@ fn run_command(scenario: Option<String>, out: Option<PathBuf>, options: RunOptio
             let _ = std::fs::remove_dir(&out_dir);
         }
     };
-    let _ = ctrlc::set_handler(|| {
-        use std::sync::atomic::Ordering;
-        if INTERRUPTED.swap(true, Ordering::Relaxed) {
-            std::process::exit(130);
-        }
-        eprintln!(
-            "\ninterrupted: stopping the simulation and writing what the run has (Ctrl-C again to quit now)"
-        );
-    });
-    let bar = ProgressBar::with_draw_target(
-        Some(1000),
-        if std::io::stderr().is_terminal() {
-            ProgressDrawTarget::stderr()
-        } else {
-            ProgressDrawTarget::hidden()
-        },
-    );
-    bar.set_style(
-        ProgressStyle::with_template("{prefix} [{bar:40}] {percent:>3}% sim time, {elapsed} ")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
-    bar.set_prefix(scenario.name.clone());
-    // Without a terminal, a line every 10 % of simulated time once the run takes a while.
-    let terminal = std::io::stderr().is_terminal();
-    let started = std::time::Instant::now();
-    let mut reported = 0u64;
-    let result = scenarios::run::run_interruptible(
-        &scenario,
-        &options,
-        &mut |f| {
-            bar.set_position((f * 1000.0).round() as u64);
-            let decile = (f * 10.0).floor() as u64;
-            if !terminal && decile > reported && started.elapsed().as_secs_f64() > 2.0 {
-                reported = decile;
-                eprintln!(
-                    "{}: {}0 % of simulated time after {:.0} s",
-                    scenario.name,
-                    decile,
-                    started.elapsed().as_secs_f64()
-                );
-            }
-        },
-        &INTERRUPTED,
-    );
-    bar.finish_and_clear();
-    let output = match result {
-        Ok(o) => o,
+    let run = match run_attended(&scenario.name, RunInput::Scenario(&scenario), &options) {
+        Ok(r) => r,
         Err(e) => {
             eprintln!("error: {e}");
             cleanup();
             return ExitCode::from(BAD_INPUT);
         }
     };
-    let eval = report::evaluate(&output, scenario.spec.suite);
-    let rep = report::build_report(&scenario, &output, &eval);
-    if let Err(e) = report::write_outputs(&out_dir, &scenario, &output, &eval, &rep) {
-        eprintln!("error: {e}");
-        return ExitCode::from(BAD_INPUT);
-    }
-    say(&report::summary(&rep, Some(&out_dir)));
-    if rep.interrupted_at_s.is_some() {
-        ExitCode::from(130)
-    } else if rep.passed {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::from(1)
-    }
+    finish_attended(&out_dir, &run, "")
 }

@@ -5,7 +5,7 @@
 use estimator::geometry::{Pose, so3_log};
 use serde::Serialize;
 
-use crate::run::RunOutput;
+use crate::run_output::RunOutput;
 
 /// The true calibration a run is judged against.
 #[allow(non_snake_case)]

@@ -3,7 +3,7 @@
 use super::CalibrationTruth;
 use crate::recorded_imu_report::RecordedImuReport;
 use crate::replay_report::ReplayReport;
-use crate::run::RunOutput;
+use crate::run_output::RunOutput;
 use crate::spec::{Bound, Scenario, SuiteSpec};
 
 /// Where a run came from, as far as its report, plot and files are concerned: a scenario
@@ -53,6 +53,23 @@ impl RunContext {
             calibration_truth: scenario.calibration_truth(),
             recorded: false,
             ground_truth: true,
+        }
+    }
+
+    /// The context of a recorded dataset's run (`description`, fused with `suite`): no
+    /// expectations; the dataset's stamp of the run's 0 is `t0_ns`; `ground_truth` whether it
+    /// has any.
+    pub fn recorded(description: String, suite: SuiteSpec, t0_ns: i64, ground_truth: bool) -> Self {
+        Self {
+            description,
+            suite,
+            faults: Vec::new(),
+            expectations: Vec::new(),
+            replay: None,
+            source_time_offset_ns: Some(t0_ns),
+            calibration_truth: None,
+            recorded: true,
+            ground_truth,
         }
     }
 

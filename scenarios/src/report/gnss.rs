@@ -4,7 +4,7 @@
 
 use serde::Serialize;
 
-use crate::run::RunOutput;
+use crate::run_output::RunOutput;
 
 /// `report.json` → `gnss`.
 #[derive(Clone, Debug, PartialEq, Serialize)]

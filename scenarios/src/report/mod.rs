@@ -55,8 +55,8 @@ use crate::metrics::{
 };
 use crate::plot::{self, PlotData};
 use crate::recovery;
-use crate::run::{EventKind, RunOutput};
-use crate::spec::{Scenario, SuiteSpec};
+use crate::run_output::{EventKind, RunOutput};
+use crate::spec::SuiteSpec;
 
 mod calibration;
 mod context;
@@ -446,13 +446,8 @@ const GROUND_TRUTH_FREE: [&str; 5] = [
     "imu_samples_saturated",
 ];
 
-/// Builds the report of a run and checks the scenario's expectations.
-pub fn build_report(scenario: &Scenario, run: &RunOutput, eval: &Evaluation) -> Report {
-    build_report_in(&RunContext::with_run(scenario, run), run, eval)
-}
-
-/// [`build_report`] for a run described by `ctx`.
-pub fn build_report_in(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> Report {
+/// Builds the report of a run described by `ctx` and checks its expectations.
+pub fn build_report(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> Report {
     let frames = &run.frames;
     let timing_ms = TimingReport {
         frontend: Stats::from_seconds(frames.iter().map(|f| f.timing.frontend_s)),
@@ -681,22 +676,12 @@ pub const RUN_OUTPUT_FILES: [&str; 9] = [
     "gnss.png",
 ];
 
-/// Writes `estimate.tum`, `groundtruth.tum`, `report.json` and `trajectory.png` into `dir`
-/// (created if needed), after removing what an earlier run left there ([`RUN_OUTPUT_FILES`]).
-pub fn write_outputs(
-    dir: &Path,
-    scenario: &Scenario,
-    run: &RunOutput,
-    eval: &Evaluation,
-    report: &Report,
-) -> Result<(), String> {
-    write_outputs_in(dir, &RunContext::of(scenario), run, eval, report)
-}
-
-/// [`write_outputs`] for a run described by `ctx`; without ground truth
+/// Writes `estimate.tum`, `groundtruth.tum`, `report.json` and `trajectory.png` of a run
+/// described by `ctx` into `dir` (created if needed), after removing what an earlier run left
+/// there ([`RUN_OUTPUT_FILES`]); without ground truth
 /// ([`RunContext::ground_truth`] false) only `estimate.tum`, `estimate_source_time.tum` and
 /// `report.json`.
-pub fn write_outputs_in(
+pub fn write_outputs(
     dir: &Path,
     ctx: &RunContext,
     run: &RunOutput,

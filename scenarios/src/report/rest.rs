@@ -4,7 +4,7 @@
 
 use serde::Serialize;
 
-use crate::run::RunOutput;
+use crate::run_output::RunOutput;
 
 /// The true speeds (m/s) that separate rest from motion in the ground truth.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -68,7 +68,7 @@ pub fn rest_report(run: &RunOutput, speeds: RestSpeeds) -> Option<RestReport> {
         .iter()
         .filter(|f| f.estimate.status.initialized())
         .collect();
-    let at_rest = |f: &crate::run::FrameRecord| f.truth.v_w.norm() < speeds.rest_m_s;
+    let at_rest = |f: &crate::run_output::FrameRecord| f.truth.v_w.norm() < speeds.rest_m_s;
     let frames_at_rest = frames.iter().filter(|f| at_rest(f)).count();
     let frames_detected = frames.iter().filter(|f| f.estimate.at_rest).count();
     if frames_at_rest == 0 && frames_detected == 0 {

@@ -142,6 +142,24 @@ impl Scenario {
         })
     }
 
+    /// Catalog scenario `name` with its text changed by `edit` (a study's variant, a test's
+    /// twist), parsed as the catalog scenario of that name.
+    pub fn catalog_edited(
+        name: &str,
+        edit: impl FnOnce(&str) -> String,
+    ) -> Result<Self, SpecError> {
+        let entry = catalog::get(name).ok_or_else(|| SpecError {
+            file: name.into(),
+            key: String::new(),
+            line: None,
+            message: format!(
+                "no catalog scenario of that name (catalog: {})",
+                catalog::names().join(", ")
+            ),
+        })?;
+        Self::parse(entry.name, Origin::Catalog, &edit(entry.text))
+    }
+
     /// Reads and parses a scenario file.
     pub fn from_file(path: &Path) -> Result<Self, SpecError> {
         let text = std::fs::read_to_string(path).map_err(|e| SpecError {

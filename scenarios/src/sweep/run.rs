@@ -9,8 +9,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use serde::Serialize;
 
 use super::Sweep;
-use crate::report;
-use crate::run::{RunOptions, run};
+use crate::run::{RunControl, RunInput, RunOptions, run_to_report};
 
 /// A slice of the runs: those whose index is `index` modulo `count`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -177,14 +176,16 @@ impl Sweep {
             duration_s: self.spec.duration_s,
             ..Default::default()
         };
-        let out = run(&scenario, &options, &mut |_| {})
-            .map_err(|e| format!("{} seed {seed}: {e}", self.describe_point(point)))?;
-        let eval = report::evaluate(&out, scenario.spec.suite);
-        let r = report::build_report(&scenario, &out, &eval);
+        let run = run_to_report(
+            RunInput::Scenario(&scenario),
+            &options,
+            RunControl::default(),
+        )
+        .map_err(|e| format!("{} seed {seed}: {e}", self.describe_point(point)))?;
         Ok(self
             .metrics
             .iter()
-            .map(|m| r.metric(m).filter(|v| v.is_finite()))
+            .map(|m| run.report.metric(m).filter(|v| v.is_finite()))
             .collect())
     }
 

@@ -13,12 +13,12 @@ pub fn vio(args: &[&str]) -> Output {
         .expect("run vio")
 }
 
-/// A fresh scratch folder for one test.
-pub fn scratch(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("vio-cli-{}-{tag}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A fresh scratch folder for one test (`tag` starts its name), removed when dropped.
+pub fn scratch(tag: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("vio-{tag}-"))
+        .tempdir()
+        .expect("a scratch folder")
 }
 
 /// The default catalog scenario's text, shortened to `duration_s`, with one loose expectation
@@ -54,12 +54,13 @@ pub fn assert_bad_with(
     expect: &[&str],
 ) -> String {
     let dir = scratch(tag);
+    let dir = dir.path();
     for (rel, bytes) in files {
         let path = dir.join(rel);
         std::fs::create_dir_all(path.parent().unwrap()).unwrap();
         std::fs::write(path, bytes).unwrap();
     }
-    let p = write(&dir, "bad.toml", text);
+    let p = write(dir, "bad.toml", text);
     let out = vio(&[
         "run",
         p.to_str().unwrap(),

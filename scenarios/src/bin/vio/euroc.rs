@@ -3,11 +3,10 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use scenarios::euroc::{EurocOptions, run_euroc};
-use scenarios::report;
+use scenarios::run::{EurocOptions, RunInput, RunOptions};
 use scenarios::spec::SuiteSpec;
 
-use super::{BAD_INPUT, check_duration, check_out_dir, say};
+use super::{BAD_INPUT, check_duration, check_out_dir, finish_attended, run_attended};
 
 /// `vio euroc` arguments.
 #[derive(clap::Args)]
@@ -83,10 +82,17 @@ pub fn euroc_command(args: EurocArgs) -> ExitCode {
         features: args.features,
         settings: args.settings,
         pixel_sigma_px: args.pixel_sigma,
-        seed: args.seed,
-        duration_s: args.duration,
     };
-    let run = match run_euroc(&mav0, &options, &mut |_| {}) {
+    let run_options = RunOptions {
+        seed: Some(args.seed),
+        duration_s: args.duration,
+        ..Default::default()
+    };
+    let input = RunInput::Euroc {
+        mav0: &mav0,
+        options: &options,
+    };
+    let run = match run_attended(&format!("euroc-{name}"), input, &run_options) {
         Ok(r) => r,
         Err(e) => {
             eprintln!("error: {e}");
@@ -96,18 +102,12 @@ pub fn euroc_command(args: EurocArgs) -> ExitCode {
             return ExitCode::from(BAD_INPUT);
         }
     };
-    let eval = report::evaluate(&run.output, suite);
-    let rep = report::build_report_in(&run.context, &run.output, &eval);
-    if let Err(e) = report::write_outputs_in(&out_dir, &run.context, &run.output, &eval, &rep) {
-        eprintln!("error: {e}");
-        return ExitCode::from(BAD_INPUT);
-    }
     let source = if options.features.is_some() {
         "feature tracks"
     } else {
         "images"
     };
-    say(&format!(
+    let preface = format!(
         "euroc {}: {} IMU samples, {} frames from {source}{}\n",
         mav0.display(),
         run.output.imu_samples,
@@ -120,11 +120,6 @@ pub fn euroc_command(args: EurocArgs) -> ExitCode {
         } else {
             "; no ground truth: not evaluated".into()
         }
-    ));
-    say(&report::summary(&rep, Some(&out_dir)));
-    if rep.passed {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::from(1)
-    }
+    );
+    finish_attended(&out_dir, &run, &preface)
 }

@@ -1,4 +1,5 @@
-//! `vio euroc`: the image front end and the estimator on a recorded EuRoC ASL folder.
+//! A recorded EuRoC ASL folder as a run's source (`vio euroc`): the image front end and the
+//! estimator on real data.
 //!
 //! The folder is read as the dataset ships it (`mav0/imu0/data.csv` with nanosecond stamps
 //! around 1.4e18, `cam<i>/data.csv` + `data/<t_ns>.png`, every `sensor.yaml` with its `T_BS`,
@@ -20,7 +21,6 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::time::Instant;
 
 use estimator::camera::{Camera, CameraModel, KannalaBrandt, PinholeRadtan};
 use estimator::estimator::{CameraConfig, Estimate, Estimator, EstimatorConfig};
@@ -32,16 +32,15 @@ use estimator::imu::ImuSample;
 use nalgebra::Vector3;
 use sim::stream::GroundTruth;
 
+use super::driver::{Input, Source, drive};
+use super::{Recorder, RunControl, RunError, RunOptions, RunOutput};
 use crate::dataset::{
-    CameraSensor, DatasetError, EurocDataset, GroundTruthState, read_euroc_cameras,
-    read_features_csv,
+    CameraSensor, EurocDataset, GroundTruthState, read_euroc_cameras, read_features_csv,
 };
 use crate::frontend::GyroIntegrator;
-use crate::report::RunContext;
-use crate::run::{Recorder, RunError, RunOutput};
 use crate::spec::{SpecError, SuiteSpec};
 
-/// How to run a dataset.
+/// How to run a dataset (its seed and duration: [`RunOptions`]).
 #[derive(Clone, Debug)]
 pub struct EurocOptions {
     /// The sensors the estimator fuses (`stereo_imu`, `stereo`: `cam0` and `cam1`; `mono_imu`:
@@ -54,75 +53,32 @@ pub struct EurocOptions {
     pub settings: Option<PathBuf>,
     /// Pixel noise σ (px) of every camera (`estimator.pixel_sigma_px` in the settings wins).
     pub pixel_sigma_px: f64,
-    /// Seed of the front end's RANSAC.
-    pub seed: u64,
-    /// Only the first seconds of the dataset.
-    pub duration_s: Option<f64>,
 }
 
 impl EurocOptions {
     /// `vio euroc`'s defaults for `suite`: the images tracked, default settings, 1 px of pixel
-    /// noise, seed 1, the whole dataset.
+    /// noise.
     pub fn new(suite: SuiteSpec) -> Self {
         Self {
             suite,
             features: None,
             settings: None,
             pixel_sigma_px: 1.0,
-            seed: 1,
-            duration_s: None,
         }
     }
 }
 
-/// Errors of [`run_euroc`]: each names the file concerned.
-#[derive(Debug, thiserror::Error)]
-pub enum EurocError {
-    /// A dataset file is missing or malformed.
-    #[error(transparent)]
-    Dataset(#[from] DatasetError),
-    /// The dataset cannot feed the asked-for suite, or an image is unreadable.
-    #[error("{}: {message}", path.display())]
-    Input {
-        /// The file or folder concerned.
-        path: PathBuf,
-        /// What was wrong.
-        message: String,
-    },
-    /// The settings file is malformed.
-    #[error(transparent)]
-    Settings(#[from] SpecError),
-    /// The estimator or the front end refused the configuration.
-    #[error(transparent)]
-    Run(#[from] RunError),
-}
-
-fn input(path: impl Into<PathBuf>, message: impl Into<String>) -> EurocError {
-    EurocError::Input {
-        path: path.into(),
-        message: message.into(),
-    }
-}
-
-/// A finished dataset run.
-#[derive(Debug)]
-pub struct EurocRun {
-    /// The run, on the shifted clock.
-    pub output: RunOutput,
-    /// Its report context (no expectations; ground truth when the dataset has it).
-    pub context: RunContext,
-    /// Estimates left out of the evaluation: outside the ground truth's span.
-    pub without_truth: usize,
-}
+/// The front end's RANSAC seed of a dataset run that names none.
+pub const DEFAULT_SEED: u64 = 1;
 
 /// The estimator's camera `i` from its `sensor.yaml` (`pinhole` with `radial-tangential` or
 /// `equidistant` distortion).
-fn camera_model(sensor: &CameraSensor, path: &Path) -> Result<Arc<dyn CameraModel>, EurocError> {
+fn camera_model(sensor: &CameraSensor, path: &Path) -> Result<Arc<dyn CameraModel>, RunError> {
     let [w, h] = sensor.resolution;
     let i = &sensor.intrinsics;
     let d = &sensor.distortion_coefficients;
     if sensor.camera_model != "pinhole" || i.len() != 4 {
-        return Err(input(
+        return Err(RunError::input(
             path,
             format!(
                 "camera_model `{}` with {} intrinsics: expected `pinhole` [fu, fv, cu, cv]",
@@ -132,12 +88,12 @@ fn camera_model(sensor: &CameraSensor, path: &Path) -> Result<Arc<dyn CameraMode
         ));
     }
     if d.len() != 4 {
-        return Err(input(
+        return Err(RunError::input(
             path,
             format!("distortion_coefficients: expected 4, got {}", d.len()),
         ));
     }
-    let bad = |e: estimator::camera::CameraError| input(path, format!("intrinsics: {e}"));
+    let bad = |e: estimator::camera::CameraError| RunError::input(path, format!("intrinsics: {e}"));
     let cam = match sensor.distortion_model.as_str() {
         "radial-tangential" | "radtan" => Camera::PinholeRadtan(
             PinholeRadtan::new(w, h, i[0], i[1], i[2], i[3], d[0], d[1], d[2], d[3])
@@ -148,7 +104,7 @@ fn camera_model(sensor: &CameraSensor, path: &Path) -> Result<Arc<dyn CameraMode
                 .map_err(bad)?,
         ),
         other => {
-            return Err(input(
+            return Err(RunError::input(
                 path,
                 format!(
                     "distortion_model `{other}`: expected `radial-tangential` or `equidistant`"
@@ -160,7 +116,7 @@ fn camera_model(sensor: &CameraSensor, path: &Path) -> Result<Arc<dyn CameraMode
 }
 
 /// The settings file's `[estimator]` and `[camera.tracker]` tables over the defaults.
-fn settings(options: &EurocOptions) -> Result<(EstimatorConfig, TrackerConfig), EurocError> {
+fn settings(options: &EurocOptions) -> Result<(EstimatorConfig, TrackerConfig), RunError> {
     let Some(path) = &options.settings else {
         return Ok((
             EstimatorConfig::settings_default(),
@@ -169,7 +125,7 @@ fn settings(options: &EurocOptions) -> Result<(EstimatorConfig, TrackerConfig), 
     };
     let file = path.display().to_string();
     let text = std::fs::read_to_string(path)
-        .map_err(|e| input(path, format!("cannot read the settings: {e}")))?;
+        .map_err(|e| RunError::input(path, format!("cannot read the settings: {e}")))?;
     let root: toml::Table = crate::spec::error::deserialize_toml(&text, &file)?;
     // An absent table keeps the defaults; anything but a table is refused with its key.
     let table = |v: Option<&toml::Value>, key: &str| match v {
@@ -257,34 +213,51 @@ fn image_frames(data: &EurocDataset, mav0: &Path, cameras: usize) -> Vec<(i64, V
 }
 
 /// Reads one 8-bit grey image (a colour PNG is converted).
-fn load_image(path: &Path) -> Result<image::GrayImage, EurocError> {
+fn load_image(path: &Path) -> Result<image::GrayImage, RunError> {
     image::open(path)
         .map(|i| i.to_luma8())
-        .map_err(|e| input(path, format!("cannot read the image: {e}")))
+        .map_err(|e| RunError::input(path, format!("cannot read the image: {e}")))
+}
+
+/// A dataset run's output, and what its report needs to know of the dataset.
+pub(crate) struct RecordedRun {
+    /// The run, on the shifted clock.
+    pub output: RunOutput,
+    /// Estimates left out for want of ground truth: outside its span.
+    pub without_truth: usize,
+    /// The dataset's stamp of the run's 0 (ns).
+    pub t0_ns: i64,
+    /// Whether the dataset has ground truth.
+    pub ground_truth: bool,
 }
 
 /// Runs the image front end (or the given feature tracks) and the estimator over the `mav0`
-/// folder; `progress` gets the fraction of the dataset's time done.
-pub fn run_euroc(
+/// folder.
+pub(crate) fn replay_euroc(
     mav0: &Path,
     options: &EurocOptions,
-    progress: &mut dyn FnMut(f64),
-) -> Result<EurocRun, EurocError> {
+    run: &RunOptions,
+    control: &mut RunControl,
+) -> Result<RecordedRun, RunError> {
     let suite = options.suite.suite();
     let n_cams = suite.cameras();
+    let seed = run.seed.unwrap_or(DEFAULT_SEED);
     let data = read_euroc_cameras(mav0, n_cams)?;
     let imu_yaml = mav0.join("imu0/sensor.yaml");
     let imu_sensor = data.imu_sensor.as_ref().ok_or_else(|| {
-        input(
+        RunError::input(
             &imu_yaml,
             "missing: the IMU's noise densities and T_BS come from it",
         )
     })?;
     if data.imu.is_empty() {
-        return Err(input(mav0.join("imu0/data.csv"), "no IMU samples"));
+        return Err(RunError::input(
+            mav0.join("imu0/data.csv"),
+            "no IMU samples",
+        ));
     }
     if data.cameras.len() < n_cams {
-        return Err(input(
+        return Err(RunError::input(
             mav0,
             format!(
                 "the {} suite needs {n_cams} camera folder(s) (cam0…), found {}",
@@ -297,10 +270,9 @@ pub fn run_euroc(
     let mut cameras = Vec::new();
     for (i, cam) in data.cameras.iter().take(n_cams).enumerate() {
         let yaml = mav0.join(format!("cam{i}/sensor.yaml"));
-        let sensor = cam
-            .sensor
-            .as_ref()
-            .ok_or_else(|| input(&yaml, "missing: the camera's calibration comes from it"))?;
+        let sensor = cam.sensor.as_ref().ok_or_else(|| {
+            RunError::input(&yaml, "missing: the camera's calibration comes from it")
+        })?;
         cameras.push(CameraConfig {
             model: camera_model(sensor, &yaml)?,
             T_b_c: imu_sensor.t_bs.inverse().compose(&sensor.t_bs),
@@ -310,17 +282,15 @@ pub fn run_euroc(
     settings.suite = suite;
     settings.cameras = cameras;
     settings.imu_noise = imu_sensor.noise;
+    settings.record_history |= run.batch_reference;
+    settings.compute_covariance |= run.covariance;
     let label = mav0.display().to_string();
-    let est_err = |e: String| RunError::Estimator {
-        file: label.clone(),
-        message: e,
-    };
-    let mut tracker = match &options.features {
+    let tracker = match &options.features {
         Some(_) => None,
         None => {
             let cams = crate::frontend::tracker_cameras(&settings);
             let cfg = TrackerConfig {
-                seed: options.seed,
+                seed,
                 ..tracker_settings
             };
             Some(
@@ -335,8 +305,10 @@ pub fn run_euroc(
     // estimate may move): the IMU is read that far past the last frame.
     let frame_to_imu_ns =
         ((settings.td_s.abs() + settings.health.max_time_offset_deviation_s) * 1e9).ceil() as i64;
-    let mut estimator = Estimator::new(settings).map_err(|e| est_err(e.to_string()))?;
-    let mut counts = TrackStatistics::default();
+    let estimator = Estimator::new(settings).map_err(|e| RunError::Estimator {
+        file: label.clone(),
+        message: e.to_string(),
+    })?;
 
     let frames = match &options.features {
         Some(p) => {
@@ -351,7 +323,7 @@ pub fn run_euroc(
                 .iter()
                 .position(|c| c.frames.is_empty())
             {
-                return Err(input(
+                return Err(RunError::input(
                     mav0.join(format!("cam{c}/data.csv")),
                     "lists no images (0 bytes or a header only): the run needs them, or `--features`",
                 ));
@@ -361,7 +333,7 @@ pub fn run_euroc(
     };
     let stamps = frames.stamps();
     if stamps.is_empty() {
-        return Err(input(mav0, "no camera frames to run on"));
+        return Err(RunError::input(mav0, "no camera frames to run on"));
     }
     // The run's clock starts at the first measurement.
     let t0 = data.imu[0].t_ns.min(stamps[0]);
@@ -376,24 +348,143 @@ pub fn run_euroc(
         .imu
         .get(k)
         .map_or(last_frame, |s| s.t_ns.max(last_frame));
-    let end = match options.duration_s {
+    let end = match run.duration_s {
         Some(d) => (t0 + (d * 1e9).round() as i64).min(last),
         None => last,
     };
-    let has_truth = !data.groundtruth.is_empty();
     let name = mav0
         .parent()
         .and_then(|p| p.file_name())
         .or(mav0.file_name())
         .map_or("euroc".into(), |n| n.to_string_lossy().into_owned());
-    let out = RunOutput::new(name, options.seed, (end - t0) as f64 * 1e-9, None);
+    let out = RunOutput::new(name, seed, (end - t0) as f64 * 1e-9, None);
     let mut recorder = Recorder::new(out, estimator.status());
     recorder.skip_without_truth = true;
-    let mut gyro = GyroIntegrator::default();
-    // Ground truth on the run's clock (dataset clock − t0); without any, the estimate stands in
-    // (the context then drops every error metric).
-    let truth = |e: &Estimate| -> Option<GroundTruth> {
-        if !has_truth {
+    let has_truth = !data.groundtruth.is_empty();
+    let source = Recorded {
+        data: &data,
+        frames,
+        tracker,
+        uses_imu: suite.uses_imu(),
+        gyro: GyroIntegrator::default(),
+        counts: TrackStatistics::default(),
+        t0,
+        end,
+        imu_i: 0,
+        frame_i: 0,
+    };
+    let (output, without_truth) = drive(source, estimator, recorder, run, control)?;
+    Ok(RecordedRun {
+        output,
+        without_truth,
+        t0_ns: t0,
+        ground_truth: has_truth,
+    })
+}
+
+/// The dataset as a run's source: IMU samples and frames merged in time order (IMU first at
+/// equal stamps), every stamp shifted by `t0`.
+struct Recorded<'a> {
+    data: &'a EurocDataset,
+    frames: Frames,
+    /// The image front end (`None`: feature tracks are fed as they are).
+    tracker: Option<FeatureTracker>,
+    /// Whether the front end predicts rotations from the gyroscope.
+    uses_imu: bool,
+    gyro: GyroIntegrator,
+    counts: TrackStatistics,
+    /// The dataset's stamp of the run's 0.
+    t0: i64,
+    /// The last stamp read (dataset clock).
+    end: i64,
+    imu_i: usize,
+    frame_i: usize,
+}
+
+impl Recorded<'_> {
+    /// The next frame: the feature tracks as exported, or the images tracked.
+    fn next_frame(&mut self) -> Result<FeatureFrame, RunError> {
+        let t0 = self.t0;
+        let frame = match &self.frames {
+            Frames::Features(f) => {
+                let mut frame = f[self.frame_i].clone();
+                frame.t_ns -= t0;
+                frame
+            }
+            Frames::Images(list) => {
+                let (t, paths) = &list[self.frame_i];
+                let images = paths
+                    .iter()
+                    .map(|p| load_image(p))
+                    .collect::<Result<Vec<_>, _>>()?;
+                let views = images
+                    .iter()
+                    .enumerate()
+                    .map(|(cam_id, im)| {
+                        ImageView::packed(im.width(), im.height(), im.as_raw())
+                            .map(|image| CameraImageView { cam_id, image })
+                            .map_err(|e| RunError::input(&paths[cam_id], e.to_string()))
+                    })
+                    .collect::<Result<Vec<_>, _>>()?;
+                let tracker = self.tracker.as_mut().expect("images need the tracker");
+                let frame = tracker
+                    .track(&views, t - t0, self.gyro.take())
+                    .map_err(|e| RunError::input(&paths[0], format!("front end: {e}")))?;
+                self.counts.add(tracker.report(), &frame);
+                frame
+            }
+        };
+        self.frame_i += 1;
+        Ok(frame)
+    }
+}
+
+impl Source for Recorded<'_> {
+    fn end_ns(&self) -> i64 {
+        self.end - self.t0
+    }
+
+    fn next_input(&mut self) -> Result<Option<Input>, RunError> {
+        let data = self.data;
+        let end = self.end;
+        let imu_t = data
+            .imu
+            .get(self.imu_i)
+            .map(|s| s.t_ns)
+            .filter(|&t| t <= end);
+        let frame_t = match &self.frames {
+            Frames::Images(v) => v.get(self.frame_i).map(|f| f.0),
+            Frames::Features(v) => v.get(self.frame_i).map(|f| f.t_ns),
+        }
+        .filter(|&t| t <= end);
+        Ok(Some(match (imu_t, frame_t) {
+            (None, None) => return Ok(None),
+            (Some(a), b) if b.is_none_or(|b| a <= b) => {
+                let s = ImuSample {
+                    t_ns: a - self.t0,
+                    ..data.imu[self.imu_i]
+                };
+                self.imu_i += 1;
+                if self.uses_imu {
+                    self.gyro.push(&s);
+                }
+                Input::Imu(s)
+            }
+            _ => {
+                let frame = self.next_frame()?;
+                let frontend_s = self
+                    .tracker
+                    .as_ref()
+                    .map_or(0.0, |t| t.report().times.total_s);
+                Input::Frame { frame, frontend_s }
+            }
+        }))
+    }
+
+    fn truth(&mut self, e: &Estimate) -> Option<GroundTruth> {
+        // Ground truth on the run's clock (dataset clock − t0); without any, the estimate stands
+        // in (the context then drops every error metric).
+        if self.data.groundtruth.is_empty() {
             return Some(GroundTruth {
                 t_ns: e.t_ns,
                 pose: e.T_w_b,
@@ -404,97 +495,14 @@ pub fn run_euroc(
                 accel_bias: e.ba,
             });
         }
-        truth_at(&data.groundtruth, e.t_ns + t0).map(|g| GroundTruth { t_ns: e.t_ns, ..g })
-    };
-    let (mut imu_i, mut frame_i) = (0usize, 0usize);
-    let uses_imu = suite.uses_imu();
-    let mut last_progress = -1.0;
-    loop {
-        let imu_t = data.imu.get(imu_i).map(|s| s.t_ns).filter(|&t| t <= end);
-        let frame_t = stamps.get(frame_i).copied().filter(|&t| t <= end);
-        let (result, t_ns, start) = match (imu_t, frame_t) {
-            (None, None) => break,
-            (Some(a), b) if b.is_none_or(|b| a <= b) => {
-                let s = ImuSample {
-                    t_ns: a - t0,
-                    ..data.imu[imu_i]
-                };
-                imu_i += 1;
-                recorder.out.imu_samples += 1;
-                if uses_imu {
-                    gyro.push(&s);
-                }
-                let start = Instant::now();
-                (estimator.push_imu(s), s.t_ns, start)
-            }
-            _ => {
-                let frame = match &frames {
-                    Frames::Features(f) => {
-                        let mut frame = f[frame_i].clone();
-                        frame.t_ns -= t0;
-                        frame
-                    }
-                    Frames::Images(list) => {
-                        let (t, paths) = &list[frame_i];
-                        let images = paths
-                            .iter()
-                            .map(|p| load_image(p))
-                            .collect::<Result<Vec<_>, _>>()?;
-                        let views = images
-                            .iter()
-                            .enumerate()
-                            .map(|(cam_id, im)| {
-                                ImageView::packed(im.width(), im.height(), im.as_raw())
-                                    .map(|image| CameraImageView { cam_id, image })
-                                    .map_err(|e| input(&paths[cam_id], e.to_string()))
-                            })
-                            .collect::<Result<Vec<_>, _>>()?;
-                        let tracker = tracker.as_mut().expect("images need the tracker");
-                        let frame = tracker
-                            .track(&views, t - t0, gyro.take())
-                            .map_err(|e| input(&paths[0], format!("front end: {e}")))?;
-                        counts.add(tracker.report(), &frame);
-                        frame
-                    }
-                };
-                frame_i += 1;
-                let frontend_s = tracker.as_ref().map_or(0.0, |t| t.report().times.total_s);
-                recorder.frame_pushed(frame.t_ns, frontend_s, 0.0);
-                let t = frame.t_ns;
-                let start = Instant::now();
-                (estimator.push_frame(frame), t, start)
-            }
-        };
-        let call_s = start.elapsed().as_secs_f64();
-        recorder.absorb(&mut estimator, result, t_ns, call_s, 0.0, truth)?;
-        let frac = ((t_ns) as f64 / (end - t0).max(1) as f64).clamp(0.0, 1.0);
-        if frac - last_progress >= 0.001 {
-            progress(frac);
-            last_progress = frac;
+        truth_at(&self.data.groundtruth, e.t_ns + self.t0)
+            .map(|g| GroundTruth { t_ns: e.t_ns, ..g })
+    }
+
+    fn finish(self, out: &mut RunOutput, _interrupted: bool) -> Result<(), RunError> {
+        if self.tracker.is_some() {
+            out.frontend_tracks = Some(self.counts.summary());
         }
+        Ok(())
     }
-    let start = Instant::now();
-    let result = estimator.finish();
-    let call_s = start.elapsed().as_secs_f64();
-    recorder.absorb(&mut estimator, result, end - t0, call_s, 0.0, truth)?;
-    progress(1.0);
-    if tracker.is_some() {
-        recorder.out.frontend_tracks = Some(counts.summary());
-    }
-    let context = RunContext {
-        description: format!("EuRoC dataset {}", mav0.display()),
-        suite: options.suite,
-        faults: Vec::new(),
-        expectations: Vec::new(),
-        replay: None,
-        source_time_offset_ns: Some(t0),
-        calibration_truth: None,
-        recorded: true,
-        ground_truth: has_truth,
-    };
-    Ok(EurocRun {
-        without_truth: recorder.without_truth,
-        output: recorder.out,
-        context,
-    })
 }

@@ -1,0 +1,178 @@
+//! A scenario's simulated measurement stream as a run's source: the world's IMU, GNSS and
+//! wheel measurements, and its frames (feature-level, or rendered images through the image
+//! front end), with ground truth from the simulator.
+//!
+//! Determinism: everything but the timing fields is a function of the scenario and the seed; the
+//! wall clock is read only to fill [`FrameTiming`](super::FrameTiming).
+
+use estimator::estimator::{Estimate, Estimator, EstimatorConfig};
+use estimator::frontend::TrackerConfig;
+use sim::World;
+use sim::stream::{GroundTruth, Measurement, Stream};
+
+use super::driver::{Input, Source, drive};
+use super::{Recorder, RunControl, RunError, RunOptions, RunOutput};
+use crate::frontend::ImageFrontend;
+use crate::spec::Scenario;
+
+/// The scenario's measurement stream: with rendered images when `camera.mode = "rendered"`
+/// (then also the adapter's description), else feature-level.
+pub fn measurement_stream(
+    scenario: &Scenario,
+    world: &World,
+) -> Result<(Stream, Option<String>), RunError> {
+    Ok(match scenario.render_config()? {
+        None => (world.stream(), None),
+        Some(cfg) => {
+            let r = world
+                .renderer(&cfg)
+                .map_err(|e| RunError::sim(scenario, e))?;
+            let adapter = r.adapter().to_string();
+            (world.rendered_stream(r), Some(adapter))
+        }
+    })
+}
+
+/// The rendering error that ended `stream` early, if any, as a run error.
+pub fn stream_result(scenario: &Scenario, stream: &Stream) -> Result<(), RunError> {
+    match stream.error() {
+        Some(e) => Err(RunError::sim(scenario, e)),
+        None => Ok(()),
+    }
+}
+
+/// Runs `scenario` to its output (the estimator's, without evaluation; see
+/// [`run_to_report`](super::run_to_report)).
+pub(crate) fn simulate(
+    scenario: &Scenario,
+    options: &RunOptions,
+    control: &mut RunControl,
+) -> Result<RunOutput, RunError> {
+    let world_cfg = scenario.world_config(options.seed, options.duration_s)?;
+    let mut est_cfg = scenario.estimator_config()?;
+    est_cfg.record_history |= options.batch_reference;
+    est_cfg.compute_covariance |= options.covariance;
+    let seed = world_cfg.seed;
+    let tracker_cfg = scenario.tracker_config(seed)?;
+    let uses_imu = est_cfg.suite.uses_imu();
+    let world = World::new(world_cfg).map_err(|e| RunError::sim(scenario, e))?;
+    let frontend = match tracker_cfg {
+        None => None,
+        Some(cfg) => Some(image_frontend(scenario, &world, &est_cfg, cfg)?),
+    };
+    let estimator = Estimator::new(est_cfg).map_err(|e| RunError::Estimator {
+        file: scenario.file_label(),
+        message: e.to_string(),
+    })?;
+    let end_ns = world.end_ns();
+    let (stream, renderer) = measurement_stream(scenario, &world)?;
+    let out = RunOutput::new(scenario.name.clone(), seed, end_ns as f64 * 1e-9, renderer);
+    let recorder = Recorder::new(out, estimator.status());
+    let source = Simulated {
+        scenario,
+        stream,
+        end_ns,
+        frontend,
+        uses_imu,
+        render_s: 0.0,
+    };
+    drive(source, estimator, recorder, options, control).map(|(out, _)| out)
+}
+
+/// The world's stream as a run's source.
+struct Simulated<'a> {
+    scenario: &'a Scenario,
+    stream: Stream,
+    end_ns: i64,
+    /// The image front end (rendered scenarios): it tracks the images, and the ideal frames
+    /// that follow them are skipped.
+    frontend: Option<ImageFrontend>,
+    /// Whether the front end predicts rotations from the gyroscope.
+    uses_imu: bool,
+    /// The latest images' render time (s).
+    render_s: f64,
+}
+
+impl Source for Simulated<'_> {
+    fn end_ns(&self) -> i64 {
+        self.end_ns
+    }
+
+    fn next_input(&mut self) -> Result<Option<Input>, RunError> {
+        loop {
+            let Some(m) = self.stream.next() else {
+                return Ok(None);
+            };
+            return Ok(Some(match m {
+                Measurement::Images(images) => {
+                    self.render_s = self.stream.last_render_s();
+                    let Some(fe) = self.frontend.as_mut() else {
+                        continue;
+                    };
+                    let truth = self.stream.truth(images.t_capture_ns).map(|g| g.pose);
+                    let (frame, frontend_s) =
+                        fe.process(&images, truth.as_ref())
+                            .map_err(|e| RunError::Frontend {
+                                file: self.scenario.file_label(),
+                                message: e.to_string(),
+                            })?;
+                    Input::Frame { frame, frontend_s }
+                }
+                Measurement::Imu(s) => {
+                    if let Some(fe) = self.frontend.as_mut().filter(|_| self.uses_imu) {
+                        fe.push_imu(&s);
+                    }
+                    Input::Imu(s)
+                }
+                Measurement::Gnss(fix) => Input::Gnss(fix),
+                Measurement::Wheel(reading) => Input::Wheel(reading),
+                Measurement::Frame(_) if self.frontend.is_some() => continue,
+                // Feature-level input: the frame is already the estimator's input.
+                Measurement::Frame(frame) => Input::Frame {
+                    frame,
+                    frontend_s: 0.0,
+                },
+            }));
+        }
+    }
+
+    fn render_s(&self) -> f64 {
+        self.render_s
+    }
+
+    fn truth(&mut self, estimate: &Estimate) -> Option<GroundTruth> {
+        self.stream.truth(estimate.t_ns)
+    }
+
+    fn finish(self, out: &mut RunOutput, interrupted: bool) -> Result<(), RunError> {
+        out.frontend_tracks = self.frontend.as_ref().map(|f| f.track_summary());
+        out.frontend = self.frontend.map(|f| f.stats());
+        if interrupted {
+            return Ok(());
+        }
+        stream_result(self.scenario, &self.stream)
+    }
+}
+
+/// The image front end for a rendered scenario: the estimator's cameras, the scene and the
+/// simulator's true extrinsics for the ground-truth statistics.
+pub fn image_frontend(
+    scenario: &Scenario,
+    world: &World,
+    est_cfg: &EstimatorConfig,
+    cfg: TrackerConfig,
+) -> Result<ImageFrontend, RunError> {
+    let cameras = crate::frontend::tracker_cameras(est_cfg);
+    let true_t_b_c = world
+        .config()
+        .rig
+        .as_ref()
+        .map(|r| r.cameras.iter().map(|c| c.t_b_c).collect())
+        .unwrap_or_default();
+    ImageFrontend::new(cfg, cameras, world.scene().clone(), true_t_b_c).map_err(|e| {
+        RunError::Frontend {
+            file: scenario.file_label(),
+            message: e.to_string(),
+        }
+    })
+}

@@ -1,0 +1,165 @@
+//! What a run produced: per-frame estimates with their ground truth and timing, the events,
+//! the counters, and the optional batch reference. Written by the runner ([`crate::run`]),
+//! read by the report.
+
+use estimator::estimator::{Estimate, Status};
+use estimator::frontend::TrackSummary;
+use estimator::geometry::Pose;
+use estimator::problem::SolverSummary;
+use sim::stream::GroundTruth;
+
+use crate::frontend::FrontendStats;
+
+/// The window against the full batch on the same measurements
+/// ([`RunOptions::batch_reference`](crate::run::RunOptions::batch_reference)).
+#[derive(Clone, Debug)]
+pub struct BatchReference {
+    /// Every frame's pose as it left the window, `(t_ns, T_w_b)`, in order.
+    pub finalized: Vec<(i64, Pose)>,
+    /// The batch solution over the keyframes (marginalized ones, then the final window),
+    /// `(t_ns, T_w_b)` (`Estimator::batch_solve_keyframes`).
+    pub batch: Vec<(i64, Pose)>,
+    /// The batch solve's statistics.
+    pub summary: Option<SolverSummary>,
+}
+
+/// Wall time spent on one frame (s). Measured for reports only.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameTiming {
+    /// Front end: turning the sensor input into the estimator's feature frame: the image
+    /// tracker's time in rendered scenarios, ~0 for feature-level input (handed over as is).
+    pub frontend_s: f64,
+    /// Back end: the estimator's own measurement (`Estimate::backend_s`).
+    pub backend_s: f64,
+    /// Front end plus the whole estimator call that produced the estimate.
+    pub total_s: f64,
+    /// Rendering the capture's images (rendered scenarios; 0 otherwise). Not part of `total`.
+    pub render_s: f64,
+}
+
+/// One processed frame.
+#[derive(Clone, Debug)]
+pub struct FrameRecord {
+    /// The estimate (its `t_ns` is in the IMU clock = true time).
+    pub estimate: Estimate,
+    /// Ground truth at the estimate's time.
+    pub truth: GroundTruth,
+    /// Timing.
+    pub timing: FrameTiming,
+}
+
+/// What happened during a run.
+#[derive(Clone, Debug, PartialEq)]
+pub enum EventKind {
+    /// The estimator's status changed.
+    StatusChange {
+        /// Before.
+        from: Status,
+        /// After.
+        to: Status,
+    },
+    /// The estimator rejected an input (the run goes on without it).
+    InputRejected(String),
+    /// The sensors the estimator uses changed (`LiveSuite` names).
+    SuiteSwitch {
+        /// Before.
+        from: String,
+        /// After.
+        to: String,
+        /// Which sensor stopped or came back.
+        reason: String,
+    },
+    /// Marginalization failed and the estimator went on without its prior.
+    PriorDropped,
+    /// The estimator aligned its world frame with the GNSS receiver's; fixes are used from
+    /// now on.
+    GnssAligned,
+    /// GNSS fixes kept disagreeing with the odometry: the alignment was dropped and starts
+    /// again.
+    GnssAlignmentDropped,
+    /// A calibration quantity the estimator held at its configured value is estimated from
+    /// now on (which, and its σ then).
+    CalibrationReleased(String),
+    /// The estimator found its window failed and restarted from its last good state.
+    Reset {
+        /// What failed.
+        reason: String,
+    },
+}
+
+/// A timestamped event.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Event {
+    /// Time (ns).
+    pub t_ns: i64,
+    /// What happened.
+    pub kind: EventKind,
+}
+
+/// Everything a run produced.
+#[derive(Clone, Debug)]
+pub struct RunOutput {
+    /// Scenario name.
+    pub scenario: String,
+    /// The seed used.
+    pub seed: u64,
+    /// Simulated duration (s).
+    pub duration_s: f64,
+    /// IMU samples fed.
+    pub imu_samples: usize,
+    /// Frames fed.
+    pub frames_in: usize,
+    /// Per processed frame, in order.
+    pub frames: Vec<FrameRecord>,
+    /// Events in order.
+    pub events: Vec<Event>,
+    /// Estimator resets (`Reset` events).
+    pub resets: usize,
+    /// Sensor-suite switches the estimator reported.
+    pub suite_switches: usize,
+    /// IMU samples the estimator excluded as spikes.
+    pub imu_samples_excluded: usize,
+    /// IMU samples the estimator found on the sensor's range.
+    pub imu_samples_saturated: usize,
+    /// Persistent points the estimator gave a new first estimate.
+    pub points_relinearized: usize,
+    /// The graphics adapter of a rendered scenario (`None` for feature-level ones).
+    pub renderer: Option<String>,
+    /// The image front end's statistics against ground truth (rendered scenarios tracked by
+    /// the KLT front end).
+    pub frontend: Option<FrontendStats>,
+    /// What the image front end did, without ground truth (runs on images, rendered or
+    /// recorded).
+    pub frontend_tracks: Option<TrackSummary>,
+    /// The batch reference, when asked for.
+    pub batch_reference: Option<BatchReference>,
+    /// Simulated time (s) at which the run was stopped early ([`RunControl::stop`](crate::run::RunControl::stop)); `None`
+    /// when it ran to the end.
+    pub interrupted_at_s: Option<f64>,
+}
+
+impl RunOutput {
+    /// An output with nothing recorded yet: run `name` with `seed` over `duration_s`, images
+    /// from `renderer` (`None`: feature level or recorded).
+    pub fn new(name: String, seed: u64, duration_s: f64, renderer: Option<String>) -> Self {
+        Self {
+            scenario: name,
+            seed,
+            duration_s,
+            imu_samples: 0,
+            frames_in: 0,
+            frames: Vec::new(),
+            events: Vec::new(),
+            resets: 0,
+            suite_switches: 0,
+            imu_samples_excluded: 0,
+            imu_samples_saturated: 0,
+            points_relinearized: 0,
+            renderer,
+            frontend: None,
+            frontend_tracks: None,
+            batch_reference: None,
+            interrupted_at_s: None,
+        }
+    }
+}
