@@ -1,0 +1,102 @@
+//! Kalibr rigs: the EuRoC calibration as Kalibr files (`tests/fixtures/kalibr`, written from
+//! the dataset's own `sensor.yaml` files) gives the same rig as the catalog's hand-written EuRoC
+//! scenario, and malformed files give file, key and line.
+
+use crate::common;
+
+use std::path::{Path, PathBuf};
+
+use scenarios::spec::Scenario;
+
+fn fixtures() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/kalibr")
+}
+
+/// The replay catalog scenario with its rig replaced by `rig.kalibr`, written next to copies of
+/// the fixtures (`camchain` text given).
+fn scenario_with(tag: &str, camchain: &str, imu_keys: &str) -> Result<Scenario, String> {
+    // Kept: the scenario reads its rig files from there.
+    let dir = common::scratch(&format!("kalibr-{tag}")).keep();
+    std::fs::create_dir_all(dir.join("data")).unwrap();
+    std::fs::write(dir.join("camchain.yaml"), camchain).unwrap();
+    std::fs::copy(fixtures().join("euroc-imu.yaml"), dir.join("imu.yaml")).unwrap();
+    std::fs::write(
+        dir.join("data/euroc_V2_02_medium_20s.txt"),
+        scenarios::catalog::data("data/euroc_V2_02_medium_20s.txt").unwrap(),
+    )
+    .unwrap();
+    let base = scenarios::catalog::get("room_replay_v2_02_stereo_imu")
+        .unwrap()
+        .text;
+    let head = &base[..base.find("# EuRoC's calibration").unwrap()];
+    let tail = &base[base.find("[expectations]").unwrap()..];
+    let text = format!("{head}kalibr = {{ camchain = \"camchain.yaml\"{imu_keys} }}\n\n{tail}");
+    let file = dir.join("kalibr.toml");
+    std::fs::write(&file, text).unwrap();
+    let s = Scenario::load(file.to_str().unwrap()).map_err(|e| e.to_string());
+    let _ = std::fs::remove_dir_all(dir);
+    s
+}
+
+fn camchain() -> String {
+    std::fs::read_to_string(fixtures().join("euroc-camchain-imucam.yaml")).unwrap()
+}
+
+#[test]
+fn the_euroc_kalibr_files_give_the_catalog_rig() {
+    let k = scenario_with("ok", &camchain(), ", imu = \"imu.yaml\"").unwrap();
+    let c = Scenario::load("room_replay_v2_02_stereo_imu").unwrap();
+    let (ek, ec) = (k.estimator_config().unwrap(), c.estimator_config().unwrap());
+    assert_eq!(ek.cameras.len(), 2);
+    for i in 0..2 {
+        let (a, b) = (&ek.cameras[i], &ec.cameras[i]);
+        // T_cam_imu inverted back to T_b_c.
+        assert!(
+            (a.T_b_c.p - b.T_b_c.p).norm() < 1e-9,
+            "{i}: {} vs {}",
+            a.T_b_c.p,
+            b.T_b_c.p
+        );
+        assert!(a.T_b_c.q.angle_to(&b.T_b_c.q) < 1e-9);
+        for p in [
+            nalgebra::Vector3::new(0.1, -0.2, 1.0),
+            nalgebra::Vector3::new(-0.4, 0.3, 1.0),
+        ] {
+            let (u, v) = (a.model.project(&p).unwrap(), b.model.project(&p).unwrap());
+            assert!((u - v).norm() < 1e-9, "{i}: {u} vs {v}");
+        }
+        assert_eq!(a.pixel_sigma, b.pixel_sigma);
+    }
+    assert_eq!(ek.imu_noise, ec.imu_noise);
+    assert_eq!(k.spec.rig.imu.rate_hz, 200.0);
+}
+
+#[test]
+fn malformed_kalibr_files_name_file_key_and_line() {
+    let no_t = camchain().replacen("  T_cam_imu:", "  T_cam_imu_x:", 2);
+    let e = scenario_with("no-t", &no_t, "").unwrap_err();
+    assert!(
+        e.contains("camchain.yaml") && e.contains("cam0.T_cam_imu"),
+        "{e}"
+    );
+    let eucm = camchain().replacen("camera_model: pinhole", "camera_model: eucm", 1);
+    let e = scenario_with("eucm", &eucm, "").unwrap_err();
+    let line = eucm.lines().position(|l| l.contains("eucm")).unwrap() + 1;
+    assert!(
+        e.contains(&format!("camchain.yaml:{line}")) && e.contains("cam0.camera_model"),
+        "{e}"
+    );
+    let skew = camchain().replacen("[0.0148655429818,", "[0.5,", 1);
+    let e = scenario_with("skew", &skew, "").unwrap_err();
+    assert!(e.contains("not a rotation matrix"), "{e}");
+    let short = camchain().replacen(
+        "intrinsics: [458.654, 457.296, 367.215, 248.375]",
+        "intrinsics: [458.654]",
+        1,
+    );
+    let e = scenario_with("short", &short, "").unwrap_err();
+    assert!(
+        e.contains("cam0.intrinsics") && e.contains("needs 4"),
+        "{e}"
+    );
+}

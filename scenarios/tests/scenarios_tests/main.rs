@@ -1,0 +1,23 @@
+//! The scenarios crate's tests: the `vio` CLI, scenario files and bad input, datasets, Kalibr rigs, metrics, reports, regressions, sweeps, the IMU model.
+//!
+//! One test binary per crate (each module is one former `tests/*.rs` file): one link instead of
+//! one per file, and the tests of every module share the cores. Run one module with
+//! `cargo test --release --test scenarios_tests MODULE::`.
+
+mod common;
+
+mod bad_input;
+mod bench;
+mod cli;
+mod dataset;
+mod evo_agreement;
+mod fuzz;
+mod imu_error_model;
+mod imu_model;
+mod kalibr;
+mod metrics;
+mod recorded_imu_input;
+mod regress;
+mod report;
+mod settings;
+mod sweep;

@@ -1,0 +1,91 @@
+//! Marginalization consistency at scenario level: the sliding window against the full batch
+//! over its own keyframes on the same measurements (`vio run --batch-reference`).
+
+use crate::common;
+
+use scenarios::batch::BatchReport;
+use scenarios::run::RunOptions;
+use scenarios::spec::Scenario;
+
+fn batch_reference(name: &str, duration_s: Option<f64>) -> BatchReport {
+    let scenario = Scenario::load(name).unwrap_or_else(|e| panic!("{e}"));
+    let options = RunOptions {
+        duration_s,
+        batch_reference: true,
+        ..Default::default()
+    };
+    let done = common::run_with(scenario, &options);
+    done.report.batch_reference.expect("a batch reference")
+}
+
+#[test]
+fn the_batch_beats_the_window_on_the_first_20_s() {
+    // Seed 1, 20 s, realistic track ids: 115 keyframes; batch 0.0028 m, window 0.0052 m
+    // (x1.82), causal 0.0065 m (x2.30) (before 3-dof landmarks and persistent points: window
+    // 0.0104 m, x2.78). Over a short run the batch gains most: every keyframe still shares
+    // landmarks with many others. Bound: the measured ratio + 30 %.
+    let b = batch_reference("room_figure8_stereo_imu", Some(20.0));
+    assert!(b.keyframes >= 100, "{b:?}");
+    assert!(b.ate_batch_m < b.ate_window_m, "{b:?}");
+    assert!(b.ate_window_m <= b.ate_causal_m * 1.05, "{b:?}");
+    assert!(
+        b.ratio_window <= 2.4,
+        "window x{:.2} of the batch",
+        b.ratio_window
+    );
+}
+
+#[test]
+#[ignore = "full length: ~60 s in release"]
+fn the_window_stays_within_a_stated_factor_of_the_batch_over_60_s() {
+    // Seed 1, 60 s: 382 keyframes; batch 0.0043 m, window 0.0088 m (x2.06), causal 0.0094 m.
+    // The goal is x1.3: before the consistency work the window was at 0.0104 m but the
+    // batch only at 0.0082 m (x1.26); both improved, the batch (every track whole) more.
+    // Bound: the measured ratio + 20 %.
+    let b = batch_reference("room_figure8_stereo_imu", None);
+    assert!(
+        b.ratio_window <= 2.5,
+        "window x{:.2} of the batch",
+        b.ratio_window
+    );
+}
+
+#[test]
+fn nees_study_is_deterministic_and_consistent() {
+    use scenarios::nees::{NeesOptions, run_nees};
+    let scenario = Scenario::load("room_figure8_stereo_imu").unwrap();
+    let options = |threads| NeesOptions {
+        seeds: vec![1, 2, 3],
+        duration_s: Some(8.0),
+        threads,
+    };
+    let one = run_nees(&scenario, &options(1)).unwrap();
+    let two = run_nees(&scenario, &options(2)).unwrap();
+    print!("{}", scenarios::nees::summary(&one));
+    for (a, b) in one.metrics.iter().zip(&two.metrics) {
+        assert_eq!(
+            a.series, b.series,
+            "{}: thread count changed the result",
+            a.name
+        );
+    }
+    assert_eq!(one.ate_rmse_m, two.ate_rmse_m);
+    // Every time average inside its two-sided 95 % band for 3 runs ([0.89, 6.34] for 3 dof,
+    // [0.40, 4.81] for 2, [2.74, 10.51] for 6): the band itself is what fewer seeds widen,
+    // nothing else. Measured (seeds 1-3, 8 s): velocity 2.98, accel bias 1.74, gyro bias 3.55,
+    // roll/pitch 1.01, relative pose over 0.5 s 6.26 (before 3-dof landmarks, no double
+    // counting and per-observation weights: 11.16, 6.44, 17.93, 4.34; no relative pose).
+    for m in &one.metrics {
+        assert!(
+            m.series.len() >= 140,
+            "{}: {} frame times",
+            m.name,
+            m.series.len()
+        ); // 152
+        assert!(
+            m.inside,
+            "{}: NEES {:.2} outside [{:.2}, {:.2}]",
+            m.name, m.time_average, m.band[0], m.band[1]
+        );
+    }
+}
