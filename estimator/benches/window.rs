@@ -12,11 +12,11 @@
 use std::hint::black_box;
 
 use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
-use estimator::estimator::{Estimate, Estimator, EstimatorConfig, Status, Suite};
 use estimator::frontend::FeatureFrame;
 use estimator::imu::ImuSample;
+use estimator::{Estimate, Estimator, EstimatorConfig, Status, Suite};
 
-#[path = "../tests/common/mod.rs"]
+#[path = "../tests/estimator_tests/common/mod.rs"]
 mod common;
 
 use common::world::{FRAME_NS, IMU_NS, World};

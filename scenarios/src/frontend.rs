@@ -9,8 +9,8 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
+use estimator::EstimatorConfig;
 use estimator::camera::CameraModel;
-use estimator::estimator::EstimatorConfig;
 use estimator::frontend::{
     CameraImageView, FeatureFrame, FeatureTracker, ImageError, ImageView, TrackStatistics,
     TrackSummary, TrackerCamera, TrackerConfig, TrackerError,

@@ -9,20 +9,20 @@ pub const AFTER_S: f64 = 10.0;
 
 /// A suite switch of the run: time and the live suites before and after.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Switch<'a> {
+pub struct Switch {
     /// Time (s).
     pub t_s: f64,
     /// Live suite before.
-    pub from: &'a str,
+    pub from: String,
     /// Live suite after.
-    pub to: &'a str,
+    pub to: String,
 }
 
 /// Delay (s) from the end of the fault `[start_s, end_s)` to the return of the suite that was
 /// live when it started, judged on the switches from its start to `AFTER_S` after its end:
 /// `Some(0)` when the fault caused none, `None` when that suite did not come back (always for a
 /// permanent fault, `end_s` infinite, that caused a switch). `switches` in time order.
-pub fn back_after(switches: &[Switch<'_>], start_s: f64, end_s: f64) -> Option<f64> {
+pub fn back_after(switches: &[Switch], start_s: f64, end_s: f64) -> Option<f64> {
     let mut within = switches
         .iter()
         .filter(|s| s.t_s >= start_s && s.t_s <= end_s + AFTER_S);
@@ -86,7 +86,11 @@ mod tests {
 
     #[test]
     fn recovery_delay_follows_the_switches() {
-        let s = |t, from, to| Switch { t_s: t, from, to };
+        let s = |t, from: &str, to: &str| Switch {
+            t_s: t,
+            from: from.into(),
+            to: to.into(),
+        };
         let blackout = [
             s(20.46, "stereo_imu", "imu_only"),
             s(22.0, "imu_only", "stereo_imu"),

@@ -2,10 +2,10 @@
 //! the counters, and the optional batch reference. Written by the runner ([`crate::run`]),
 //! read by the report.
 
-use estimator::estimator::{Estimate, Status};
 use estimator::frontend::TrackSummary;
 use estimator::geometry::Pose;
 use estimator::problem::SolverSummary;
+use estimator::{Estimate, Status};
 use sim::stream::GroundTruth;
 
 use crate::frontend::FrontendStats;
@@ -60,31 +60,10 @@ pub enum EventKind {
     },
     /// The estimator rejected an input (the run goes on without it).
     InputRejected(String),
-    /// The sensors the estimator uses changed (`LiveSuite` names).
-    SuiteSwitch {
-        /// Before.
-        from: String,
-        /// After.
-        to: String,
-        /// Which sensor stopped or came back.
-        reason: String,
-    },
-    /// Marginalization failed and the estimator went on without its prior.
-    PriorDropped,
-    /// The estimator aligned its world frame with the GNSS receiver's; fixes are used from
-    /// now on.
-    GnssAligned,
-    /// GNSS fixes kept disagreeing with the odometry: the alignment was dropped and starts
-    /// again.
-    GnssAlignmentDropped,
-    /// A calibration quantity the estimator held at its configured value is estimated from
-    /// now on (which, and its σ then).
-    CalibrationReleased(String),
-    /// The estimator found its window failed and restarted from its last good state.
-    Reset {
-        /// What failed.
-        reason: String,
-    },
+    /// An event the estimator reported (suite switches, resets, GNSS alignment, calibration
+    /// releases, a dropped prior). Its IMU-sample events are not kept one by one: the output
+    /// counts them ([`RunOutput::imu_samples_excluded`], [`RunOutput::imu_samples_saturated`]).
+    Estimator(estimator::EventKind),
 }
 
 /// A timestamped event.

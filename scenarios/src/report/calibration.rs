@@ -77,7 +77,7 @@ fn extrinsic_error(est: &Pose, truth: &Pose) -> ExtrinsicError {
 
 /// The calibration report of `run` against `truth`; `None` without estimates.
 pub fn calibration_report(truth: &CalibrationTruth, run: &RunOutput) -> Option<CalibrationReport> {
-    let sample = |e: &estimator::estimator::Estimate| {
+    let sample = |e: &estimator::Estimate| {
         let errors: Vec<ExtrinsicError> = e
             .T_b_c
             .iter()

@@ -42,7 +42,7 @@
 use crate::replay_report::ReplayReport;
 use std::path::Path;
 
-use estimator::estimator::Status;
+use estimator::Status;
 use estimator::frontend::TrackSummary;
 use estimator::geometry::Pose;
 use serde::Serialize;
@@ -57,6 +57,7 @@ use crate::plot::{self, PlotData};
 use crate::recovery;
 use crate::run_output::{EventKind, RunOutput};
 use crate::spec::SuiteSpec;
+use estimator::EventKind as EstimatorEventKind;
 
 mod calibration;
 mod context;
@@ -446,6 +447,28 @@ const GROUND_TRUTH_FREE: [&str; 5] = [
     "imu_samples_saturated",
 ];
 
+/// An estimator event's `kind` and `detail` in `report.json`.
+fn estimator_event(kind: &EstimatorEventKind) -> (&'static str, String) {
+    match kind {
+        EstimatorEventKind::SuiteSwitch { from, to, reason } => {
+            ("suite_switch", format!("{from} -> {to} ({reason})"))
+        }
+        EstimatorEventKind::ImuSamplesExcluded { t_ns } => {
+            ("imu_samples_excluded", t_ns.len().to_string())
+        }
+        EstimatorEventKind::ImuSamplesSaturated { count } => {
+            ("imu_samples_saturated", count.to_string())
+        }
+        EstimatorEventKind::PriorDropped => ("prior_dropped", String::new()),
+        EstimatorEventKind::GnssAligned => ("gnss_aligned", String::new()),
+        EstimatorEventKind::GnssAlignmentDropped => ("gnss_alignment_dropped", String::new()),
+        EstimatorEventKind::CalibrationReleased { detail } => {
+            ("calibration_released", detail.clone())
+        }
+        EstimatorEventKind::Reset { reason } => ("reset", reason.clone()),
+    }
+}
+
 /// Builds the report of a run described by `ctx` and checks its expectations.
 pub fn build_report(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> Report {
     let frames = &run.frames;
@@ -467,14 +490,7 @@ pub fn build_report(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> Rep
                     ("status_change", format!("{from:?} -> {to:?}"))
                 }
                 EventKind::InputRejected(m) => ("input_rejected", m.clone()),
-                EventKind::SuiteSwitch { from, to, reason } => {
-                    ("suite_switch", format!("{from} -> {to} ({reason})"))
-                }
-                EventKind::PriorDropped => ("prior_dropped", String::new()),
-                EventKind::GnssAligned => ("gnss_aligned", String::new()),
-                EventKind::GnssAlignmentDropped => ("gnss_alignment_dropped", String::new()),
-                EventKind::CalibrationReleased(d) => ("calibration_released", d.clone()),
-                EventKind::Reset { reason } => ("reset", reason.clone()),
+                EventKind::Estimator(kind) => estimator_event(kind),
             };
             EventReport {
                 t_s: e.t_ns as f64 * 1e-9,
@@ -483,15 +499,17 @@ pub fn build_report(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> Rep
             }
         })
         .collect();
-    let switches: Vec<recovery::Switch<'_>> = run
+    let switches: Vec<recovery::Switch> = run
         .events
         .iter()
         .filter_map(|e| match &e.kind {
-            EventKind::SuiteSwitch { from, to, .. } => Some(recovery::Switch {
-                t_s: e.t_ns as f64 * 1e-9,
-                from,
-                to,
-            }),
+            EventKind::Estimator(EstimatorEventKind::SuiteSwitch { from, to, .. }) => {
+                Some(recovery::Switch {
+                    t_s: e.t_ns as f64 * 1e-9,
+                    from: from.to_string(),
+                    to: to.to_string(),
+                })
+            }
             _ => None,
         })
         .collect();
@@ -509,7 +527,12 @@ pub fn build_report(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> Rep
             resets: run
                 .events
                 .iter()
-                .filter(|e| matches!(e.kind, EventKind::Reset { .. }))
+                .filter(|e| {
+                    matches!(
+                        e.kind,
+                        EventKind::Estimator(EstimatorEventKind::Reset { .. })
+                    )
+                })
                 .filter(|e| (a..=b + recovery::AFTER_S).contains(&(e.t_ns as f64 * 1e-9)))
                 .count(),
         })

@@ -5,10 +5,10 @@
 use std::time::Instant;
 
 use estimator::aiding::{GnssSample, WheelSample};
-use estimator::estimator::{Estimate, Estimator};
 use estimator::frontend::FeatureFrame;
 use estimator::imu::ImuSample;
 use estimator::problem::SolverOptions;
+use estimator::{Estimate, Estimator};
 use sim::stream::GroundTruth;
 
 use super::{BatchReference, Recorder, RunControl, RunError, RunOptions, RunOutput};

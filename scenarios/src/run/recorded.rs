@@ -23,12 +23,12 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use estimator::camera::{Camera, CameraModel, KannalaBrandt, PinholeRadtan};
-use estimator::estimator::{CameraConfig, Estimate, Estimator, EstimatorConfig};
 use estimator::frontend::{
     CameraImageView, FeatureFrame, FeatureTracker, ImageView, TrackStatistics, TrackerConfig,
 };
 use estimator::geometry::Pose;
 use estimator::imu::ImuSample;
+use estimator::{CameraConfig, Estimate, Estimator, EstimatorConfig};
 use nalgebra::Vector3;
 use sim::stream::GroundTruth;
 

@@ -2,9 +2,7 @@
 
 use std::collections::VecDeque;
 
-use estimator::estimator::{
-    Estimate, Estimator, EstimatorError, EventKind as EstimatorEventKind, Status,
-};
+use estimator::{Estimate, Estimator, EstimatorError, EventKind as EstimatorEventKind, Status};
 use sim::stream::GroundTruth;
 
 use super::{Event, EventKind, FrameRecord, FrameTiming, RunError, RunOutput};
@@ -59,15 +57,7 @@ impl Recorder {
         let out = &mut self.out;
         out.points_relinearized = estimator.points_relinearized();
         for e in estimator.take_events() {
-            let kind = match e.kind {
-                EstimatorEventKind::SuiteSwitch { from, to, reason } => {
-                    out.suite_switches += 1;
-                    EventKind::SuiteSwitch {
-                        from: from.to_string(),
-                        to: to.to_string(),
-                        reason,
-                    }
-                }
+            match &e.kind {
                 EstimatorEventKind::ImuSamplesExcluded { t_ns } => {
                     out.imu_samples_excluded += t_ns.len();
                     continue;
@@ -76,18 +66,14 @@ impl Recorder {
                     out.imu_samples_saturated += count;
                     continue;
                 }
-                EstimatorEventKind::PriorDropped => EventKind::PriorDropped,
-                EstimatorEventKind::GnssAligned => EventKind::GnssAligned,
-                EstimatorEventKind::GnssAlignmentDropped => EventKind::GnssAlignmentDropped,
-                EstimatorEventKind::CalibrationReleased { detail } => {
-                    EventKind::CalibrationReleased(detail)
-                }
-                EstimatorEventKind::Reset { reason } => {
-                    out.resets += 1;
-                    EventKind::Reset { reason }
-                }
-            };
-            out.events.push(Event { t_ns: e.t_ns, kind });
+                EstimatorEventKind::SuiteSwitch { .. } => out.suite_switches += 1,
+                EstimatorEventKind::Reset { .. } => out.resets += 1,
+                _ => {}
+            }
+            out.events.push(Event {
+                t_ns: e.t_ns,
+                kind: EventKind::Estimator(e.kind),
+            });
         }
         let estimates = match result {
             Ok(e) => e,

@@ -5,8 +5,8 @@
 //! Determinism: everything but the timing fields is a function of the scenario and the seed; the
 //! wall clock is read only to fill [`FrameTiming`](super::FrameTiming).
 
-use estimator::estimator::{Estimate, Estimator, EstimatorConfig};
 use estimator::frontend::TrackerConfig;
+use estimator::{Estimate, Estimator, EstimatorConfig};
 use sim::World;
 use sim::stream::{GroundTruth, Measurement, Stream};
 

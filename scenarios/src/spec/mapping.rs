@@ -6,9 +6,9 @@ use std::sync::Arc;
 use estimator::camera::{
     Camera, CameraError, CameraModel, DoubleSphere, KannalaBrandt, Mei, PinholeRadtan,
 };
-use estimator::estimator::{CameraConfig as EstCamera, EstimatorConfig};
 use estimator::geometry::Pose;
 use estimator::imu::ImuNoise;
+use estimator::{CameraConfig as EstCamera, EstimatorConfig};
 use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 use sim::camera::{CameraConfig as SimCamera, RigConfig, TrackIds};
 use sim::faults::Fault;

@@ -1,5 +1,5 @@
 //! The scenario file schema (TOML) and its mapping onto [`sim::WorldConfig`] and
-//! [`estimator::estimator::EstimatorConfig`].
+//! [`estimator::EstimatorConfig`].
 //!
 //! A scenario file describes one run: the world (scene preset, seed), the trajectory (a generator
 //! or a replayed ground-truth file), the sensor rig (cameras and IMU), the sensor suite the
@@ -61,8 +61,8 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use estimator::EstimatorConfig;
 use estimator::camera::CameraModel;
-use estimator::estimator::EstimatorConfig;
 use estimator::frontend::{TrackerConfig, TrackerError};
 use sim::motion::Replay;
 use sim::motion::recording::RecordingReport;

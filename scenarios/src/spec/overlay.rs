@@ -7,7 +7,7 @@
 //! table, keeps every unset key at the configuration's default at any depth, and the type's
 //! `deny_unknown_fields` still rejects a misspelt key.
 
-use estimator::estimator::EstimatorConfig;
+use estimator::EstimatorConfig;
 use estimator::frontend::TrackerConfig;
 use serde::Serialize;
 use serde::de::DeserializeOwned;

@@ -4,7 +4,7 @@ use serde::Deserialize;
 
 use super::exact;
 
-use estimator::estimator::Suite;
+use estimator::Suite;
 
 /// A scenario file as written (see the module documentation).
 #[derive(Clone, Debug, Deserialize)]
@@ -25,7 +25,7 @@ pub struct ScenarioSpec {
     /// settings.
     #[serde(default)]
     pub camera: CameraModeSpec,
-    /// Estimator settings: any [`estimator::estimator::EstimatorConfig`] setting by its name,
+    /// Estimator settings: any [`estimator::EstimatorConfig`] setting by its name,
     /// nested ones as tables (`[estimator.solver]`, `[estimator.health]`); unset keys keep
     /// the defaults. Read through [`super::Scenario::estimator_config`].
     #[serde(default)]

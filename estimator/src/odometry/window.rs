@@ -56,7 +56,7 @@ pub(super) enum BlockRef {
 pub(super) type Prior = (Arc<PriorFactor>, Vec<BlockRef>);
 
 /// A window problem and the map from its blocks back to the window's states.
-pub(super) struct Built {
+pub(super) struct WindowProblem {
     pub problem: Problem,
     pub refs: Vec<(BlockRef, BlockId)>,
     pub landmarks: Vec<(u64, BlockId)>,
@@ -77,7 +77,7 @@ pub(super) struct Built {
 
 impl Window {
     /// Observations of the solved landmarks and points in the newest frame.
-    pub fn newest_observations(&self, built: &Built) -> usize {
+    pub fn newest_observations(&self, built: &WindowProblem) -> usize {
         let Some(seq) = self.frames.back().map(|f| f.seq) else {
             return 0;
         };
@@ -92,7 +92,7 @@ impl Window {
     }
 }
 
-impl Built {
+impl WindowProblem {
     /// A problem whose blocks are `refs` (and the persistent `points` among them), with no
     /// factor recorded yet.
     pub fn new(
@@ -203,7 +203,7 @@ impl Window {
     /// Builds the window problem at the current estimates: poses (and speed-biases when
     /// `imu_active`), extrinsics, time offset, the prior, IMU factors and the reprojection
     /// factors of every triangulated track (landmarks as inverse-depth blocks).
-    pub fn build(&self, settings: &ProblemSettings<'_>, imu_active: bool) -> Built {
+    pub fn build(&self, settings: &ProblemSettings<'_>, imu_active: bool) -> WindowProblem {
         let config = settings.config;
         let mut problem = Problem::new();
         let mut refs = Vec::new();
@@ -252,7 +252,7 @@ impl Window {
         // the IMU.
         problem.set_constant(td_block, !(self.calibration.td_variable() && imu_active));
         refs.push((BlockRef::Td, td_block));
-        let mut built = Built::new(problem, refs, points);
+        let mut built = WindowProblem::new(problem, refs, points);
         self.add_calibration_priors(&mut built, config);
         if imu_active {
             self.add_alignment_block(&mut built);
@@ -325,7 +325,7 @@ impl Window {
     }
 
     /// A [`ZeroVelocityFactor`] on the speed-bias of every window frame detected at rest.
-    fn add_zero_velocity_factors(&self, built: &mut Built, config: &EstimatorConfig) {
+    fn add_zero_velocity_factors(&self, built: &mut WindowProblem, config: &EstimatorConfig) {
         for (seq, rest) in &self.rest {
             let Some(sb) = built.block(BlockRef::SpeedBias(*seq)) else {
                 continue;
@@ -342,7 +342,7 @@ impl Window {
     /// The reprojection factors of every triangulated track seen long enough.
     fn add_visual_factors(
         &self,
-        built: &mut Built,
+        built: &mut WindowProblem,
         settings: &ProblemSettings<'_>,
         td_block: BlockId,
     ) {
@@ -465,7 +465,7 @@ impl Window {
     #[allow(clippy::too_many_arguments)]
     fn add_point_factors(
         &self,
-        built: &mut Built,
+        built: &mut WindowProblem,
         settings: &ProblemSettings<'_>,
         key: u64,
         track: &Track,
@@ -555,7 +555,7 @@ impl Window {
 
     /// Copies the solved values back into the window; landmarks outside the configured depth
     /// range lose their depth, and preintegrations are re-linearized when the biases moved.
-    pub fn write_back(&mut self, built: &Built, config: &EstimatorConfig) {
+    pub fn write_back(&mut self, built: &WindowProblem, config: &EstimatorConfig) {
         for f in self.frames.iter_mut() {
             if let Some(b) = built.block(BlockRef::Pose(f.seq)) {
                 f.pose = Pose::from_slice(built.problem.values(b));

@@ -2,7 +2,7 @@
 //! leaving itself (the prior it leaves behind, the estimate it finalizes).
 
 use super::events::{Event, EventKind};
-use super::window::Built;
+use super::window::WindowProblem;
 use super::{Estimator, Status, marginalization};
 use crate::frontend::FeatureFrame;
 
@@ -63,7 +63,13 @@ impl Estimator {
     /// Slides a full window after the solve `built`: the oldest frame leaves into the prior
     /// when the second-newest is a keyframe, the second-newest leaves otherwise (its IMU
     /// interval merges into the newest's); the frame that left is finalized.
-    pub(super) fn slide(&mut self, built: &Built, keyframe: bool, imu_active: bool, t_ns: i64) {
+    pub(super) fn slide(
+        &mut self,
+        built: &WindowProblem,
+        keyframe: bool,
+        imu_active: bool,
+        t_ns: i64,
+    ) {
         let window_full = self.window.frames.len() > self.config.window_size;
         if window_full {
             let had_prior = self.window.prior.is_some();

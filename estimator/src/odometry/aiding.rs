@@ -26,7 +26,7 @@ use std::sync::Arc;
 use nalgebra::Vector3;
 
 use super::config::{ConfigError, EstimatorConfig};
-use super::window::{BlockRef, Built, Window, WindowFrame};
+use super::window::{BlockRef, Window, WindowFrame, WindowProblem};
 use crate::aiding::{GnssSample, WheelSample};
 use crate::factors::{ALIGNMENT_SIZE, BodyVelocityFactor, GnssPositionFactor, yaw_rotation};
 use crate::geometry::position_yaw;
@@ -300,7 +300,7 @@ fn wheel_speed_at(wheel: &VecDeque<WheelSample>, t_ns: i64, max_gap_s: f64) -> O
 impl Window {
     /// Adds the alignment block (once initialized) with its initialization prior; called by
     /// `build` before the marginalization prior, which may refer to the block.
-    pub(super) fn add_alignment_block(&self, built: &mut Built) {
+    pub(super) fn add_alignment_block(&self, built: &mut WindowProblem) {
         let Some((a, prior)) = &self.aiding.alignment else {
             return;
         };
@@ -321,7 +321,7 @@ impl Window {
     }
 
     /// The GNSS and wheel factors of the window frames (IMU suites; see the module docs).
-    pub(super) fn add_aiding_factors(&self, built: &mut Built, config: &EstimatorConfig) {
+    pub(super) fn add_aiding_factors(&self, built: &mut WindowProblem, config: &EstimatorConfig) {
         let wc = &config.wheel;
         let wheel_loss: Arc<dyn LossFunction> = Arc::new(HuberLoss {
             delta: wc.huber_sigmas,
@@ -388,7 +388,7 @@ impl Window {
     }
 
     /// Copies the solved alignment back.
-    pub(super) fn write_back_alignment(&mut self, built: &Built) {
+    pub(super) fn write_back_alignment(&mut self, built: &WindowProblem) {
         if let (Some(b), Some((a, _))) = (
             built.block(BlockRef::GnssAlignment),
             self.aiding.alignment.as_mut(),

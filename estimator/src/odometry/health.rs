@@ -10,7 +10,7 @@ use std::fmt;
 use nalgebra::Vector3;
 
 use super::events::{Event, EventKind};
-use super::window::{Built, Window, WindowFrame};
+use super::window::{Window, WindowFrame, WindowProblem};
 use super::{Estimator, KnownStart, Status};
 use crate::geometry::{Pose, so3_log};
 use crate::problem::SolverSummary;
@@ -221,7 +221,7 @@ pub(super) fn check_window(
 }
 
 /// The χ² of `built`'s IMU factors at its current values.
-fn imu_chi2(built: &Built) -> ImuChi2 {
+fn imu_chi2(built: &WindowProblem) -> ImuChi2 {
     let factors = || built.imu.iter().map(|(r, _)| *r);
     ImuChi2 {
         chi2: factors()
@@ -277,7 +277,7 @@ impl Estimator {
     /// gap) fails it once or twice while they converge.
     pub(super) fn window_failure(
         &mut self,
-        built: &Built,
+        built: &WindowProblem,
         summary: &SolverSummary,
         predicted: &Pose,
         imu_active: bool,

@@ -269,7 +269,7 @@ pub struct EstimatorConfig {
     /// scale and stayed 2–3 % short for 50 s, ATE 0.0712 m; renewed, the scale is right within
     /// 1 s: 0.0198 m at 0.2 (0.1: 0.0204, 0.3: 0.0264, 0.5: 0.0315 m; no first estimates at
     /// all: 0.0193 m). Stale first estimates also make a diverging window contradict its IMU
-    /// sooner: at 0.1 the 1 cm-baseline divergence of `tests/faults.rs` failed the χ² test only
+    /// sooner: at 0.1 the 1 cm-baseline divergence of `tests/scenario_tests/faults.rs` failed the χ² test only
     /// at 8.75 s (0.91 m), at 0.2 at 3.50 s (0.33 m), as never renewed (3.75 s, 0.29 m).
     /// Infinite: never.
     pub frame_relinearize_fraction: f64,

@@ -7,8 +7,8 @@
 //! `t + td + δ` and aligned for each candidate shift δ; the smallest residual picks the shift
 //! the window starts from, and the window's own estimation refines it.
 
-use crate::estimator::window::Window;
 use crate::imu::{ImuSample, Preintegration};
+use crate::odometry::window::Window;
 
 /// Step (s) between the shifts tried: the window estimates the offset to well under a
 /// millisecond once it runs; the search only has to start it where the alignment is sound.

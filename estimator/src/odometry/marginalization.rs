@@ -4,7 +4,7 @@
 
 use std::sync::Arc;
 
-use super::window::{BlockRef, Built, Prior, Window};
+use super::window::{BlockRef, Prior, Window, WindowProblem};
 use crate::problem::marginalization::{MarginalizationOptions, marginalize};
 use crate::problem::{BlockId, ResidualId};
 
@@ -14,7 +14,7 @@ use crate::problem::{BlockId, ResidualId};
 /// prior (vision only: the oldest remaining pose fixes the gauge).
 pub(super) fn prior_without_oldest(
     window: &Window,
-    built: &Built,
+    built: &WindowProblem,
     imu_active: bool,
 ) -> Option<Prior> {
     if !imu_active {
@@ -118,7 +118,7 @@ fn points_leaving(
 /// The prior when the second-newest frame is dropped (not a keyframe): only the prior itself
 /// loses that frame's states, if it involves them; its measurements are discarded (VINS-Fusion)
 /// and its IMU interval merges into the newest frame's. `Some(current)` when nothing changes.
-pub(super) fn prior_without_second_newest(window: &Window, built: &Built) -> Option<Prior> {
+pub(super) fn prior_without_second_newest(window: &Window, built: &WindowProblem) -> Option<Prior> {
     let Some(r) = built.prior else {
         return window.prior.clone();
     };
@@ -139,7 +139,7 @@ pub(super) fn prior_without_second_newest(window: &Window, built: &Built) -> Opt
 /// otherwise the general marginalization, which re-expresses the prior at the current values.
 fn prior_alone_without(
     window: &Window,
-    built: &Built,
+    built: &WindowProblem,
     r: ResidualId,
     remove: &[BlockId],
 ) -> Option<Prior> {
@@ -169,7 +169,7 @@ fn prior_alone_without(
 /// The prior without the GNSS alignment (it is forgotten; see
 /// `super::aiding::Window::forget_alignment`): the block is marginalized out of the prior alone.
 /// `Some(current)` when the prior does not involve it.
-pub(super) fn prior_without_alignment(window: &Window, built: &Built) -> Option<Prior> {
+pub(super) fn prior_without_alignment(window: &Window, built: &WindowProblem) -> Option<Prior> {
     let (Some(r), Some(b)) = (built.prior, built.block(BlockRef::GnssAlignment)) else {
         return window.prior.clone();
     };
@@ -180,7 +180,11 @@ pub(super) fn prior_without_alignment(window: &Window, built: &Built) -> Option<
 }
 
 /// Marginalizes `remove` out of `residuals`; `None` when that fails or leaves no information.
-fn prior_from(built: &Built, residuals: &[ResidualId], remove: &[BlockId]) -> Option<Prior> {
+fn prior_from(
+    built: &WindowProblem,
+    residuals: &[ResidualId],
+    remove: &[BlockId],
+) -> Option<Prior> {
     let mp = marginalize(
         &built.problem,
         residuals,

@@ -22,7 +22,7 @@ use nalgebra::{DMatrix, DVector, SymmetricEigen};
 
 use super::config::EstimatorConfig;
 use super::events::{Event, EventKind};
-use super::window::{BlockRef, Built, Window};
+use super::window::{BlockRef, Window, WindowProblem};
 use super::{Estimator, Status};
 use crate::factors::RelativePosePrior;
 use crate::problem::{Euclidean, Linearization, PoseManifold, PriorFactor};
@@ -104,7 +104,11 @@ impl Window {
     ///   the rotation or translation part tightened to the hold while it is held.
     /// - Every camera's pose relative to camera 0 ([`RelativePosePrior`]).
     /// - The time offset at its configured value while it is held.
-    pub(super) fn add_calibration_priors(&self, built: &mut Built, config: &EstimatorConfig) {
+    pub(super) fn add_calibration_priors(
+        &self,
+        built: &mut WindowProblem,
+        config: &EstimatorConfig,
+    ) {
         let gates = self.calibration;
         let (sigma_r, sigma_t) = gates.extrinsic_sigmas(config);
         let (wr, wt) = (1.0 / sigma_r, 1.0 / sigma_t);
@@ -186,7 +190,7 @@ pub struct FreeSigmas {
 /// calibration variables or the window's information is not positive definite. Camera 0's
 /// extrinsic speaks for the rig (the relative priors tie the others to it).
 fn free_sigmas(
-    built: &Built,
+    built: &WindowProblem,
     lin: &Linearization,
     gates: CalibrationGates,
     config: &EstimatorConfig,
@@ -267,7 +271,7 @@ impl Estimator {
     pub(super) fn release_calibration(
         &mut self,
         t_ns: i64,
-        built: &Built,
+        built: &WindowProblem,
         lin: Option<&Linearization>,
         imu_active: bool,
     ) {
@@ -324,9 +328,9 @@ impl Estimator {
 mod tests {
     use super::*;
     use crate::camera::PinholeRadtan;
-    use crate::estimator::config::{CameraConfig, Suite};
     use crate::geometry::Pose;
     use crate::imu::ImuNoise;
+    use crate::odometry::config::{CameraConfig, Suite};
     use crate::problem::{BlockKind, Problem, marginal_covariance, solve_keeping_linearization};
     use nalgebra::{UnitQuaternion, Vector3};
     use rand::{RngExt, SeedableRng};
@@ -357,7 +361,7 @@ mod tests {
     /// A window problem in miniature: a pose, both extrinsics and td, tied together by a random
     /// linear "data" factor of rank `rank` (fewer rows than coordinates leave directions the
     /// data do not see), plus the calibration priors for `gates`.
-    fn built(gates: CalibrationGates, rank: usize, seed: u64) -> Built {
+    fn built(gates: CalibrationGates, rank: usize, seed: u64) -> WindowProblem {
         let config = config();
         let mut window = Window::new(config.cameras.iter().map(|c| c.T_b_c).collect(), 0.0);
         window.calibration = gates;
@@ -404,7 +408,7 @@ mod tests {
             .collect();
         let data = PriorFactor::new(manifolds, points, jac, vec![0.0; rank]).unwrap();
         problem.add_factor(Arc::new(data), None, &blocks).unwrap();
-        let mut built = Built::new(problem, refs, Vec::new());
+        let mut built = WindowProblem::new(problem, refs, Vec::new());
         window.add_calibration_priors(&mut built, &config);
         built
     }

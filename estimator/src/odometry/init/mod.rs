@@ -14,9 +14,9 @@ pub(super) use stereo::{initial_prior, initialize_stereo_inertial};
 
 use nalgebra::{UnitQuaternion, Vector3};
 
-use crate::estimator::window::Window;
 use crate::geometry::Pose;
 use crate::imu::Preintegration;
+use crate::odometry::window::Window;
 
 /// The IMU intervals between consecutive window frames (each frame's from its predecessor);
 /// `None` when a frame has none (an IMU gap inside the window) or one integrated a clipped

@@ -9,9 +9,9 @@ use std::sync::Arc;
 use nalgebra::{DMatrix, Matrix2x3, Matrix6, Vector2, Vector3, Vector6};
 
 use super::five_point::relative_pose_ransac;
-use crate::estimator::triangulation::triangulate;
 use crate::factors::{FeatureMeasurement, PointProjection};
 use crate::geometry::{Pose, skew, so3_exp};
+use crate::odometry::triangulation::triangulate;
 use crate::problem::PriorFactor;
 use crate::problem::{
     BlockId, BlockKind, Euclidean, HuberLoss, LossFunction, PoseManifold, Problem, SolverOptions,

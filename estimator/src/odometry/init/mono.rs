@@ -8,11 +8,11 @@ use super::alignment::{UpToScaleTrajectory, WheelSpeeds, align_with_scale, estim
 use super::sfm::{SfmFailure, SfmSettings, solve_sfm};
 use super::stereo::initial_prior;
 use super::{offset, repropagate, set_gravity_aligned, window_intervals};
-use crate::estimator::config::EstimatorConfig;
-use crate::estimator::window::Window;
 use crate::factors::FeatureMeasurement;
 use crate::geometry::Pose;
 use crate::imu::Preintegration;
+use crate::odometry::config::EstimatorConfig;
+use crate::odometry::window::Window;
 
 /// Why a mono+IMU initialization attempt failed (the next frame tries again).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -39,7 +39,7 @@ pub enum MonoInitFailure {
 /// velocities and the gyroscope bias; every track's depth is cleared for re-triangulation and
 /// the initial prior is set. On failure the states are untouched (the intervals may have been
 /// re-linearized at the estimated gyroscope bias).
-pub(in crate::estimator) fn initialize_mono_inertial(
+pub(in crate::odometry) fn initialize_mono_inertial(
     window: &mut Window,
     config: &EstimatorConfig,
     focal: &[f64],

@@ -6,9 +6,9 @@ use nalgebra::Vector3;
 
 use super::alignment::{align_velocities_and_gravity, estimate_gyro_bias};
 use super::{repropagate, set_gravity_aligned, window_intervals};
-use crate::estimator::config::EstimatorConfig;
-use crate::estimator::window::{BlockRef, Prior, Window, WindowFrame};
 use crate::geometry::Pose;
+use crate::odometry::config::EstimatorConfig;
+use crate::odometry::window::{BlockRef, Prior, Window, WindowFrame};
 use crate::problem::{Euclidean, PoseManifold, PriorFactor};
 
 /// Aligns the visually solved window with the IMU: the gyroscope bias from the visual rotations,
@@ -16,7 +16,7 @@ use crate::problem::{Euclidean, PoseManifold, PriorFactor};
 /// (minimal rotation, origin at the oldest frame) and the window gets the initial prior. Returns
 /// `false` when an interval is missing or a step fails; the states are then untouched (the
 /// intervals may have been re-linearized at the estimated gyroscope bias).
-pub(in crate::estimator) fn initialize_stereo_inertial(
+pub(in crate::odometry) fn initialize_stereo_inertial(
     window: &mut Window,
     config: &EstimatorConfig,
 ) -> bool {
@@ -70,7 +70,7 @@ pub(in crate::estimator) fn initialize_stereo_inertial(
 /// observes, pinned with `gauge_sigma` so that the solver never wanders along them) and its
 /// biases (`initial_ba_sigma`, `initial_bg_sigma` around their current estimates).
 /// Marginalization carries it forward.
-pub(in crate::estimator) fn initial_prior(
+pub(in crate::odometry) fn initial_prior(
     first: &WindowFrame,
     config: &EstimatorConfig,
 ) -> Option<Prior> {

@@ -4,7 +4,7 @@
 use nalgebra::{DMatrix, Matrix3, Matrix6, SMatrix};
 
 use super::Estimator;
-use super::window::{BlockRef, Built, WindowFrame};
+use super::window::{BlockRef, WindowFrame, WindowProblem};
 use crate::geometry::{Pose, skew};
 use crate::problem::{BlockId, Linearization, Problem};
 
@@ -29,7 +29,7 @@ pub struct RelativePose {
 /// if a block of the newest frame is constant or absent, or the information is not positive
 /// definite; the relative pose is `None` when there is no earlier variable pose.
 pub(super) fn newest_covariance(
-    built: &Built,
+    built: &WindowProblem,
     lin: &Linearization,
     frames: &[&WindowFrame],
     interval_s: f64,
