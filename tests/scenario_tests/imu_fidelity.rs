@@ -1,4 +1,4 @@
-//! The fidelity of the simulated IMU (docs/real-data.md, "the fidelity table"): on the whole
+//! The fidelity of the simulated IMU (docs/src/real-data.md, "the fidelity table"): on the whole
 //! EuRoC V1_01 replay with the same simulated cameras, the IMU model fitted to the real log
 //! (`euroc_mav`) predicts the real log's ATE within 0.7–1.4× (mean over seeds 1–5), and the
 //! datasheet model does not. Fifteen 145 s runs (about 5 min on one core): ignored by default,

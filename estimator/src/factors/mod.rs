@@ -11,6 +11,7 @@ mod calibration;
 mod imu;
 mod point;
 mod reprojection;
+mod zero_velocity;
 
 pub use aiding::{ALIGNMENT_SIZE, BodyVelocityFactor, GnssPositionFactor, yaw_rotation};
 pub use calibration::RelativePosePrior;
@@ -20,3 +21,4 @@ pub use reprojection::{
     AnchorBearing, FeatureMeasurement, LANDMARK_SIZE, ProjectionOneFrameTwoCam,
     ProjectionTwoFrameOneCam, ProjectionTwoFrameTwoCam,
 };
+pub use zero_velocity::ZeroVelocityFactor;

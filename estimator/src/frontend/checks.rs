@@ -4,7 +4,7 @@
 use nalgebra::{UnitQuaternion, Vector2, Vector3};
 
 use super::image::{ImageView, OwnedImage, Pyramid};
-use super::tracker::TrackerCamera;
+use super::types::TrackerCamera;
 use crate::camera::CameraModel;
 
 /// Builds `pyr` from `image`, equalized first when asked.

@@ -20,7 +20,5 @@ mod types;
 pub use config::{TrackerConfig, TrackerError};
 pub use image::{ImageError, ImageView, OwnedImage, Pyramid};
 pub use statistics::{TrackStatistics, TrackSummary};
-pub use tracker::{
-    CameraImageView, FeatureTracker, StageTimes, TrackReport, TrackedFeature, TrackerCamera,
-};
-pub use types::{CameraFeatures, FeatureFrame, FeatureObservation};
+pub use tracker::{CameraImageView, FeatureTracker, StageTimes, TrackReport, TrackedFeature};
+pub use types::{CameraFeatures, FeatureFrame, FeatureObservation, TrackerCamera};

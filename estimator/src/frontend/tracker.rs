@@ -15,7 +15,6 @@
 //! step 1). Ids are the tracker's own and never reused: a feature that is lost and found again is
 //! a new track.
 
-use std::sync::Arc;
 use std::time::Instant;
 
 use nalgebra::{UnitQuaternion, Vector2, Vector3};
@@ -27,19 +26,7 @@ use super::corners::{CornerParams, CornerScratch, Occupancy, detect_on_level};
 use super::image::{ImageView, Pyramid};
 use super::klt::{Template, track};
 use super::ransac::{RansacParams, ransac_fundamental};
-use super::types::{CameraFeatures, FeatureFrame, FeatureObservation};
-use crate::camera::CameraModel;
-use crate::geometry::Pose;
-
-/// One camera of the rig as the tracker sees it.
-#[allow(non_snake_case)]
-#[derive(Clone, Debug)]
-pub struct TrackerCamera {
-    /// Projection model.
-    pub model: Arc<dyn CameraModel>,
-    /// Extrinsic `T_b_c` (camera to body).
-    pub T_b_c: Pose,
-}
+use super::types::{CameraFeatures, FeatureFrame, FeatureObservation, TrackerCamera};
 
 /// One camera's image for [`FeatureTracker::track`].
 #[derive(Clone, Copy, Debug)]

@@ -1,6 +1,11 @@
 //! Feature frames: what a camera frame contributes to the estimator.
 
+use std::sync::Arc;
+
 use nalgebra::Vector2;
+
+use crate::camera::CameraModel;
+use crate::geometry::Pose;
 
 /// One tracked feature in one camera image.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -27,4 +32,14 @@ pub struct FeatureFrame {
     pub t_ns: i64,
     /// Per-camera observations; a camera with no entry produced no image this frame.
     pub cameras: Vec<CameraFeatures>,
+}
+
+/// One camera of the rig as the tracker sees it.
+#[allow(non_snake_case)]
+#[derive(Clone, Debug)]
+pub struct TrackerCamera {
+    /// Projection model.
+    pub model: Arc<dyn CameraModel>,
+    /// Extrinsic `T_b_c` (camera to body).
+    pub T_b_c: Pose,
 }

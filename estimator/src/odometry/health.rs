@@ -9,57 +9,12 @@ use std::fmt;
 
 use nalgebra::Vector3;
 
+use super::config::HealthLimits;
 use super::events::{Event, EventKind};
 use super::window::{Window, WindowFrame, WindowProblem};
 use super::{Estimator, KnownStart, Status};
 use crate::geometry::{Pose, so3_log};
 use crate::problem::SolverSummary;
-
-/// Limits of a plausible solved state (defaults: VINS-Fusion's failure detection).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct HealthLimits {
-    /// Largest accelerometer bias norm (m/s²; VINS-Fusion: 2.5).
-    pub max_accel_bias_m_s2: f64,
-    /// Largest gyroscope bias norm (rad/s; VINS-Fusion: 1.0).
-    pub max_gyro_bias_rad_s: f64,
-    /// Largest distance between the newest frame's predicted and solved positions (m;
-    /// VINS-Fusion: 5 m between consecutive frames).
-    pub max_jump_m: f64,
-    /// Largest angle between the newest frame's predicted and solved attitudes (deg;
-    /// VINS-Fusion: 50°).
-    pub max_rotation_jump_deg: f64,
-    /// χ² test of the window's IMU factors: the window fails when the sum of their squared
-    /// whitened residuals at the solution exceeds the χ² quantile of their degrees of freedom
-    /// at this many standard normal deviations (Wilson–Hilferty); 4.75 ≈ one false alarm in a
-    /// million consistent windows; infinite: off. Visual and inertial measurements that no
-    /// state explains together (a diverged scale, a wrong stereo depth) show here first.
-    pub imu_chi2_z: f64,
-    /// Consecutive solves that must fail the IMU χ² test before the window is reset.
-    pub imu_chi2_solves: usize,
-    /// Largest distance (s) of the estimated camera–IMU time offset from the configured
-    /// `td_s`. Real offsets are a few ms (hardware-synchronized rigs) to a few tens of ms (USB
-    /// cameras), and one far beyond means the offset is absorbing a failure: a diverging window
-    /// (1 cm stereo baseline, default motion, seed 1) moved it from 0 to 113 ms in the solve
-    /// after its release, and kept its IMU χ² under the threshold while doing so. A true offset
-    /// beyond the limit makes a reset loop (60 ms against 50: 578 resets on EuRoC V1_01), so
-    /// the limit stays well above real offsets, and a rig with a larger one sets `td_s` near it.
-    pub max_time_offset_deviation_s: f64,
-    /// Largest share of the window's triangulated tracks that its reprojection test may reject
-    /// as outliers, summed over the last `rejected_solves` solves; above it the window is reset
-    /// and the estimator initializes again from the data (≥ 1: off). A window drifting away
-    /// from what its cameras see loses its tracks to that test and is then carried by the IMU
-    /// alone, which the χ² test cannot see: mono+IMU on EuRoC V2_02 with an unmodelled 35 ms
-    /// offset (seed 1, frames' first estimates never renewed) rejected 12–25 % per solve from
-    /// 12 s on and ran to 12 m/s and 13 m ATE.
-    /// Healthy windows: at most 1.1 % over 10 solves on the non-rendered catalog, 4.4 % on
-    /// the Lissajous calibration run's start with its extrinsics still wrong (1.1 s). 10 % over
-    /// 20 solves: twice that, and longer than a start-up transient (20 over 10 solves reset the
-    /// 35 ms run with its offset search on, twice, right after its initialization).
-    pub max_rejected_fraction: f64,
-    /// The number of solves `max_rejected_fraction` is summed over.
-    pub rejected_solves: usize,
-}
 
 /// The window's IMU factors at the solution: `Σ ‖r‖²` and their degrees of freedom.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -79,33 +34,19 @@ pub fn chi2_quantile(dof: usize, z: f64) -> f64 {
     k * (1.0 - v + z * v.sqrt()).powi(3)
 }
 
-impl HealthLimits {
-    /// The failure the biases `(ba, bg)` show, if any.
-    fn bias_failure(&self, ba: &Vector3<f64>, bg: &Vector3<f64>) -> Option<FailureReason> {
-        let (ba, bg) = (ba.norm(), bg.norm());
-        if ba > self.max_accel_bias_m_s2 {
-            Some(FailureReason::AccelBias(ba))
-        } else if bg > self.max_gyro_bias_rad_s {
-            Some(FailureReason::GyroBias(bg))
-        } else {
-            None
-        }
-    }
-}
-
-impl Default for HealthLimits {
-    fn default() -> Self {
-        Self {
-            max_accel_bias_m_s2: 2.5,
-            max_gyro_bias_rad_s: 1.0,
-            max_jump_m: 5.0,
-            max_rotation_jump_deg: 50.0,
-            imu_chi2_z: 4.75,
-            imu_chi2_solves: 3,
-            max_time_offset_deviation_s: 0.1,
-            max_rejected_fraction: 0.1,
-            rejected_solves: 20,
-        }
+/// The failure the biases `(ba, bg)` show under `limits`, if any.
+fn bias_failure(
+    limits: &HealthLimits,
+    ba: &Vector3<f64>,
+    bg: &Vector3<f64>,
+) -> Option<FailureReason> {
+    let (ba, bg) = (ba.norm(), bg.norm());
+    if ba > limits.max_accel_bias_m_s2 {
+        Some(FailureReason::AccelBias(ba))
+    } else if bg > limits.max_gyro_bias_rad_s {
+        Some(FailureReason::GyroBias(bg))
+    } else {
+        None
     }
 }
 
@@ -194,7 +135,7 @@ pub(super) fn check_window(
     }
     let newest = window.frames.back()?;
     if let Some(chi) = imu {
-        if let Some(failure) = limits.bias_failure(&newest.ba, &newest.bg) {
+        if let Some(failure) = bias_failure(limits, &newest.ba, &newest.bg) {
             return Some(failure);
         }
         let td_deviation = (window.td - td_configured_s).abs();
@@ -405,11 +346,7 @@ impl Estimator {
         self.status = Status::Initializing;
         if let Some(good) = self.last_good.take() {
             let uses_imu = self.config.suite.uses_imu();
-            let plausible = self
-                .config
-                .health
-                .bias_failure(&good.ba, &good.bg)
-                .is_none();
+            let plausible = bias_failure(&self.config.health, &good.ba, &good.bg).is_none();
             let zero = Vector3::zeros();
             self.known_start = Some(KnownStart {
                 pose: good.pose,

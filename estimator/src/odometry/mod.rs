@@ -37,16 +37,16 @@ use std::time::Instant;
 
 use nalgebra::{DMatrix, UnitQuaternion, Vector3};
 
-pub use aiding::{GnssAlignment, GnssConfig, WheelConfig};
+pub use aiding::GnssAlignment;
 use batch::History;
 pub use config::{
-    CameraConfig, ConfigError, EstimatorConfig, MAX_PERSISTENT_POINTS, MAX_WINDOW_SIZE, Suite,
+    CameraConfig, ConfigError, EstimatorConfig, GnssConfig, HealthLimits, MAX_PERSISTENT_POINTS,
+    MAX_WINDOW_SIZE, Suite, WheelConfig, ZeroVelocityConfig,
 };
 pub use covariance::{RelativePose, WindowSystem};
 pub use events::{Event, EventKind, LiveSuite};
-pub use health::{FailureReason, HealthLimits};
+pub use health::FailureReason;
 use imu_buffer::ImuBuffer;
-pub use stationary::{ZeroVelocityConfig, ZeroVelocityFactor};
 use window::{ProblemSettings, Window, WindowFrame};
 
 use crate::aiding::{AidingError, GnssSample, WheelSample};

@@ -2,7 +2,7 @@
 //! can confirm: the gyroscope reads its bias, the accelerometer reads gravity plus its bias with
 //! no more spread than its noise, and the features stand still but for their pixel noise.
 //! When all of them agree over `ZeroVelocityConfig::window_s`, the newest frame gets a
-//! [`ZeroVelocityFactor`]: its velocity is zero and its gyroscope bias is the mean rate read,
+//! [`ZeroVelocityFactor`](crate::factors::ZeroVelocityFactor): its velocity is zero and its gyroscope bias is the mean rate read,
 //! so a stop costs no drift and calibrates the gyroscope.
 //!
 //! The decision, over the IMU samples of the last `window_s` and the features of the frame
@@ -36,62 +36,18 @@ use std::collections::{BTreeMap, VecDeque};
 use nalgebra::{Vector2, Vector3};
 
 use super::Estimator;
+use super::config::ZeroVelocityConfig;
 use super::health::chi2_quantile;
 use super::window::WindowFrame;
+use crate::factors::ZeroVelocityFactor;
 use crate::frontend::FeatureFrame;
 use crate::imu::{ImuNoise, ImuSample};
-use crate::problem::Factor;
 
 /// Fewest features two frames of a camera must share for an image decision.
 const MIN_SHARED: usize = 10;
 
 /// Segments of the rest window whose means the vibration test compares.
 pub const SEGMENTS: usize = 5;
-
-/// Zero-velocity detection settings (`[estimator.zero_velocity]`).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct ZeroVelocityConfig {
-    /// Detect rest and add zero-velocity factors (IMU suites). Off by default: on the
-    /// catalog's stops it neither helped nor hurt measurably (ATE within 0.1 mm, seeds 1–3), and
-    /// a detector that is wrong once costs far more than it gains; turn it on for a platform
-    /// known to stop.
-    pub enabled: bool,
-    /// Time span (s) over which the IMU and the images must show rest.
-    pub window_s: f64,
-    /// Largest mean bias-corrected gyroscope rate at rest (rad/s).
-    pub max_rate_rad_s: f64,
-    /// The IMU spread tests' quantile, in standard normal deviations.
-    pub chi2_z: f64,
-    /// Largest median feature displacement at rest, in pixel σ.
-    pub image_motion_sigmas: f64,
-    /// Standard deviation of the zero-velocity constraint (m/s).
-    pub velocity_sigma_m_s: f64,
-    /// Largest speed of the newest frame's predicted state (m/s) at which it may be declared at
-    /// rest. Over `window_s` the sensors cannot tell rest from a slow straight creep (3 cm/s at
-    /// 3 m moves a 458 px image by 0.8 px in 0.25 s, inside the pixel noise); the window's own
-    /// velocity can. Two `velocity_sigma_m_s`: slower than that, a zero-velocity factor is
-    /// consistent with the motion anyway. (A 400 s figure-eight, about 3 cm/s, was called at
-    /// rest on every frame without this check: 7 resets, ATE 0.20 m against 0.012 m.)
-    pub max_speed_m_s: f64,
-    /// Declare rest from the IMU alone when no camera delivers features.
-    pub imu_only_when_blind: bool,
-}
-
-impl Default for ZeroVelocityConfig {
-    fn default() -> Self {
-        Self {
-            enabled: false,
-            window_s: 0.25,
-            max_rate_rad_s: 0.01,
-            chi2_z: 3.0,
-            image_motion_sigmas: 2.5,
-            velocity_sigma_m_s: 0.005,
-            max_speed_m_s: 0.01,
-            imu_only_when_blind: false,
-        }
-    }
-}
 
 /// What the IMU showed over a rest interval: the mean gyroscope reading and how many samples
 /// it averages.
@@ -306,59 +262,14 @@ impl Estimator {
     }
 }
 
-/// Zero velocity at rest on a speed-bias block `[v, ba, bg]`: `r = [v / σ_v,
-/// (b_g − ω̄) / σ_ω̄]`, with `σ_ω̄ = σ_g √rate / √N` the noise of the mean of `N` gyroscope
-/// samples.
-#[derive(Clone, Debug)]
-pub struct ZeroVelocityFactor {
-    /// Standard deviation of the velocity constraint (m/s).
-    pub velocity_sigma: f64,
-    /// Mean gyroscope reading over the rest interval (rad/s).
-    pub gyro_mean: Vector3<f64>,
-    /// Standard deviation of that mean (rad/s).
-    pub gyro_mean_sigma: f64,
-}
-
-impl Factor for ZeroVelocityFactor {
-    fn residual_dim(&self) -> usize {
-        6
-    }
-    fn parameter_block_sizes(&self) -> &[usize] {
-        &[9]
-    }
-    fn parameter_tangent_sizes(&self) -> &[usize] {
-        &[9]
-    }
-    fn evaluate(
-        &self,
-        params: &[&[f64]],
-        residuals: &mut [f64],
-        jacobians: Option<&mut [Option<&mut [f64]>]>,
-    ) -> bool {
-        let sb = params[0];
-        let (wv, wg) = (1.0 / self.velocity_sigma, 1.0 / self.gyro_mean_sigma);
-        for i in 0..3 {
-            residuals[i] = wv * sb[i];
-            residuals[3 + i] = wg * (sb[6 + i] - self.gyro_mean[i]);
-        }
-        if let Some(j) = jacobians.and_then(|j| j[0].as_deref_mut()) {
-            j.fill(0.0);
-            for i in 0..3 {
-                j[i * 9 + i] = wv;
-                j[(3 + i) * 9 + 6 + i] = wg;
-            }
-        }
-        residuals.iter().all(|r| r.is_finite())
-    }
-}
-
-impl ZeroVelocityFactor {
-    /// The factor of a rest interval.
-    pub(super) fn new(rest: &Rest, velocity_sigma: f64) -> Self {
-        Self {
+impl Rest {
+    /// The zero-velocity factor of this rest interval, its velocity held to
+    /// `velocity_sigma` (m/s).
+    pub(super) fn factor(&self, velocity_sigma: f64) -> ZeroVelocityFactor {
+        ZeroVelocityFactor {
             velocity_sigma,
-            gyro_mean: rest.gyro_mean,
-            gyro_mean_sigma: rest.gyro_sample_sigma / (rest.samples.max(1) as f64).sqrt(),
+            gyro_mean: self.gyro_mean,
+            gyro_mean_sigma: self.gyro_sample_sigma / (self.samples.max(1) as f64).sqrt(),
         }
     }
 }
@@ -366,7 +277,6 @@ impl ZeroVelocityFactor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::problem::{CheckOptions, Euclidean, check_factor_jacobians};
 
     /// Deterministic standard normal samples (Box–Muller on an LCG).
     fn normals(seed: &mut u64, n: usize) -> Vec<f64> {
@@ -489,17 +399,5 @@ mod tests {
         let mut m = RestMonitor::default();
         m.record(0, &frame(0.0, &mut seed), window);
         assert_eq!(m.images_at_rest(window, &[2.5]), None);
-    }
-
-    #[test]
-    fn zero_velocity_factor_jacobians() {
-        let f = ZeroVelocityFactor {
-            velocity_sigma: 0.005,
-            gyro_mean: Vector3::new(0.01, -0.02, 0.003),
-            gyro_mean_sigma: 3e-4,
-        };
-        let sb = vec![0.1, -0.2, 0.05, 0.01, 0.02, -0.03, 0.004, -0.002, 0.001];
-        let m = Euclidean::new(9);
-        check_factor_jacobians(&f, &[sb], &[&m], CheckOptions::default()).unwrap();
     }
 }

@@ -14,7 +14,7 @@ use super::aiding::Aiding;
 use super::calibration::CalibrationGates;
 use super::config::EstimatorConfig;
 use super::features::{FeatureManager, Track};
-use super::stationary::{Rest, ZeroVelocityFactor};
+use super::stationary::Rest;
 use crate::factors::{
     AnchorBearing, ImuFactor, LANDMARK_SIZE, ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam,
     ProjectionTwoFrameTwoCam, WorldPointProjection,
@@ -151,7 +151,7 @@ pub(super) struct Window {
     pub points: BTreeMap<u64, Vector3<f64>>,
     next_point: u64,
     /// Frames detected at rest (by seq) and what the IMU read there: each gets a
-    /// [`ZeroVelocityFactor`].
+    /// [`ZeroVelocityFactor`](crate::factors::ZeroVelocityFactor).
     pub rest: BTreeMap<u64, Rest>,
     /// How the extrinsics and the time offset enter the next solves (fixed, held at their
     /// configured values, or free; see [`super::calibration`]).
@@ -324,13 +324,13 @@ impl Window {
         built
     }
 
-    /// A [`ZeroVelocityFactor`] on the speed-bias of every window frame detected at rest.
+    /// A [`ZeroVelocityFactor`](crate::factors::ZeroVelocityFactor) on the speed-bias of every window frame detected at rest.
     fn add_zero_velocity_factors(&self, built: &mut WindowProblem, config: &EstimatorConfig) {
         for (seq, rest) in &self.rest {
             let Some(sb) = built.block(BlockRef::SpeedBias(*seq)) else {
                 continue;
             };
-            let f = ZeroVelocityFactor::new(rest, config.zero_velocity.velocity_sigma_m_s);
+            let f = rest.factor(config.zero_velocity.velocity_sigma_m_s);
             let r = built
                 .problem
                 .add_factor(Arc::new(f), None, &[sb])

@@ -1,10 +1,9 @@
 //! [`RunContext`]: where a run came from, as far as its report, plot and files are concerned.
 
-use super::CalibrationTruth;
 use crate::recorded_imu_report::RecordedImuReport;
 use crate::replay_report::ReplayReport;
 use crate::run_output::RunOutput;
-use crate::spec::{Bound, Scenario, SuiteSpec};
+use crate::spec::{Bound, CalibrationTruth, Scenario, SuiteSpec};
 
 /// Where a run came from, as far as its report, plot and files are concerned: a scenario
 /// ([`RunContext::of`]) or a recorded dataset (`vio euroc`).

@@ -65,7 +65,7 @@ mod gnss;
 mod rest;
 mod static_trajectory;
 mod summary;
-pub use calibration::{CalibrationReport, CalibrationSample, CalibrationTruth, ExtrinsicError};
+pub use calibration::{CalibrationReport, CalibrationSample, ExtrinsicError};
 pub use context::RunContext;
 pub use gnss::{GnssReport, gnss_report};
 pub use rest::{RestInterval, RestReport, RestSpeeds, rest_report};

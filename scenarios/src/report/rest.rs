@@ -27,7 +27,7 @@ impl RestSpeeds {
     /// (EuRoC V1_01 at rest on the floor: 3–6 mm/s on average, up to 15 mm/s), and a
     /// multirotor that takes off passes 0.1 m/s within a frame.
     pub const RECORDED: RestSpeeds = RestSpeeds {
-        rest_m_s: 0.02,
+        rest_m_s: crate::imu_model::residual::REST_SPEED_M_S,
         moving_m_s: 0.05,
     };
 }

@@ -18,11 +18,11 @@ use sim::motion::{Lissajous, RandomWaypoints, Replay};
 use sim::scene::{SceneConfig, ScenePreset};
 use sim::{StaticStartConfig, TrajectoryConfig, WorldConfig};
 
+use super::CalibrationTruth;
 use super::error::serde_name;
 use super::schema::*;
 use super::{Origin, Scenario, SpecError};
 use crate::catalog;
-use crate::report::CalibrationTruth;
 
 impl Scenario {
     /// The projection model of camera `i`.

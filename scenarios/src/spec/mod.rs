@@ -70,6 +70,7 @@ use sim::render::{RenderConfig, RenderError};
 
 use crate::catalog;
 
+mod calibration_truth;
 pub mod error;
 pub(crate) mod exact;
 pub mod imu_error_model;
@@ -79,6 +80,7 @@ mod recorded_imu;
 pub mod schema;
 mod validate;
 
+pub use calibration_truth::CalibrationTruth;
 pub use error::SpecError;
 pub use imu_error_model::{ImuErrorModel, ImuErrorModelSpec};
 pub use recorded_imu::RecordedImuLog;

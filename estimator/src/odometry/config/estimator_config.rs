@@ -2,9 +2,8 @@
 
 use std::sync::Arc;
 
-use super::aiding::{GnssConfig, WheelConfig};
-use super::health::HealthLimits;
-use super::stationary::ZeroVelocityConfig;
+use super::error::{ConfigError, non_negative, positive, positive_or_infinite};
+use super::{GnssConfig, HealthLimits, WheelConfig, ZeroVelocityConfig};
 use crate::camera::CameraModel;
 use crate::geometry::Pose;
 use crate::imu::ImuNoise;
@@ -714,59 +713,3 @@ pub const MAX_WINDOW_SIZE: usize = 100;
 
 /// Most persistent world points: each adds 3 coordinates to the dense reduced system.
 pub const MAX_PERSISTENT_POINTS: usize = 1000;
-
-/// A setting out of its range: the field as serialized (`solver.max_iterations`,
-/// `cameras[1].pixel_sigma`) and why.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[error("{field}: {message}")]
-pub struct ConfigError {
-    /// The field's path.
-    pub field: String,
-    /// What was wrong / expected.
-    pub message: String,
-}
-
-impl ConfigError {
-    pub(super) fn new(field: impl Into<String>, message: impl Into<String>) -> Self {
-        Self {
-            field: field.into(),
-            message: message.into(),
-        }
-    }
-}
-
-/// `Ok` if `v` is finite and > 0; else an error naming `field`.
-/// `v` > 0, infinity included (what infinity means: `infinite`).
-fn positive_or_infinite(field: &str, v: f64, infinite: &str) -> Result<(), ConfigError> {
-    if v > 0.0 {
-        Ok(())
-    } else {
-        Err(ConfigError::new(
-            field,
-            format!("must be > 0 (infinite: {infinite}), got {v}"),
-        ))
-    }
-}
-
-pub(super) fn positive(field: &str, v: f64) -> Result<(), ConfigError> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(ConfigError::new(
-            field,
-            format!("expected a finite number > 0, got {v}"),
-        ))
-    }
-}
-
-/// `Ok` if `v` is finite and ≥ 0; else an error naming `field`.
-fn non_negative(field: &str, v: f64) -> Result<(), ConfigError> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(())
-    } else {
-        Err(ConfigError::new(
-            field,
-            format!("expected a finite number ≥ 0, got {v}"),
-        ))
-    }
-}
