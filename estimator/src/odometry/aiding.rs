@@ -26,7 +26,8 @@ use std::sync::Arc;
 use nalgebra::Vector3;
 
 use super::config::{EstimatorConfig, GnssConfig};
-use super::window::{BlockRef, Window, WindowFrame, WindowProblem};
+use super::frame::{BlockRef, WindowFrame};
+use super::window_problem::WindowProblem;
 use crate::aiding::{GnssSample, WheelSample};
 use crate::factors::{ALIGNMENT_SIZE, BodyVelocityFactor, GnssPositionFactor, yaw_rotation};
 use crate::geometry::position_yaw;
@@ -162,11 +163,11 @@ fn wheel_speed_at(wheel: &VecDeque<WheelSample>, t_ns: i64, max_gap_s: f64) -> O
     Some(a.speed_m_s + f * (b.speed_m_s - a.speed_m_s))
 }
 
-impl Window {
+impl Aiding {
     /// Adds the alignment block (once initialized) with its initialization prior; called by
     /// `build` before the marginalization prior, which may refer to the block.
     pub(super) fn add_alignment_block(&self, built: &mut WindowProblem) {
-        let Some((a, prior)) = &self.aiding.alignment else {
+        let Some((a, prior)) = &self.alignment else {
             return;
         };
         let b = built
@@ -186,13 +187,18 @@ impl Window {
     }
 
     /// The GNSS and wheel factors of the window frames (IMU suites; see the module docs).
-    pub(super) fn add_aiding_factors(&self, built: &mut WindowProblem, config: &EstimatorConfig) {
+    pub(super) fn add_factors(
+        &self,
+        frames: &VecDeque<WindowFrame>,
+        built: &mut WindowProblem,
+        config: &EstimatorConfig,
+    ) {
         let wc = &config.wheel;
         let wheel_loss: Arc<dyn LossFunction> = Arc::new(HuberLoss {
             delta: wc.huber_sigmas,
         });
-        for f in &self.frames {
-            let Some(speed) = wheel_speed_at(&self.aiding.wheel, f.t_ns, wc.max_gap_s) else {
+        for f in frames {
+            let Some(speed) = wheel_speed_at(&self.wheel, f.t_ns, wc.max_gap_s) else {
                 continue;
             };
             let (Some(pose), Some(sb)) = (
@@ -225,14 +231,14 @@ impl Window {
         let gnss_loss: Arc<dyn LossFunction> = Arc::new(HuberLoss {
             delta: gc.huber_sigmas,
         });
-        for (fix, accepted) in &self.aiding.gnss {
+        for (fix, accepted) in &self.gnss {
             if *accepted != Some(true) {
                 continue;
             }
-            let Some((k, dt)) = nearest_frame(&self.frames, fix.t_ns, gc.max_dt_s) else {
+            let Some((k, dt)) = nearest_frame(frames, fix.t_ns, gc.max_dt_s) else {
                 continue;
             };
-            let seq = self.frames[k].seq;
+            let seq = frames[k].seq;
             let (Some(pose), Some(sb)) = (
                 built.block(BlockRef::Pose(seq)),
                 built.block(BlockRef::SpeedBias(seq)),
@@ -256,7 +262,7 @@ impl Window {
     pub(super) fn write_back_alignment(&mut self, built: &WindowProblem) {
         if let (Some(b), Some((a, _))) = (
             built.block(BlockRef::GnssAlignment),
-            self.aiding.alignment.as_mut(),
+            self.alignment.as_mut(),
         ) {
             *a = GnssAlignment::from_slice(built.problem.values(b));
         }
@@ -265,38 +271,37 @@ impl Window {
     /// After the oldest frame (`removed`) left: its fixes (those nearer to it than to the new
     /// oldest frame) went into the prior or were never used, and wheel readings before the new
     /// oldest frame's bracket are no longer needed.
-    pub(super) fn trim_aiding(&mut self, removed: &WindowFrame) {
-        let Some(oldest) = self.frames.front() else {
+    pub(super) fn trim(&mut self, frames: &VecDeque<WindowFrame>, removed: &WindowFrame) {
+        let Some(oldest) = frames.front() else {
             return;
         };
         let mid = removed.t_ns + (oldest.t_ns - removed.t_ns) / 2;
-        while self.aiding.gnss.front().is_some_and(|(s, _)| s.t_ns <= mid) {
-            self.aiding.gnss.pop_front();
+        while self.gnss.front().is_some_and(|(s, _)| s.t_ns <= mid) {
+            self.gnss.pop_front();
         }
-        while self
-            .aiding
-            .wheel
-            .get(1)
-            .is_some_and(|s| s.t_ns <= oldest.t_ns)
-        {
-            self.aiding.wheel.pop_front();
+        while self.wheel.get(1).is_some_and(|s| s.t_ns <= oldest.t_ns) {
+            self.wheel.pop_front();
         }
     }
 
     /// Before a solve, with the alignment: the gate's verdict on the fixes not yet screened,
     /// from their whitened error against the window's current (predicted) states. Returns
     /// `true` when `realign_after_rejections` fixes in a row were rejected.
-    pub(super) fn screen_fixes(&mut self, config: &EstimatorConfig) -> bool {
+    pub(super) fn screen_fixes(
+        &mut self,
+        frames: &VecDeque<WindowFrame>,
+        config: &EstimatorConfig,
+    ) -> bool {
         let gc = &config.gnss;
-        let Some((alignment, _)) = &self.aiding.alignment else {
+        let Some((alignment, _)) = &self.alignment else {
             return false;
         };
         let align = alignment.to_array();
-        for (fix, verdict) in self.aiding.gnss.iter_mut().filter(|(_, v)| v.is_none()) {
-            let Some((k, dt)) = nearest_frame(&self.frames, fix.t_ns, gc.max_dt_s) else {
+        for (fix, verdict) in self.gnss.iter_mut().filter(|(_, v)| v.is_none()) {
+            let Some((k, dt)) = nearest_frame(frames, fix.t_ns, gc.max_dt_s) else {
                 continue;
             };
-            let f = &self.frames[k];
+            let f = &frames[k];
             let sb = [f.v.x, f.v.y, f.v.z, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
             let mut r = [0.0; 3];
             let ok =
@@ -304,65 +309,67 @@ impl Window {
             let accepted = ok && Vector3::from(r).norm() <= gc.gate_sigmas;
             *verdict = Some(accepted);
             if accepted {
-                self.aiding.rejected_streak = 0;
+                self.rejected_streak = 0;
             } else {
-                self.aiding.rejected_streak += 1;
+                self.rejected_streak += 1;
             }
         }
-        self.aiding.rejected_streak >= gc.realign_after_rejections
+        self.rejected_streak >= gc.realign_after_rejections
     }
 
     /// Forgets the alignment (its information about the window's states stays in the prior,
     /// which the caller has already rid of the alignment block) and starts collecting fixes for
     /// a new one from now on.
     pub(super) fn forget_alignment(&mut self) {
-        self.aiding.alignment = None;
-        self.aiding.rejected_streak = 0;
-        self.aiding.pairs.clear();
-        if let Some(last) = self.aiding.gnss.back() {
-            self.aiding.paired_until_ns = last.0.t_ns;
+        self.alignment = None;
+        self.rejected_streak = 0;
+        self.pairs.clear();
+        if let Some(last) = self.gnss.back() {
+            self.paired_until_ns = last.0.t_ns;
         }
     }
 
     /// After a solve, before the alignment exists: pairs the fixes whose frame is settled (all
     /// but the newest frame's) with the estimated antenna positions, and initializes the
     /// alignment once they span enough ground. Returns whether it was initialized now.
-    pub(super) fn collect_for_alignment(&mut self, config: &EstimatorConfig) -> bool {
+    pub(super) fn collect_for_alignment(
+        &mut self,
+        frames: &VecDeque<WindowFrame>,
+        config: &EstimatorConfig,
+    ) -> bool {
         let gc = config.gnss;
-        if self.aiding.alignment.is_some() || self.frames.len() < 2 {
+        if self.alignment.is_some() || frames.len() < 2 {
             return false;
         }
-        let n = self.frames.len();
+        let n = frames.len();
         // Fixes nearer to the second-newest frame than to the newest are settled.
-        let settled_until =
-            self.frames[n - 2].t_ns + (self.frames[n - 1].t_ns - self.frames[n - 2].t_ns) / 2;
+        let settled_until = frames[n - 2].t_ns + (frames[n - 1].t_ns - frames[n - 2].t_ns) / 2;
         let lever = Vector3::from(gc.lever_arm_m);
-        let from = self.aiding.paired_until_ns;
+        let from = self.paired_until_ns;
         let new: Vec<FixPair> = self
-            .aiding
             .gnss
             .iter()
             .map(|(s, _)| s)
             .filter(|s| s.t_ns > from && s.t_ns <= settled_until)
             .filter_map(|fix| {
-                let (k, dt) = nearest_frame(&self.frames, fix.t_ns, gc.max_dt_s)?;
-                let f = &self.frames[k];
+                let (k, dt) = nearest_frame(frames, fix.t_ns, gc.max_dt_s)?;
+                let f = &frames[k];
                 Some(FixPair {
                     antenna_w: f.pose.p + f.pose.q * lever + f.v * dt,
                     fix: *fix,
                 })
             })
             .collect();
-        self.aiding.paired_until_ns = self.aiding.paired_until_ns.max(settled_until);
-        self.aiding.pairs.extend(new);
-        while self.aiding.pairs.len() > gc.align_max_fixes {
-            self.aiding.pairs.pop_front();
+        self.paired_until_ns = self.paired_until_ns.max(settled_until);
+        self.pairs.extend(new);
+        while self.pairs.len() > gc.align_max_fixes {
+            self.pairs.pop_front();
         }
-        let Some(alignment) = align_4dof(&self.aiding.pairs, &gc) else {
+        let Some(alignment) = align_4dof(&self.pairs, &gc) else {
             return false;
         };
-        self.aiding.alignment = Some(alignment);
-        self.aiding.pairs.clear();
+        self.alignment = Some(alignment);
+        self.pairs.clear();
         true
     }
 }

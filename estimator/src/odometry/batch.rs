@@ -2,8 +2,9 @@
 //! keyframes, solved at once without marginalization, on the measurements the window had.
 
 use super::features::Observation;
+use super::frame::WindowFrame;
 use super::triangulation;
-use super::window::{Window, WindowFrame};
+use super::window::Window;
 use super::{Estimator, Status};
 use crate::geometry::Pose;
 use crate::problem::{SolverOptions, SolverSummary, solve};

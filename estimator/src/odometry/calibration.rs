@@ -22,7 +22,8 @@ use nalgebra::{DMatrix, DVector, SymmetricEigen};
 
 use super::config::EstimatorConfig;
 use super::events::{Event, EventKind};
-use super::window::{BlockRef, Window, WindowProblem};
+use super::frame::BlockRef;
+use super::window_problem::WindowProblem;
 use super::{Estimator, Status};
 use crate::factors::RelativePosePrior;
 use crate::problem::{Euclidean, Linearization, PoseManifold, PriorFactor};
@@ -97,19 +98,15 @@ impl CalibrationGates {
     }
 }
 
-impl Window {
+impl CalibrationGates {
     /// The calibration priors, on variable calibration blocks only; none touches a state that
     /// ever leaves the window, so none enters the marginalization prior: each counts once.
     /// - Each camera's `T_b_c` at its configured value (`extrinsic_prior_sigma_deg` / `_m`),
     ///   the rotation or translation part tightened to the hold while it is held.
     /// - Every camera's pose relative to camera 0 ([`RelativePosePrior`]).
     /// - The time offset at its configured value while it is held.
-    pub(super) fn add_calibration_priors(
-        &self,
-        built: &mut WindowProblem,
-        config: &EstimatorConfig,
-    ) {
-        let gates = self.calibration;
+    pub(super) fn add_priors(&self, built: &mut WindowProblem, config: &EstimatorConfig) {
+        let gates = *self;
         let (sigma_r, sigma_t) = gates.extrinsic_sigmas(config);
         let (wr, wt) = (1.0 / sigma_r, 1.0 / sigma_t);
         for (i, camera) in config.cameras.iter().enumerate() {
@@ -331,6 +328,7 @@ mod tests {
     use crate::geometry::Pose;
     use crate::imu::ImuNoise;
     use crate::odometry::config::{CameraConfig, Suite};
+    use crate::odometry::window::Window;
     use crate::problem::{BlockKind, Problem, marginal_covariance, solve_keeping_linearization};
     use nalgebra::{UnitQuaternion, Vector3};
     use rand::{RngExt, SeedableRng};
@@ -409,7 +407,7 @@ mod tests {
         let data = PriorFactor::new(manifolds, points, jac, vec![0.0; rank]).unwrap();
         problem.add_factor(Arc::new(data), None, &blocks).unwrap();
         let mut built = WindowProblem::new(problem, refs, Vec::new());
-        window.add_calibration_priors(&mut built, &config);
+        window.calibration.add_priors(&mut built, &config);
         built
     }
 

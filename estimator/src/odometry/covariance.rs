@@ -4,7 +4,8 @@
 use nalgebra::{DMatrix, Matrix3, Matrix6, SMatrix};
 
 use super::Estimator;
-use super::window::{BlockRef, WindowFrame, WindowProblem};
+use super::frame::{BlockRef, WindowFrame};
+use super::window_problem::WindowProblem;
 use crate::geometry::{Pose, skew};
 use crate::problem::{BlockId, Linearization, Problem};
 

@@ -4,7 +4,9 @@
 
 use std::sync::Arc;
 
-use super::window::{BlockRef, Prior, Window, WindowProblem};
+use super::frame::{BlockRef, Prior};
+use super::window::Window;
+use super::window_problem::WindowProblem;
 use crate::problem::marginalization::{MarginalizationOptions, marginalize};
 use crate::problem::{BlockId, ResidualId};
 
@@ -167,7 +169,7 @@ fn prior_alone_without(
 }
 
 /// The prior without the GNSS alignment (it is forgotten; see
-/// `super::aiding::Window::forget_alignment`): the block is marginalized out of the prior alone.
+/// `super::aiding::Aiding::forget_alignment`): the block is marginalized out of the prior alone.
 /// `Some(current)` when the prior does not involve it.
 pub(super) fn prior_without_alignment(window: &Window, built: &WindowProblem) -> Option<Prior> {
     let (Some(r), Some(b)) = (built.prior, built.block(BlockRef::GnssAlignment)) else {

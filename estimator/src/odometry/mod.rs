@@ -15,10 +15,12 @@
 mod aiding;
 mod batch;
 mod calibration;
+mod chi2;
 pub mod config;
 mod covariance;
 pub mod events;
 mod features;
+mod frame;
 mod frozen;
 pub mod health;
 mod imu_buffer;
@@ -30,6 +32,7 @@ mod stationary;
 mod time_offset;
 mod triangulation;
 mod window;
+mod window_problem;
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -45,9 +48,11 @@ pub use config::{
 };
 pub use covariance::{RelativePose, WindowSystem};
 pub use events::{Event, EventKind, LiveSuite};
+use frame::WindowFrame;
 pub use health::FailureReason;
 use imu_buffer::ImuBuffer;
-use window::{ProblemSettings, Window, WindowFrame};
+use window::Window;
+use window_problem::ProblemSettings;
 
 use crate::aiding::{AidingError, GnssSample, WheelSample};
 use crate::frontend::FeatureFrame;
@@ -611,11 +616,14 @@ impl Estimator {
             self.tracking_since = None;
         }
         self.configure_calibration();
-        if imu_active && self.window.screen_fixes(&self.config) {
+        if imu_active && {
+            let w = &mut self.window;
+            w.aiding.screen_fixes(&w.frames, &self.config)
+        } {
             // The receiver's frame moved: the alignment leaves the prior and starts again.
             let built = self.window.build(&self.problem_settings(), imu_active);
             self.window.prior = marginalization::prior_without_alignment(&self.window, &built);
-            self.window.forget_alignment();
+            self.window.aiding.forget_alignment();
             self.events.push(Event {
                 t_ns,
                 kind: EventKind::GnssAlignmentDropped,
@@ -666,7 +674,10 @@ impl Estimator {
             }
             _ => (None, None),
         };
-        if imu_active && self.window.collect_for_alignment(&self.config) {
+        if imu_active && {
+            let w = &mut self.window;
+            w.aiding.collect_for_alignment(&w.frames, &self.config)
+        } {
             self.events.push(Event {
                 t_ns,
                 kind: EventKind::GnssAligned,

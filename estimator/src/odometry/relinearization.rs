@@ -35,7 +35,8 @@ use std::sync::Arc;
 
 use nalgebra::Vector3;
 
-use super::window::{BlockRef, Window};
+use super::frame::BlockRef;
+use super::window::Window;
 use crate::geometry::Pose;
 use crate::problem::{Factor, PriorFactor};
 

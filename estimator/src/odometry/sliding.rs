@@ -2,7 +2,7 @@
 //! leaving itself (the prior it leaves behind, the estimate it finalizes).
 
 use super::events::{Event, EventKind};
-use super::window::WindowProblem;
+use super::window_problem::WindowProblem;
 use super::{Estimator, Status, marginalization};
 use crate::frontend::FeatureFrame;
 

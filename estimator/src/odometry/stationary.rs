@@ -36,9 +36,9 @@ use std::collections::{BTreeMap, VecDeque};
 use nalgebra::{Vector2, Vector3};
 
 use super::Estimator;
+use super::chi2::chi2_quantile;
 use super::config::ZeroVelocityConfig;
-use super::health::chi2_quantile;
-use super::window::WindowFrame;
+use super::frame::WindowFrame;
 use crate::factors::ZeroVelocityFactor;
 use crate::frontend::FeatureFrame;
 use crate::imu::{ImuNoise, ImuSample};

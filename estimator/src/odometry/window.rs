@@ -14,66 +14,16 @@ use super::aiding::Aiding;
 use super::calibration::CalibrationGates;
 use super::config::EstimatorConfig;
 use super::features::{FeatureManager, Track};
+use super::frame::{BlockRef, Prior, WindowFrame};
 use super::stationary::Rest;
+use super::window_problem::{ProblemSettings, WindowProblem};
 use crate::factors::{
     AnchorBearing, ImuFactor, LANDMARK_SIZE, ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam,
     ProjectionTwoFrameTwoCam, WorldPointProjection,
 };
 use crate::geometry::Pose;
-use crate::imu::{ImuNoise, Preintegration};
-use crate::problem::{
-    BlockId, BlockKind, Euclidean, Factor, LinearFactor, LossFunction, PoseManifold, PriorFactor,
-    Problem, ResidualId,
-};
-
-/// A frame's state in the window.
-#[derive(Clone, Debug)]
-pub(super) struct WindowFrame {
-    pub seq: u64,
-    pub t_ns: i64,
-    pub pose: Pose,
-    pub v: Vector3<f64>,
-    pub ba: Vector3<f64>,
-    pub bg: Vector3<f64>,
-    /// IMU interval from the previous window frame to this one.
-    pub preint: Option<Preintegration>,
-}
-
-/// A parameter block of the window, independent of any one `Problem`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum BlockRef {
-    Pose(u64),
-    SpeedBias(u64),
-    Extrinsic(usize),
-    Td,
-    /// A persistent world point (`Window::points` key).
-    Point(u64),
-    /// The GNSS alignment `T_g_w` (see [`super::aiding`]).
-    GnssAlignment,
-}
-
-/// The marginalization prior and the window states it constrains, in its block order.
-pub(super) type Prior = (Arc<PriorFactor>, Vec<BlockRef>);
-
-/// A window problem and the map from its blocks back to the window's states.
-pub(super) struct WindowProblem {
-    pub problem: Problem,
-    pub refs: Vec<(BlockRef, BlockId)>,
-    pub landmarks: Vec<(u64, BlockId)>,
-    /// (IMU factor, or bias random-walk factor across an IMU gap; index of its later frame in
-    /// the window).
-    pub imu: Vec<(ResidualId, usize)>,
-    /// (residual, track id) of the inverse-depth landmarks' factors.
-    pub visual: Vec<(ResidualId, u64)>,
-    /// Persistent world points: (point key, block).
-    pub points: Vec<(u64, BlockId)>,
-    /// (residual, point key, frame seq) of every observation of a persistent world point.
-    pub point_obs: Vec<(ResidualId, u64, u64)>,
-    /// (factor, frame seq) of the factors on one frame's states (zero velocity, GNSS, wheel):
-    /// they go into the prior with their frame.
-    pub frame_factors: Vec<(ResidualId, u64)>,
-    pub prior: Option<ResidualId>,
-}
+use crate::imu::ImuNoise;
+use crate::problem::{BlockId, BlockKind, Euclidean, Factor, LinearFactor, PoseManifold, Problem};
 
 impl Window {
     /// Observations of the solved landmarks and points in the newest frame.
@@ -90,45 +40,6 @@ impl Window {
         let points = built.point_obs.iter().filter(|(_, _, s)| *s == seq).count();
         tracks + points
     }
-}
-
-impl WindowProblem {
-    /// A problem whose blocks are `refs` (and the persistent `points` among them), with no
-    /// factor recorded yet.
-    pub fn new(
-        problem: Problem,
-        refs: Vec<(BlockRef, BlockId)>,
-        points: Vec<(u64, BlockId)>,
-    ) -> Self {
-        Self {
-            problem,
-            refs,
-            landmarks: Vec::new(),
-            imu: Vec::new(),
-            visual: Vec::new(),
-            points,
-            point_obs: Vec::new(),
-            frame_factors: Vec::new(),
-            prior: None,
-        }
-    }
-
-    /// The problem block of a window state, if it is in the problem.
-    pub fn block(&self, r: BlockRef) -> Option<BlockId> {
-        self.refs.iter().find(|(x, _)| *x == r).map(|(_, b)| *b)
-    }
-
-    /// The problem block of a window state if it is in the problem and not held constant.
-    pub fn variable_block(&self, r: BlockRef) -> Option<BlockId> {
-        self.block(r).filter(|b| !self.problem.is_constant(*b))
-    }
-}
-
-/// What the window's problem needs besides the states: settings and the robust loss.
-pub(super) struct ProblemSettings<'a> {
-    pub config: &'a EstimatorConfig,
-    /// Robust loss of the reprojection factors.
-    pub huber: &'a Arc<dyn LossFunction>,
 }
 
 /// The states of the sliding window (one owner: everything the solver estimates lives here).
@@ -253,9 +164,9 @@ impl Window {
         problem.set_constant(td_block, !(self.calibration.td_variable() && imu_active));
         refs.push((BlockRef::Td, td_block));
         let mut built = WindowProblem::new(problem, refs, points);
-        self.add_calibration_priors(&mut built, config);
+        self.calibration.add_priors(&mut built, config);
         if imu_active {
-            self.add_alignment_block(&mut built);
+            self.aiding.add_alignment_block(&mut built);
         }
         if !imu_active {
             // Vision only: the oldest pose fixes the gauge.
@@ -318,7 +229,7 @@ impl Window {
         }
         if imu_active {
             self.add_zero_velocity_factors(&mut built, config);
-            self.add_aiding_factors(&mut built, config);
+            self.aiding.add_factors(&self.frames, &mut built, config);
         }
         self.add_visual_factors(&mut built, settings, td_block);
         built
@@ -575,7 +486,7 @@ impl Window {
         if let Some(b) = built.block(BlockRef::Td) {
             self.td = built.problem.values(b)[0];
         }
-        self.write_back_alignment(built);
+        self.aiding.write_back_alignment(built);
         for (k, b) in &built.points {
             if let Some(x) = self.points.get_mut(k) {
                 let v = built.problem.values(*b);
@@ -651,7 +562,7 @@ impl Window {
             }
         }
         let removed = self.frames.pop_front().expect("non-empty window");
-        self.trim_aiding(&removed);
+        self.aiding.trim(&self.frames, &removed);
         removed
     }
 

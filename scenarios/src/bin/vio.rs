@@ -472,7 +472,7 @@ fn tracks_command(
 
 /// `--duration`: finite, > 0 and within the simulator's one-day bound.
 fn check_duration(duration: Option<f64>) -> Result<(), ExitCode> {
-    let max = sim::validate::limits::MAX_DURATION_S;
+    let max = sim::limits::MAX_DURATION_S;
     match duration {
         Some(d) if !(d.is_finite() && d > 0.0 && d <= max) => {
             eprintln!("error: --duration must be a number of seconds in (0, {max}], got {d}");

@@ -219,7 +219,7 @@ impl Scenario {
         if f.start_s.is_some() && !(start.is_finite() && end.is_finite() && end > start) {
             return Err(self.error(&key("end_s"), "expected finite start_s < end_s"));
         }
-        let limit = sim::validate::limits::MAX_DURATION_S;
+        let limit = sim::limits::MAX_DURATION_S;
         for (name, v) in [("start_s", f.start_s), ("end_s", f.end_s), ("at_s", f.at_s)] {
             if let Some(v) = v
                 && !(v.is_finite() && (0.0..=limit).contains(&v))

@@ -4,7 +4,7 @@
 //! landmarks, knots). After them, building the world and estimator configurations fails only on
 //! data files; each error names the key and its line.
 
-use sim::validate::limits;
+use sim::limits;
 
 use super::{Scenario, SpecError, SuiteSpec};
 

@@ -147,7 +147,7 @@ impl Sweep {
             return Err(at("seeds", "expected at least one seed".into()));
         }
         if let Some(d) = spec.duration_s
-            && !(d.is_finite() && d > 0.0 && d <= sim::validate::limits::MAX_DURATION_S)
+            && !(d.is_finite() && d > 0.0 && d <= sim::limits::MAX_DURATION_S)
         {
             return Err(at(
                 "duration_s",

@@ -487,11 +487,11 @@ pub fn load_recording(
     let median_spacing_s = spacing_raw * unit.seconds();
     let span = samples[samples.len() - 1].t - samples[0].t;
     let knots = span / options.knot_spacing_s;
-    if knots > crate::validate::limits::MAX_SPLINE_KNOTS {
+    if knots > crate::limits::MAX_SPLINE_KNOTS {
         return Err(unusable(format!(
             "{knots:.3e} spline knots (span {span:.1} s / knot spacing {} s) exceed the limit of {:.0e}",
             options.knot_spacing_s,
-            crate::validate::limits::MAX_SPLINE_KNOTS
+            crate::limits::MAX_SPLINE_KNOTS
         )));
     }
     // Glitches.

@@ -271,10 +271,10 @@ impl PoseSpline {
             )));
         }
         let knots = span / dt;
-        if knots > crate::validate::limits::MAX_SPLINE_KNOTS {
+        if knots > crate::limits::MAX_SPLINE_KNOTS {
             return Err(TrajectoryError::Unusable(format!(
                 "{knots:.3e} spline knots (span {span:.6e} s / knot spacing {dt} s) exceed the limit of {:.0e}: are the timestamps in seconds?",
-                crate::validate::limits::MAX_SPLINE_KNOTS
+                crate::limits::MAX_SPLINE_KNOTS
             )));
         }
         let n = knots.ceil() as usize + 3;

@@ -8,7 +8,8 @@ use super::alignment::{align_velocities_and_gravity, estimate_gyro_bias};
 use super::{repropagate, set_gravity_aligned, window_intervals};
 use crate::geometry::Pose;
 use crate::odometry::config::EstimatorConfig;
-use crate::odometry::window::{BlockRef, Prior, Window, WindowFrame};
+use crate::odometry::frame::{BlockRef, Prior, WindowFrame};
+use crate::odometry::window::Window;
 use crate::problem::{Euclidean, PoseManifold, PriorFactor};
 
 /// Aligns the visually solved window with the IMU: the gyroscope bias from the visual rotations,

@@ -106,3 +106,32 @@ pub fn dense_normal_equations(
         blocks,
     ))
 }
+
+/// The `m × m` covariance whose entries `(r, r')` are `H⁻¹[c, c']` for each `(r, c)` of
+/// `picks` (output row, column of the symmetric `n × n` information `h`, overwritten by its
+/// Cholesky factor) and zero for output rows without a pick. `None` if `h` is not positive
+/// definite.
+pub(crate) fn covariance_of_picks(
+    h: &mut [f64],
+    n: usize,
+    picks: &[(usize, usize)],
+    m: usize,
+) -> Option<DMatrix<f64>> {
+    // Unit columns of the picked coordinates, solved in place (column-major, n × picks).
+    let k = picks.len();
+    let mut x = vec![0.0; n * k];
+    for (j, &(_, c)) in picks.iter().enumerate() {
+        x[j * n + c] = 1.0;
+    }
+    if !dense_cholesky_solve(h, n, &mut x, k, &mut None) {
+        return None;
+    }
+    // Symmetric by construction up to rounding.
+    let mut cov = DMatrix::zeros(m, m);
+    for (i, &(ri, ci)) in picks.iter().enumerate() {
+        for (j, &(rj, cj)) in picks.iter().enumerate() {
+            cov[(ri, rj)] = 0.5 * (x[j * n + ci] + x[i * n + cj]);
+        }
+    }
+    Some(cov)
+}

@@ -3,9 +3,9 @@
 
 use nalgebra::DMatrix;
 
+use super::covariance_of_picks;
 use super::normal_equations::NormalEquations;
 use super::plan::{Layout, NONE};
-use crate::problem::covariance::covariance_of_picks;
 use crate::problem::graph::BlockId;
 
 /// The Gauss-Newton information of a problem at the point of a solve's last linearization,

@@ -18,7 +18,7 @@ mod schur;
 
 use std::time::{Duration, Instant};
 
-pub(crate) use dense::dense_cholesky_solve;
+pub(crate) use dense::covariance_of_picks;
 pub use dense::dense_normal_equations;
 pub use linearization::Linearization;
 use normal_equations::{NormalEquations, max_abs};
