@@ -22,6 +22,8 @@
 //! ends with the rates measured on each side (position; attitude in the tangent space). Either way [`RecordingReport`] says
 //! what was found and done.
 
+use std::path::Path;
+
 use nalgebra::{UnitQuaternion, Vector3};
 
 use super::reference::Reference;
@@ -624,6 +626,23 @@ pub fn load_recording(
         fit_max_deg: fit_rad.to_degrees(),
     };
     Ok((replay, report))
+}
+
+impl Replay {
+    /// Reads a TUM or EuRoC ASL file and fits it, with the checks of
+    /// [`load_recording`] (no repair). Bytes that are not UTF-8 (a Latin-1
+    /// comment) are replaced, not refused: only the numbers matter.
+    pub fn from_file(path: &Path, knot_spacing_s: f64) -> Result<Self, TrajectoryError> {
+        let bytes = std::fs::read(path).map_err(|e| TrajectoryError::Io {
+            path: path.display().to_string(),
+            source: e,
+        })?;
+        let options = RecordingOptions {
+            knot_spacing_s,
+            ..Default::default()
+        };
+        load_recording(&String::from_utf8_lossy(&bytes), &options).map(|(replay, _)| replay)
+    }
 }
 
 #[cfg(test)]

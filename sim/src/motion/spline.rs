@@ -14,7 +14,6 @@ use super::reference::{RefState, Reference, attitude_from_ypr};
 use crate::rng::sensor_rng;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3, Vector4};
 use rand::RngExt;
-use std::path::Path;
 
 /// Number of spline channels: px py pz qw qx qy qz.
 const DIM: usize = 7;
@@ -438,22 +437,6 @@ impl Replay {
             t_file0: samples[0].t,
             samples,
         })
-    }
-
-    /// Reads a TUM or EuRoC ASL file and fits it, with the checks of
-    /// [`super::recording::load_recording`] (no repair). Bytes that are not UTF-8 (a Latin-1
-    /// comment) are replaced, not refused: only the numbers matter.
-    pub fn from_file(path: &Path, knot_spacing_s: f64) -> Result<Self, TrajectoryError> {
-        let bytes = std::fs::read(path).map_err(|e| TrajectoryError::Io {
-            path: path.display().to_string(),
-            source: e,
-        })?;
-        let options = super::recording::RecordingOptions {
-            knot_spacing_s,
-            ..Default::default()
-        };
-        super::recording::load_recording(&String::from_utf8_lossy(&bytes), &options)
-            .map(|(replay, _)| replay)
     }
 
     /// The spline's state at a time of the file's clock (s).
