@@ -616,10 +616,8 @@ impl Estimator {
             self.tracking_since = None;
         }
         self.configure_calibration();
-        if imu_active && {
-            let w = &mut self.window;
-            w.aiding.screen_fixes(&w.frames, &self.config)
-        } {
+        let window = &mut self.window;
+        if imu_active && window.aiding.screen_fixes(&window.frames, &self.config) {
             // The receiver's frame moved: the alignment leaves the prior and starts again.
             let built = self.window.build(&self.problem_settings(), imu_active);
             self.window.prior = marginalization::prior_without_alignment(&self.window, &built);
@@ -674,10 +672,12 @@ impl Estimator {
             }
             _ => (None, None),
         };
-        if imu_active && {
-            let w = &mut self.window;
-            w.aiding.collect_for_alignment(&w.frames, &self.config)
-        } {
+        let window = &mut self.window;
+        if imu_active
+            && window
+                .aiding
+                .collect_for_alignment(&window.frames, &self.config)
+        {
             self.events.push(Event {
                 t_ns,
                 kind: EventKind::GnssAligned,

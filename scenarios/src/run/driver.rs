@@ -115,13 +115,11 @@ pub(crate) fn drive(
         }
     }
     let mut out = recorder.out;
-    match out.interrupted_at_s {
-        Some(t) => {
-            out.duration_s = t;
-            source.finish(&mut out, true)?;
-        }
-        None => source.finish(&mut out, false)?,
+    if let Some(t) = out.interrupted_at_s {
+        out.duration_s = t;
     }
+    let interrupted = out.interrupted_at_s.is_some();
+    source.finish(&mut out, interrupted)?;
     if options.batch_reference {
         out.batch_reference = Some(batch_reference(&mut estimator));
     }

@@ -364,6 +364,7 @@ pub(crate) fn replay_euroc(
     let source = Recorded {
         data: &data,
         frames,
+        stamps,
         tracker,
         uses_imu: suite.uses_imu(),
         gyro: GyroIntegrator::default(),
@@ -387,6 +388,8 @@ pub(crate) fn replay_euroc(
 struct Recorded<'a> {
     data: &'a EurocDataset,
     frames: Frames,
+    /// Each frame's stamp (dataset clock), in order.
+    stamps: Vec<i64>,
     /// The image front end (`None`: feature tracks are fed as they are).
     tracker: Option<FeatureTracker>,
     /// Whether the front end predicts rotations from the gyroscope.
@@ -452,11 +455,7 @@ impl Source for Recorded<'_> {
             .get(self.imu_i)
             .map(|s| s.t_ns)
             .filter(|&t| t <= end);
-        let frame_t = match &self.frames {
-            Frames::Images(v) => v.get(self.frame_i).map(|f| f.0),
-            Frames::Features(v) => v.get(self.frame_i).map(|f| f.t_ns),
-        }
-        .filter(|&t| t <= end);
+        let frame_t = self.stamps.get(self.frame_i).copied().filter(|&t| t <= end);
         Ok(Some(match (imu_t, frame_t) {
             (None, None) => return Ok(None),
             (Some(a), b) if b.is_none_or(|b| a <= b) => {
