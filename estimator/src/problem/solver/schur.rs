@@ -10,8 +10,9 @@ use faer::{Accum, MatMut, MatRef, Par};
 use nalgebra::{DMatrix, DVector};
 
 use super::dense::{dense_cholesky_resolve, dense_cholesky_solve};
-use super::normal_equations::{NormalEquations, linearize, mirror_upper, split_dot};
+use super::normal_equations::{NormalEquations, linearize};
 use super::plan::{Layout, NONE};
+use super::vector::{Step, dot, mirror_upper, split_dot};
 use crate::problem::graph::{BlockId, Problem, ResidualId};
 
 impl NormalEquations {
@@ -290,32 +291,6 @@ pub(crate) fn small_spd_inverse(a: &[f64], t: usize) -> Option<Vec<f64>> {
     let m = DMatrix::from_row_slice(t, t, a);
     let inv = m.cholesky()?.inverse();
     Some(inv.transpose().as_slice().to_vec())
-}
-
-/// Dot product with four independent partial sums (vectorizable; a fixed summation order, so
-/// results are deterministic).
-#[inline(always)]
-pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let b = &b[..a.len()];
-    let (ac, ar) = a.as_chunks::<4>();
-    let (bc, br) = b.as_chunks::<4>();
-    let mut s = [0.0; 4];
-    for (x, y) in ac.iter().zip(bc) {
-        for k in 0..4 {
-            s[k] += x[k] * y[k];
-        }
-    }
-    let mut t = (s[0] + s[2]) + (s[1] + s[3]);
-    for (x, y) in ar.iter().zip(br) {
-        t += x * y;
-    }
-    t
-}
-
-/// A step in the full space: reduced states then stacked landmarks.
-pub(crate) struct Step {
-    pub dx: Vec<f64>,
-    pub dl: Vec<f64>,
 }
 
 /// Buffers of the damped reduced system, reused across the steps of a solve.

@@ -1,0 +1,61 @@
+//! The bottom floor of the solver: full-space steps and the few vector and row-major matrix
+//! operations every other solver file shares, each summed in a fixed order.
+
+/// Dot product with four independent partial sums (vectorizable; a fixed summation order, so
+/// results are deterministic).
+#[inline(always)]
+pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let b = &b[..a.len()];
+    let (ac, ar) = a.as_chunks::<4>();
+    let (bc, br) = b.as_chunks::<4>();
+    let mut s = [0.0; 4];
+    for (x, y) in ac.iter().zip(bc) {
+        for k in 0..4 {
+            s[k] += x[k] * y[k];
+        }
+    }
+    let mut t = (s[0] + s[2]) + (s[1] + s[3]);
+    for (x, y) in ar.iter().zip(br) {
+        t += x * y;
+    }
+    t
+}
+
+/// A step in the full space: reduced states then stacked landmarks.
+pub(crate) struct Step {
+    pub dx: Vec<f64>,
+    pub dl: Vec<f64>,
+}
+
+/// `gᵀv` for a full-space gradient given as its state and landmark parts.
+pub(crate) fn split_dot((gx, gl): (&[f64], &[f64]), v: &Step) -> f64 {
+    let s: f64 = gx.iter().zip(&v.dx).map(|(a, b)| a * b).sum();
+    s + gl.iter().zip(&v.dl).map(|(a, b)| a * b).sum::<f64>()
+}
+
+/// `max |v|` over a full-space vector.
+pub(crate) fn max_abs(v: &Step) -> f64 {
+    v.dx.iter().chain(&v.dl).fold(0.0f64, |a, x| a.max(x.abs()))
+}
+
+/// Euclidean norm of a full-space vector.
+pub(crate) fn norm(s: &Step) -> f64 {
+    s.dx.iter().chain(&s.dl).map(|v| v * v).sum::<f64>().sqrt()
+}
+
+/// `k · s`.
+pub(crate) fn scale(s: &Step, k: f64) -> Step {
+    Step {
+        dx: s.dx.iter().map(|v| v * k).collect(),
+        dl: s.dl.iter().map(|v| v * k).collect(),
+    }
+}
+
+/// Copies the upper triangle of a row-major square matrix onto its lower triangle.
+pub(crate) fn mirror_upper(h: &mut [f64], n: usize) {
+    for i in 0..n {
+        for j in i + 1..n {
+            h[j * n + i] = h[i * n + j];
+        }
+    }
+}
