@@ -9,8 +9,8 @@
 use estimator::imu::{ImuNoise, ImuSample};
 use serde::Serialize;
 
-use crate::imu_model::analysis::Options;
 use crate::imu_model::comparison::compare;
+use crate::imu_model::options::Options;
 use crate::imu_model::report::{GroundTruthSection, SensorPair};
 use crate::spec::RecordedImuLog;
 

@@ -9,6 +9,7 @@ use super::comparison::compare;
 use super::error_model::fit_error_model;
 use super::fit::{NoiseFit, SlopeReadoff, fit_noise_model, slope_readoff};
 use super::motion::check_motion;
+use super::options::{MIN_SAMPLES, Options};
 use super::report::{
     AllanSection, AxisAllan, ImuModel, KalibrReference, SCHEMA, Selection, SensorAllan, SensorPair,
     SensorSpectrum, SpectrumSection,
@@ -16,27 +17,11 @@ use super::report::{
 use super::spectrum::{Psd, find_lines, octave_bands, runs_of, segment_length, welch};
 use crate::dataset::GroundTruthState;
 
-/// Fewest samples an Allan deviation is computed from.
-pub const MIN_SAMPLES: usize = 100;
 /// Lines reported per spectrum.
 const MAX_LINES: usize = 6;
 /// Lowest frequency a line is looked for at (Hz).
 const LINE_MIN_HZ: f64 = 1.0;
 const AXES: [&str; 3] = ["x", "y", "z"];
-
-/// What to analyse and how.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Options {
-    /// Start of the stretch (s from the log's first sample); default the start.
-    pub from_s: Option<f64>,
-    /// End of the stretch (s from the log's first sample); default the end.
-    pub to_s: Option<f64>,
-    /// With ground truth: rest is before this time (s from the log's start) instead of detected.
-    pub rest_until_s: Option<f64>,
-    /// Knot spacing (s) of the spline through the ground truth; default its median period, at
-    /// least [`super::residual::MIN_DEFAULT_KNOT_SPACING_S`].
-    pub knot_spacing_s: Option<f64>,
-}
 
 /// The data to analyse.
 #[derive(Clone, Debug, Default)]

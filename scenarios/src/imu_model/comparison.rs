@@ -6,7 +6,7 @@
 use estimator::imu::ImuSample;
 use nalgebra::Vector3;
 
-use super::analysis::{MIN_SAMPLES, Options};
+use super::options::{MIN_SAMPLES, Options};
 use super::report::{GroundTruthSection, ResidualStats, SensorPair};
 use super::residual::{
     self, GRAVITY, Implied, clock_lag, default_knot_spacing_s, detect_rest, frame_rotation,

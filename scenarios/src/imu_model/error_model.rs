@@ -33,10 +33,9 @@
 //! flight from 0.05 m/s, a 1 s lag.
 
 use nalgebra::Vector3;
-use serde::Serialize;
 
 use super::comparison::Comparison;
-use super::report::{ImuModel, SensorPair, SensorSpectrum};
+use super::report::{FittedErrorModel, ImuModel, OctaveCheck, SensorPair, SensorSpectrum};
 use super::spectrum::Band;
 use super::synthesis;
 use crate::spec::ImuErrorModelSpec;
@@ -197,34 +196,6 @@ fn first_guess(m: &ImuModel, white: (f64, f64)) -> Option<ImuErrorModelSpec> {
             flight: profile(Some(&flight.gyro), Some(&flight.accel), white),
         }),
     })
-}
-
-/// One octave of the fit check: the real residual's power and the calibrated model's.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct OctaveCheck {
-    /// `flight` or `rest`.
-    pub profile: &'static str,
-    /// `gyro` or `accel`.
-    pub sensor: &'static str,
-    /// Lower edge (Hz).
-    pub lo_hz: f64,
-    /// Upper edge (Hz).
-    pub hi_hz: f64,
-    /// The real residual's power, all axes (unit²).
-    pub real_power: f64,
-    /// The power the model predicts, all axes, mean over the calibration seeds (unit²).
-    pub predicted_power: f64,
-}
-
-/// The fitted error model (`error_model.toml`) and how well it predicts the residual.
-#[derive(Clone, Debug, Serialize)]
-pub struct FittedErrorModel {
-    /// The model.
-    pub model: ImuErrorModelSpec,
-    /// Calibration rounds.
-    pub iterations: usize,
-    /// Per octave, real and predicted power after calibration.
-    pub check: Vec<OctaveCheck>,
 }
 
 /// The spectral estimate the real residual went through: gyro and accel series and the samples

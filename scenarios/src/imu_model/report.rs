@@ -1,6 +1,4 @@
-//! `imu_model.json`: what `vio imu-model` found, and the files it writes.
-
-use std::path::{Path, PathBuf};
+//! `imu_model.json`: what `vio imu-model` found.
 
 use serde::Serialize;
 
@@ -9,6 +7,7 @@ use super::fit::{NoiseFit, SlopeReadoff};
 use super::motion::MotionCheck;
 use super::residual::{ClockLag, FrameCheck};
 use super::spectrum::{Band, Line, Psd};
+use crate::spec::ImuErrorModelSpec;
 
 /// Schema name and version of `imu_model.json`.
 pub const SCHEMA: &str = "vio-imu-model/1";
@@ -34,7 +33,7 @@ pub struct ImuModel {
     pub spectrum: SpectrumSection,
     /// With ground truth: the fitted IMU error model and its check.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub error_model: Option<super::error_model::FittedErrorModel>,
+    pub error_model: Option<FittedErrorModel>,
     /// What the numbers mean and where they cannot be trusted.
     pub notes: Vec<String>,
 }
@@ -197,28 +196,30 @@ pub struct SensorSpectrum {
     pub lines: Vec<Line>,
 }
 
-/// Writes `imu_model.json`, `allan.png` and `spectrum.png` into `dir` (created), and with a
-/// ground truth `error_model.toml` (the fitted IMU error model); returns the paths written.
-pub fn write_outputs(dir: &Path, model: &ImuModel) -> Result<Vec<PathBuf>, String> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    let mut written = Vec::new();
-    let json = dir.join("imu_model.json");
-    let text = serde_json::to_string_pretty(model).map_err(|e| e.to_string())? + "\n";
-    std::fs::write(&json, text).map_err(|e| format!("{}: {e}", json.display()))?;
-    written.push(json);
-    for (name, png) in [
-        ("allan.png", super::plot::allan_png(model)?),
-        ("spectrum.png", super::plot::spectrum_png(model)?),
-    ] {
-        let path = dir.join(name);
-        std::fs::write(&path, png).map_err(|e| format!("{}: {e}", path.display()))?;
-        written.push(path);
-    }
-    if let Some(fitted) = &model.error_model {
-        let path = dir.join("error_model.toml");
-        let text = toml::to_string(&fitted.model).map_err(|e| e.to_string())?;
-        std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
-        written.push(path);
-    }
-    Ok(written)
+/// One octave of the fit check: the real residual's power and the calibrated model's.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct OctaveCheck {
+    /// `flight` or `rest`.
+    pub profile: &'static str,
+    /// `gyro` or `accel`.
+    pub sensor: &'static str,
+    /// Lower edge (Hz).
+    pub lo_hz: f64,
+    /// Upper edge (Hz).
+    pub hi_hz: f64,
+    /// The real residual's power, all axes (unit²).
+    pub real_power: f64,
+    /// The power the model predicts, all axes, mean over the calibration seeds (unit²).
+    pub predicted_power: f64,
+}
+
+/// The fitted error model (`error_model.toml`) and how well it predicts the residual.
+#[derive(Clone, Debug, Serialize)]
+pub struct FittedErrorModel {
+    /// The model.
+    pub model: ImuErrorModelSpec,
+    /// Calibration rounds.
+    pub iterations: usize,
+    /// Per octave, real and predicted power after calibration.
+    pub check: Vec<OctaveCheck>,
 }

@@ -260,7 +260,7 @@ pub fn summary(m: &ImuModel) -> String {
 }
 
 /// The fitted error model: what it holds and how its predicted residual compares per octave.
-fn error_model_rows(out: &mut String, f: &super::error_model::FittedErrorModel) {
+fn error_model_rows(out: &mut String, f: &super::report::FittedErrorModel) {
     let bands = f
         .model
         .vibration

@@ -1,0 +1,17 @@
+//! What `vio imu-model` is asked to analyse, and the least data it analyses.
+
+/// Fewest samples an Allan deviation is computed from.
+pub const MIN_SAMPLES: usize = 100;
+/// What to analyse and how.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Options {
+    /// Start of the stretch (s from the log's first sample); default the start.
+    pub from_s: Option<f64>,
+    /// End of the stretch (s from the log's first sample); default the end.
+    pub to_s: Option<f64>,
+    /// With ground truth: rest is before this time (s from the log's start) instead of detected.
+    pub rest_until_s: Option<f64>,
+    /// Knot spacing (s) of the spline through the ground truth; default its median period, at
+    /// least [`super::residual::MIN_DEFAULT_KNOT_SPACING_S`].
+    pub knot_spacing_s: Option<f64>,
+}
