@@ -7,7 +7,7 @@ use crate::limits;
 use crate::motion::Reference;
 use crate::scene::{Aabb, SceneConfig};
 use crate::vibration::Vibration;
-use crate::{SimError, TrajectoryConfig, WorldConfig};
+use crate::world_config::{SimError, TrajectoryConfig, WorldConfig};
 
 fn finite_positive(what: &str, v: f64) -> Result<(), SimError> {
     if v.is_finite() && v > 0.0 {
