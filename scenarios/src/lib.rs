@@ -19,8 +19,6 @@
 //! - [`imu_model`] — `vio imu-model`: Allan deviation, noise-model fit, spectra and the residual
 //!   of a recorded IMU log against its ground truth.
 
-pub mod batch;
-pub mod bench;
 pub mod catalog;
 pub mod dataset;
 pub mod export;
@@ -28,16 +26,11 @@ pub mod frontend;
 pub mod images;
 pub mod imu_model;
 pub mod metrics;
-pub mod nees;
 pub mod plot;
-pub mod recorded_imu_report;
-pub mod recovery;
-pub mod regress;
-pub mod replay_report;
 pub mod report;
 pub mod run;
 pub mod run_output;
 pub mod selfcheck;
 pub mod spec;
-pub mod sweep;
+pub mod studies;
 pub mod tracks_image;

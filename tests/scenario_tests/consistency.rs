@@ -3,7 +3,7 @@
 
 use crate::common;
 
-use scenarios::batch::BatchReport;
+use scenarios::report::window_vs_batch::BatchReport;
 use scenarios::run::RunOptions;
 use scenarios::spec::Scenario;
 
@@ -52,7 +52,7 @@ fn the_window_stays_within_a_stated_factor_of_the_batch_over_60_s() {
 
 #[test]
 fn nees_study_is_deterministic_and_consistent() {
-    use scenarios::nees::{NeesOptions, run_nees};
+    use scenarios::studies::nees_monte_carlo::{NeesOptions, run_nees};
     let scenario = Scenario::load("room_figure8_stereo_imu").unwrap();
     let options = |threads| NeesOptions {
         seeds: vec![1, 2, 3],
@@ -61,7 +61,7 @@ fn nees_study_is_deterministic_and_consistent() {
     };
     let one = run_nees(&scenario, &options(1)).unwrap();
     let two = run_nees(&scenario, &options(2)).unwrap();
-    print!("{}", scenarios::nees::summary(&one));
+    print!("{}", scenarios::studies::nees_monte_carlo::summary(&one));
     for (a, b) in one.metrics.iter().zip(&two.metrics) {
         assert_eq!(
             a.series, b.series,

@@ -175,7 +175,7 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
-    /// Benchmark: fixed scenarios per suite and camera mode (`scenarios::bench::SCENARIOS`),
+    /// Benchmark: fixed scenarios per suite and camera mode (`scenarios::studies::bench::SCENARIOS`),
     /// each in its own process; per-stage timing (median / p99 / max per frame), frames per
     /// second, peak memory; a table and `OUT/bench.json` with date and machine.
     Bench {
@@ -328,23 +328,25 @@ fn main() -> ExitCode {
             shard,
             jobs,
         } => sweep_command(&file, &out, shard.as_deref(), jobs),
-        Command::SweepMerge { dirs, out } => match scenarios::sweep::merge::merge(&dirs, &out) {
-            Ok(files) => {
-                say(&format!(
-                    "merged {} shards into {}\n",
-                    dirs.len(),
-                    out.display()
-                ));
-                for f in files {
-                    say(&format!("  {}\n", f.display()));
+        Command::SweepMerge { dirs, out } => {
+            match scenarios::studies::sweep::merge::merge(&dirs, &out) {
+                Ok(files) => {
+                    say(&format!(
+                        "merged {} shards into {}\n",
+                        dirs.len(),
+                        out.display()
+                    ));
+                    for f in files {
+                        say(&format!("  {}\n", f.display()));
+                    }
+                    ExitCode::SUCCESS
                 }
-                ExitCode::SUCCESS
+                Err(e) => {
+                    eprintln!("vio sweep-merge: error: {e}");
+                    ExitCode::from(BAD_INPUT)
+                }
             }
-            Err(e) => {
-                eprintln!("vio sweep-merge: error: {e}");
-                ExitCode::from(BAD_INPUT)
-            }
-        },
+        }
         Command::Bench { quick, out, one } => bench_command(quick, out, one),
         Command::Selfcheck => {
             let result = scenarios::selfcheck::run();

@@ -1,7 +1,7 @@
 //! [`RunContext`]: where a run came from, as far as its report, plot and files are concerned.
 
-use crate::recorded_imu_report::RecordedImuReport;
-use crate::replay_report::ReplayReport;
+use super::recorded_imu::RecordedImuReport;
+use super::replay::ReplayReport;
 use crate::run_output::RunOutput;
 use crate::spec::{Bound, CalibrationTruth, Scenario, SuiteSpec};
 

@@ -4,7 +4,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::Report;
-use crate::batch;
+use super::window_vs_batch;
 
 fn opt(v: Option<f64>, digits: usize, unit: &str) -> String {
     match v {
@@ -194,7 +194,7 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
         r.suite_switches, r.imu_samples_excluded, r.imu_samples_saturated
     );
     if let Some(b) = &r.batch_reference {
-        let _ = writeln!(s, "batch ref     {}", batch::summary_line(b));
+        let _ = writeln!(s, "batch ref     {}", window_vs_batch::summary_line(b));
     }
     for e in r
         .events

@@ -5,7 +5,7 @@ use crate::common;
 use common::vio;
 
 /// `vio bench --one NAME --quick`'s row; asserts it exits 0.
-fn row(name: &str) -> scenarios::bench::BenchRow {
+fn row(name: &str) -> scenarios::studies::bench::BenchRow {
     let out = vio(&["bench", "--one", name, "--quick"]);
     assert_eq!(
         out.status.code(),

@@ -215,7 +215,7 @@ fn a_whole_number_is_scaled_like_its_float_twin() {
     );
     let pixel = |value: &str| {
         let f = write(dir, "s.toml", &base.replace("VALUE", value));
-        let sweep = scenarios::sweep::Sweep::load(&f).unwrap_or_else(|e| panic!("{e}"));
+        let sweep = scenarios::studies::sweep::Sweep::load(&f).unwrap_or_else(|e| panic!("{e}"));
         let s = sweep.scenario(&[0, 0]).unwrap();
         s.spec.rig.cameras[0].pixel_sigma_px
     };

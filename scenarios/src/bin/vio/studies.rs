@@ -11,7 +11,7 @@ pub(super) fn sweep_command(
     shard: Option<&str>,
     jobs: Option<usize>,
 ) -> ExitCode {
-    use scenarios::sweep::{Sweep, run::Shard};
+    use scenarios::studies::sweep::{Sweep, run::Shard};
     let bad = |e: String| {
         eprintln!("vio sweep: error: {e}");
         ExitCode::from(BAD_INPUT)
@@ -45,7 +45,7 @@ pub(super) fn sweep_command(
         }
     }
     if shard_spec.is_none()
-        && let Err(e) = scenarios::sweep::merge::merge(&[out.to_path_buf()], out)
+        && let Err(e) = scenarios::studies::sweep::merge::merge(&[out.to_path_buf()], out)
     {
         return bad(e);
     }
@@ -60,7 +60,7 @@ pub(super) fn sweep_command(
 }
 
 pub(super) fn bench_command(quick: bool, out: Option<PathBuf>, one: Option<String>) -> ExitCode {
-    use scenarios::bench;
+    use scenarios::studies::bench;
     let bad = |e: String| {
         eprintln!("vio bench: error: {e}");
         ExitCode::from(BAD_INPUT)
@@ -134,7 +134,7 @@ pub(super) fn regress_command(
     junit: Option<PathBuf>,
     update: bool,
 ) -> ExitCode {
-    use scenarios::regress;
+    use scenarios::studies::regress;
     let bad = |e: String| {
         eprintln!("vio regress: error: {e}");
         ExitCode::from(BAD_INPUT)
@@ -229,14 +229,14 @@ pub(super) fn nees_command(
     if let Err(code) = check_duration(duration) {
         return code;
     }
-    let options = scenarios::nees::NeesOptions {
+    let options = scenarios::studies::nees_monte_carlo::NeesOptions {
         seeds: (1..=seeds).collect(),
         duration_s: duration,
         threads: threads.unwrap_or_else(|| {
             std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
         }),
     };
-    let r = match scenarios::nees::run_nees(&scenario, &options) {
+    let r = match scenarios::studies::nees_monte_carlo::run_nees(&scenario, &options) {
         Ok(r) => r,
         Err(e) => {
             eprintln!("error: {e}");
@@ -245,8 +245,8 @@ pub(super) fn nees_command(
     };
     let out_dir =
         out.unwrap_or_else(|| PathBuf::from("vio-out").join(format!("{}-nees", scenario.name)));
-    say(&scenarios::nees::summary(&r));
-    match scenarios::nees::write_outputs(&out_dir, &r) {
+    say(&scenarios::studies::nees_monte_carlo::summary(&r));
+    match scenarios::studies::nees_monte_carlo::write_outputs(&out_dir, &r) {
         Ok(files) => say(&format!("files         {}\n", files.join(", "))),
         Err(e) => {
             eprintln!("error: {e}");

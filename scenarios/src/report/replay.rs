@@ -4,7 +4,7 @@
 use serde::Serialize;
 use sim::motion::recording::RecordingReport;
 
-use crate::recorded_imu_report::RecordedImuReport;
+use crate::report::recorded_imu::RecordedImuReport;
 
 /// `report.json` → `replay`.
 #[derive(Clone, Debug, PartialEq, Serialize)]
