@@ -17,7 +17,7 @@
 //! - [`frontend`]: the KLT image front end; [`camera`]: camera models; [`imu`]:
 //!   preintegration; [`aiding`]: GNSS and wheel inputs; [`geometry`]: poses and rotations.
 
-pub mod aiding;
+pub mod aiding_samples;
 pub mod camera;
 pub mod factors;
 pub mod frontend;
@@ -26,7 +26,7 @@ pub mod imu;
 pub mod odometry;
 pub mod problem;
 
-pub use aiding::{GnssSample, WheelSample};
+pub use aiding_samples::{GnssSample, WheelSample};
 pub use frontend::FeatureFrame;
 pub use imu::ImuSample;
 pub use odometry::{

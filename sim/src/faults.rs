@@ -7,9 +7,9 @@
 
 use crate::render::{CameraImage, ImageFrame};
 use crate::rng::sensor_rng;
-use estimator::aiding::{GnssSample, WheelSample};
 use estimator::frontend::{FeatureFrame, FeatureObservation};
 use estimator::imu::ImuSample;
+use estimator::{GnssSample, WheelSample};
 use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};

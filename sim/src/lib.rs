@@ -19,7 +19,7 @@
 //! `g = (0, 0, −9.81)`; body frame = IMU frame; poses `T_w_b`. Determinism: every random draw
 //! comes from a ChaCha8 stream derived from (seed, sensor name) ([`rng::sensor_rng`]).
 
-pub mod aiding;
+pub mod aiding_sensors;
 pub mod bias_instability;
 pub mod camera;
 pub mod faults;

@@ -5,7 +5,7 @@
 //! frames are generated on demand, and ground truth older than the retention window is dropped,
 //! so memory stays bounded however long the scenario runs.
 
-use crate::aiding::{GnssSim, WheelSim};
+use crate::aiding_sensors::{GnssSim, WheelSim};
 use crate::camera::RigSim;
 use crate::faults::FaultTimeline;
 use crate::imu::ImuBias;
@@ -14,10 +14,10 @@ use crate::motion::{Kinematics, TruthBuffer};
 use crate::render::{CameraImage, DepthImage, GrayImage, ImageFrame, RenderError, Renderer};
 use crate::render_worker::{RenderJob, RenderWorker};
 use crate::scene::Landmark;
-use estimator::aiding::{GnssSample, WheelSample};
 use estimator::frontend::FeatureFrame;
 use estimator::geometry::Pose;
 use estimator::imu::ImuSample;
+use estimator::{GnssSample, WheelSample};
 use nalgebra::Vector3;
 use std::collections::VecDeque;
 

@@ -1,7 +1,7 @@
 //! The world: scene, trajectory, IMU, camera rig, aiding sensors and faults under one seed, and
 //! the measurement stream and ground truth it answers with.
 
-use crate::aiding::{GnssSim, WheelSim};
+use crate::aiding_sensors::{GnssSim, WheelSim};
 use crate::camera::RigSim;
 use crate::faults::{Fault, FaultTimeline};
 use crate::imu::ImuSim;

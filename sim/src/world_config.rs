@@ -1,7 +1,7 @@
 //! What a world is built from ([`WorldConfig`], plain data with defaults) and the error of
 //! building one.
 
-use crate::aiding::{GnssConfig, WheelConfig};
+use crate::aiding_sensors::{GnssConfig, WheelConfig};
 use crate::camera::RigConfig;
 use crate::faults::Fault;
 use crate::imu::ImuConfig;

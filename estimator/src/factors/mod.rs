@@ -6,17 +6,20 @@
 //! world point 3/3 (the structure from motion's points and the window's persistent landmarks);
 //! the GNSS alignment `[t, ψ]` 4/4.
 
-mod aiding;
-mod calibration;
+mod body_velocity;
+mod gnss_position;
 mod imu;
 mod point;
+mod relative_pose_prior;
 mod reprojection;
+mod row_blocks;
 mod zero_velocity;
 
-pub use aiding::{ALIGNMENT_SIZE, BodyVelocityFactor, GnssPositionFactor, yaw_rotation};
-pub use calibration::RelativePosePrior;
+pub use body_velocity::BodyVelocityFactor;
+pub use gnss_position::{ALIGNMENT_SIZE, GnssPositionFactor, yaw_rotation};
 pub use imu::ImuFactor;
 pub use point::{PointProjection, WorldPointProjection};
+pub use relative_pose_prior::RelativePosePrior;
 pub use reprojection::{
     AnchorBearing, FeatureMeasurement, LANDMARK_SIZE, ProjectionOneFrameTwoCam,
     ProjectionTwoFrameOneCam, ProjectionTwoFrameTwoCam,

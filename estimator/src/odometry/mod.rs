@@ -12,12 +12,11 @@
 //! visual-inertial alignment, the world is rotated so gravity is −z, and IMU factors are used
 //! from then on.
 
-mod aiding;
-mod batch;
-mod calibration;
+mod aiding_fusion;
+mod batch_reference;
+mod calibration_gates;
 mod chi2;
 pub mod config;
-mod covariance;
 pub mod events;
 mod features;
 mod frame;
@@ -25,13 +24,14 @@ mod frozen;
 pub mod health;
 mod imu_buffer;
 mod init;
-mod marginalization;
+mod marginalization_policy;
 mod relinearization;
 mod sliding;
 mod stationary;
 mod time_offset;
 mod triangulation;
 mod window;
+mod window_information;
 mod window_problem;
 
 use std::collections::VecDeque;
@@ -40,21 +40,21 @@ use std::time::Instant;
 
 use nalgebra::{DMatrix, UnitQuaternion, Vector3};
 
-pub use aiding::GnssAlignment;
-use batch::History;
+pub use aiding_fusion::GnssAlignment;
+use batch_reference::History;
 pub use config::{
     CameraConfig, ConfigError, EstimatorConfig, GnssConfig, HealthLimits, MAX_PERSISTENT_POINTS,
     MAX_WINDOW_SIZE, Suite, WheelConfig, ZeroVelocityConfig,
 };
-pub use covariance::{RelativePose, WindowSystem};
 pub use events::{Event, EventKind, LiveSuite};
 use frame::WindowFrame;
 pub use health::FailureReason;
 use imu_buffer::ImuBuffer;
 use window::Window;
+pub use window_information::{RelativePose, WindowSystem};
 use window_problem::ProblemSettings;
 
-use crate::aiding::{AidingError, GnssSample, WheelSample};
+use crate::aiding_samples::{AidingError, GnssSample, WheelSample};
 use crate::frontend::FeatureFrame;
 use crate::geometry::Pose;
 use crate::imu::{ImuError, ImuSample};
@@ -620,7 +620,8 @@ impl Estimator {
         if imu_active && window.aiding.screen_fixes(&window.frames, &self.config) {
             // The receiver's frame moved: the alignment leaves the prior and starts again.
             let built = self.window.build(&self.problem_settings(), imu_active);
-            self.window.prior = marginalization::prior_without_alignment(&self.window, &built);
+            self.window.prior =
+                marginalization_policy::prior_without_alignment(&self.window, &built);
             self.window.aiding.forget_alignment();
             self.events.push(Event {
                 t_ns,
@@ -667,7 +668,7 @@ impl Estimator {
             Some(lin) if self.config.compute_covariance => {
                 let frames: Vec<&WindowFrame> = self.window.frames.iter().collect();
                 let interval_s = self.config.relative_pose_interval_s;
-                covariance::newest_covariance(&built, lin, &frames, interval_s)
+                window_information::newest_covariance(&built, lin, &frames, interval_s)
                     .map_or((None, None), |(c, r)| (Some(c), r))
             }
             _ => (None, None),

@@ -3,7 +3,7 @@
 
 use super::events::{Event, EventKind};
 use super::window_problem::WindowProblem;
-use super::{Estimator, Status, marginalization};
+use super::{Estimator, Status, marginalization_policy};
 use crate::frontend::FeatureFrame;
 
 impl Estimator {
@@ -75,7 +75,7 @@ impl Estimator {
             let had_prior = self.window.prior.is_some();
             let removed = if keyframe {
                 self.window.prior =
-                    marginalization::prior_without_oldest(&self.window, built, imu_active);
+                    marginalization_policy::prior_without_oldest(&self.window, built, imu_active);
                 // With a prior, the oldest frame's anchored landmarks and all their observations
                 // are now in it, so by default those tracks end here; re-anchoring and re-using
                 // the observations (VINS-Fusion's choice, `reuse_marginalized_tracks`) counts
@@ -87,7 +87,7 @@ impl Estimator {
                 self.window.remove_oldest(in_prior, &self.config)
             } else {
                 self.window.prior =
-                    marginalization::prior_without_second_newest(&self.window, built);
+                    marginalization_policy::prior_without_second_newest(&self.window, built);
                 self.window.remove_second_newest()
             };
             if self.status == Status::Tracking {

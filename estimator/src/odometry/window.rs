@@ -10,8 +10,8 @@ use std::sync::Arc;
 
 use nalgebra::Vector3;
 
-use super::aiding::Aiding;
-use super::calibration::CalibrationGates;
+use super::aiding_fusion::Aiding;
+use super::calibration_gates::CalibrationGates;
 use super::config::EstimatorConfig;
 use super::features::{FeatureManager, Track};
 use super::frame::{BlockRef, Prior, WindowFrame};

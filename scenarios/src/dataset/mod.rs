@@ -8,7 +8,7 @@
 //! Numbers are written in Rust's shortest round-trip form, so write → read gives back the exact
 //! `f64` values and write → read → write is byte-identical.
 
-mod euroc;
+mod euroc_asl;
 mod features;
 pub mod kalibr;
 mod sensor_yaml;
@@ -17,7 +17,7 @@ mod yaml;
 
 use std::path::{Path, PathBuf};
 
-pub use euroc::{
+pub use euroc_asl::{
     CameraFrame, EurocCamera, EurocDataset, GroundTruthState, format_camera_csv,
     format_groundtruth_csv, format_imu_csv, parse_camera_csv, parse_groundtruth_csv, parse_imu_csv,
     read_camera_csv, read_euroc, read_euroc_cameras, read_groundtruth_csv, read_imu_csv,

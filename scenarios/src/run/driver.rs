@@ -4,11 +4,11 @@
 
 use std::time::Instant;
 
-use estimator::aiding::{GnssSample, WheelSample};
 use estimator::frontend::FeatureFrame;
 use estimator::imu::ImuSample;
 use estimator::problem::SolverOptions;
 use estimator::{Estimate, Estimator};
+use estimator::{GnssSample, WheelSample};
 use sim::stream::GroundTruth;
 
 use super::{BatchReference, Recorder, RunControl, RunError, RunOptions, RunOutput};

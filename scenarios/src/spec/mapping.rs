@@ -565,13 +565,13 @@ impl Scenario {
             imu: imu_cfg,
             scene,
             rig: Some(rig),
-            gnss: s.rig.gnss.map(|g| sim::aiding::GnssConfig {
+            gnss: s.rig.gnss.map(|g| sim::aiding_sensors::GnssConfig {
                 rate_hz: g.rate_hz,
                 sigma_m: Vector3::from(g.sigma_m),
                 lever_arm_b: Vector3::from(g.lever_arm_m),
                 ..Default::default()
             }),
-            wheel: s.rig.wheel.map(|w| sim::aiding::WheelConfig {
+            wheel: s.rig.wheel.map(|w| sim::aiding_sensors::WheelConfig {
                 rate_hz: w.rate_hz,
                 sigma_m_s: w.sigma_m_s,
                 ..Default::default()

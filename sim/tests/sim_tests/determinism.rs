@@ -2,7 +2,7 @@
 
 use crate::common;
 
-use sim::aiding::{GnssConfig, WheelConfig};
+use sim::aiding_sensors::{GnssConfig, WheelConfig};
 use sim::faults::Fault;
 use sim::stream::Measurement;
 use sim::{World, WorldConfig};

@@ -6,7 +6,7 @@
 //! The receiver's frame is the simulator's world frame: the estimator, which starts in a frame
 //! of its own, has to find the alignment between the two.
 
-use estimator::aiding::{GnssSample, WheelSample};
+use estimator::{GnssSample, WheelSample};
 use nalgebra::Vector3;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};

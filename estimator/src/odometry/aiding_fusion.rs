@@ -28,7 +28,7 @@ use nalgebra::Vector3;
 use super::config::{EstimatorConfig, GnssConfig};
 use super::frame::{BlockRef, WindowFrame};
 use super::window_problem::WindowProblem;
-use crate::aiding::{GnssSample, WheelSample};
+use crate::aiding_samples::{GnssSample, WheelSample};
 use crate::factors::{ALIGNMENT_SIZE, BodyVelocityFactor, GnssPositionFactor, yaw_rotation};
 use crate::geometry::position_yaw;
 use crate::problem::{Euclidean, Factor, HuberLoss, LossFunction, PriorFactor};
@@ -91,7 +91,7 @@ pub(super) struct Aiding {
 
 impl Aiding {
     /// Buffers a fix (refused when invalid or out of order).
-    pub fn push_gnss(&mut self, s: GnssSample) -> Result<(), crate::aiding::AidingError> {
+    pub fn push_gnss(&mut self, s: GnssSample) -> Result<(), crate::aiding_samples::AidingError> {
         s.validate()?;
         check_order("gnss", &mut self.last_gnss_ns, s.t_ns)?;
         self.gnss.push_back((s, None));
@@ -99,7 +99,7 @@ impl Aiding {
     }
 
     /// Buffers a wheel reading (refused when invalid or out of order).
-    pub fn push_wheel(&mut self, s: WheelSample) -> Result<(), crate::aiding::AidingError> {
+    pub fn push_wheel(&mut self, s: WheelSample) -> Result<(), crate::aiding_samples::AidingError> {
         s.validate()?;
         check_order("wheel", &mut self.last_wheel_ns, s.t_ns)?;
         self.wheel.push_back(s);
@@ -121,11 +121,11 @@ fn check_order(
     sensor: &'static str,
     last: &mut Option<i64>,
     t_ns: i64,
-) -> Result<(), crate::aiding::AidingError> {
+) -> Result<(), crate::aiding_samples::AidingError> {
     if let Some(prev) = *last
         && t_ns <= prev
     {
-        return Err(crate::aiding::AidingError::NonIncreasing {
+        return Err(crate::aiding_samples::AidingError::NonIncreasing {
             sensor,
             t_ns,
             prev_t_ns: prev,

@@ -169,7 +169,7 @@ fn prior_alone_without(
 }
 
 /// The prior without the GNSS alignment (it is forgotten; see
-/// `super::aiding::Aiding::forget_alignment`): the block is marginalized out of the prior alone.
+/// `super::aiding_fusion::Aiding::forget_alignment`): the block is marginalized out of the prior alone.
 /// `Some(current)` when the prior does not involve it.
 pub(super) fn prior_without_alignment(window: &Window, built: &WindowProblem) -> Option<Prior> {
     let (Some(r), Some(b)) = (built.prior, built.block(BlockRef::GnssAlignment)) else {
