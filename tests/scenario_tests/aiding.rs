@@ -63,6 +63,7 @@ fn a_receiver_removed_mid_run_leaves_the_odometry_running() {
             "[[faults]]\nkind = \"gnss_outage\"\nstart_s = 30.0\nend_s = 1000.0\n\n[expectations]",
         )
     })
+    .run
     .report;
     // Measured: ATE 0.0452 m, largest global error after the removal 0.111 m (the alignment
     // keeps what the fixes taught it; the odometry drifts from there).

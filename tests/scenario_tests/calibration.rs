@@ -22,6 +22,7 @@ fn run_with_td(true_td_s: f64) -> Report {
             "[estimator]\nestimate_td = true\n\n[expectations]",
         )
     })
+    .run
     .report
 }
 
@@ -114,7 +115,7 @@ fn calibration_converges_from_the_perturbed_start_on_a_tilting_motion() {
     // time offset 0.7 s, rotation 0.9 s, translation 9.3 s. Bounds: the 0.5 ms and
     // 5 mm, its 0.1° halved.
     let scenario = Scenario::load("room_lissajous_calibration_stereo_imu").unwrap();
-    let r = run_scenario(scenario, Some(40.0)).report;
+    let r = run_scenario(scenario, Some(40.0)).run.report;
     let c = r.calibration.as_ref().unwrap();
     let first = &c.history[0];
     assert!((first.rotation_error_deg - 1.97).abs() < 0.01, "{first:?}");
@@ -154,6 +155,7 @@ fn a_60_ms_offset_is_found_from_zero_without_a_reset() {
     let r = run_edited("room_replay_v1_01_time_offset_stereo_imu", None, |t| {
         t.replace("time_offset_s = 0.02", "time_offset_s = 0.06")
     })
+    .run
     .report;
     assert_eq!(r.resets, 0);
     assert!(r.passed, "{:?}", r.expectations);
@@ -174,6 +176,7 @@ fn mono_initialization_finds_a_35_ms_offset() {
             1,
         )
     })
+    .run
     .report;
     assert_eq!(r.resets, 0);
     let ate = r.ate_rmse_m.unwrap();

@@ -20,7 +20,7 @@ fn run_into(name: &str, duration_s: f64, seed: Option<u64>) -> (TempDir, report:
     let done = common::run_with(scenario, &options);
     let dir = common::scratch();
     done.write_outputs(dir.path()).unwrap();
-    (dir, done.report)
+    (dir, done.run.report)
 }
 
 #[test]

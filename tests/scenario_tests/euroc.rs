@@ -26,7 +26,9 @@ const SECONDS: f64 = 4.0;
 
 /// `vio run`'s report on `name` for [`SECONDS`].
 fn run_report(scenario: &Scenario) -> Report {
-    common::run_scenario(scenario.clone(), Some(SECONDS)).report
+    common::run_scenario(scenario.clone(), Some(SECONDS))
+        .run
+        .report
 }
 
 /// `vio euroc` on `mav0` with the front end's `seed`.

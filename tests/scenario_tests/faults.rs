@@ -202,7 +202,7 @@ fn a_run_that_never_tracks_fails_on_the_default_expectations() {
         without_expectations(text) + "[expectations]\ntracking_fraction = { max = 0.0 }\n"
     });
     let context = scenarios::report::RunContext::with_run(&scenario, &done.output);
-    let r = scenarios::report::build_report(&context, &done.output, &done.eval);
+    let r = scenarios::report::build_report(&context, &done.output, &done.evaluation);
     let metrics: Vec<&str> = r.expectations.iter().map(|e| e.metric).collect();
     assert_eq!(metrics, ["tracking_fraction"]);
     assert!(r.passed);
@@ -225,7 +225,7 @@ fn run_with_1cm_baseline(settings: &str) -> scenarios::report::Report {
             &format!("[estimator]\n{settings}\n\n[expectations]"),
         )
     });
-    common::run_scenario(scenario, Some(20.0)).report
+    common::run_scenario(scenario, Some(20.0)).run.report
 }
 
 /// The `reset` events of a report, in time order.
@@ -389,6 +389,7 @@ fn a_window_its_camera_contradicts_is_initialized_again() {
             1,
         ) + "\n[estimator]\ninit_td_search_s = 0.0\nframe_relinearize_fraction = inf\n"
     })
+    .run
     .report;
     let resets = reset_events(&r);
     assert!(

@@ -39,7 +39,7 @@ fn run_report(name: &str, seconds: Option<f64>) -> (Report, Vec<u8>) {
         json.contains("\"track_error_median_px\""),
         "report.json lacks frontend"
     );
-    (done.report, bytes)
+    (done.run.report, bytes)
 }
 
 fn print(name: &str, r: &Report) {

@@ -16,7 +16,7 @@ const DURATION_S: f64 = 15.0;
 fn run_into() -> (TempDir, Report) {
     let scenario = Scenario::load(NAME).unwrap_or_else(|e| panic!("{e}"));
     let done = common::run_scenario(scenario, Some(DURATION_S));
-    (common::written(&done), done.report)
+    (common::written(&done), done.run.report)
 }
 
 #[test]

@@ -9,7 +9,9 @@ use scenarios::spec::Scenario;
 
 /// Runs `scenario` with `seed` and `duration_s`; the report.
 fn run_report(scenario: &Scenario, seed: Option<u64>, duration_s: Option<f64>) -> Report {
-    common::run_seeded(scenario.clone(), seed, duration_s).report
+    common::run_seeded(scenario.clone(), seed, duration_s)
+        .run
+        .report
 }
 
 /// The default scenario with `edit` applied to its text.

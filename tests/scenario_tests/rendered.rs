@@ -47,7 +47,7 @@ fn scenario_bytes(scenario: &Scenario, seconds: f64) -> (Vec<u8>, report::Report
         json.contains("\"camera_mode\""),
         "report.json lacks camera_mode"
     );
-    (bytes, done.report)
+    (bytes, done.run.report)
 }
 
 /// Mono+IMU on the rendered default scenario's stereo rig: the front end tracks the first

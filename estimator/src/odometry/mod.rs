@@ -42,6 +42,7 @@ use nalgebra::{DMatrix, Vector3};
 
 pub use aiding_fusion::GnssAlignment;
 use batch_reference::History;
+pub use chi2::chi2_quantile;
 pub use config::{
     CameraConfig, ConfigError, EstimatorConfig, GnssConfig, HealthLimits, MAX_PERSISTENT_POINTS,
     MAX_WINDOW_SIZE, Suite, WheelConfig, ZeroVelocityConfig,

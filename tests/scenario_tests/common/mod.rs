@@ -5,31 +5,25 @@
 #![allow(dead_code)]
 
 use std::collections::HashMap;
-use std::path::Path;
 use std::sync::{Arc, Mutex, OnceLock};
 
-use scenarios::report::{self, Evaluation, Report, RunContext};
-use scenarios::run::{ReportedRun, RunOptions, RunOutput};
+use scenarios::report;
+use scenarios::run::{ReportedRun, RunOptions};
 use scenarios::spec::Scenario;
 
-/// A finished run of `scenario`: the pipeline's [`ReportedRun`], its parts at hand.
+/// A finished run of `scenario`: the scenario and the pipeline's [`ReportedRun`] (its context,
+/// output, evaluation and report are reached through it: `done.report`).
 pub struct Done {
     /// The scenario.
     pub scenario: Scenario,
-    /// What the report knows of the scenario.
-    pub context: RunContext,
-    /// The run.
-    pub output: RunOutput,
-    /// Its evaluation.
-    pub eval: Evaluation,
-    /// Its report.
-    pub report: Report,
+    /// The run to its report.
+    pub run: ReportedRun,
 }
 
-impl Done {
-    /// Writes the run's files (`vio run`'s) into `dir`.
-    pub fn write_outputs(&self, dir: &Path) -> Result<(), String> {
-        report::write_outputs(dir, &self.context, &self.output, &self.eval, &self.report)
+impl std::ops::Deref for Done {
+    type Target = ReportedRun;
+    fn deref(&self) -> &ReportedRun {
+        &self.run
     }
 }
 
@@ -55,21 +49,9 @@ pub fn run_catalog(name: &str, duration_s: Option<f64>) -> Arc<Done> {
 
 /// Runs `scenario` with `options` to its report (printing the summary); panics on a run error.
 pub fn run_with(scenario: Scenario, options: &RunOptions) -> Done {
-    let ReportedRun {
-        context,
-        output,
-        evaluation,
-        report,
-        ..
-    } = scenarios::run::run_scenario(&scenario, options).unwrap_or_else(|e| panic!("{e}"));
-    println!("{}", report::summary(&report, None));
-    Done {
-        scenario,
-        context,
-        output,
-        eval: evaluation,
-        report,
-    }
+    let run = scenarios::run::run_scenario(&scenario, options).unwrap_or_else(|e| panic!("{e}"));
+    println!("{}", report::summary(&run.report, None));
+    Done { scenario, run }
 }
 
 /// Runs `scenario` with its own seed for `duration_s` (None: its full length).
