@@ -20,11 +20,13 @@ mod kannala_brandt;
 mod mei;
 mod pinhole_radtan;
 mod radtan;
+mod rolling_shutter;
 
 pub use double_sphere::DoubleSphere;
 pub use kannala_brandt::KannalaBrandt;
 pub use mei::Mei;
 pub use pinhole_radtan::PinholeRadtan;
+pub use rolling_shutter::{ReadoutDirection, RollingShutter};
 
 /// A central camera model.
 pub trait CameraModel: Send + Sync + std::fmt::Debug {

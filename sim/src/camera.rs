@@ -5,6 +5,12 @@
 //! `t_i − td_ns` (VINS-Fusion's convention `t_imu = t_cam + td`). All cameras of the rig are
 //! synchronized and produce one [`FeatureFrame`].
 //!
+//! A rolling-shutter camera (`CameraConfig::rolling_shutter`) reads its rows out one after
+//! another from `t_i` on, as a driver stamps them (the stamp is the first row's time): which
+//! landmarks a frame sees is decided at `t_i`, and each is then reported where the camera saw
+//! it when its own row was exposed — the exact solution of "pixel = projection at the pose of
+//! the pixel's row time" (`RigSim::rolling_shutter_projection`).
+//!
 //! # Visibility
 //! A landmark is visible in camera `c` when it faces the camera (its surface normal points
 //! towards it), its depth lies in `[min_depth, max_depth]`, the model projects it
@@ -49,7 +55,7 @@
 use crate::motion::TruthBuffer;
 use crate::rng::sensor_rng;
 use crate::scene::{Landmark, Scene};
-use estimator::camera::{CameraModel, in_image};
+use estimator::camera::{CameraModel, RollingShutter, in_image};
 use estimator::frontend::{CameraFeatures, FeatureFrame, FeatureObservation};
 use estimator::geometry::Pose;
 use nalgebra::{Vector2, Vector3};
@@ -77,6 +83,9 @@ pub struct CameraConfig {
     pub max_features: usize,
     /// Longest track (frames) before the landmark is dropped; `None` for unlimited.
     pub max_track_length: Option<u32>,
+    /// The readout: each row is exposed at its own time after the frame's capture time
+    /// ([`RollingShutter::GLOBAL`]: every row at the capture time).
+    pub rolling_shutter: RollingShutter,
 }
 
 impl CameraConfig {
@@ -92,9 +101,14 @@ impl CameraConfig {
             max_depth: 40.0,
             max_features: 150,
             max_track_length: None,
+            rolling_shutter: RollingShutter::GLOBAL,
         }
     }
 }
+
+/// Most fixed-point steps of a rolling-shutter projection (see
+/// `RigSim::rolling_shutter_projection`).
+const MAX_ROW_ITERATIONS: usize = 20;
 
 /// How feature ids are assigned (see the module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -448,7 +462,7 @@ impl RigSim {
             .pose;
         let mut cameras: Vec<CameraFeatures> = Vec::with_capacity(self.cfg.cameras.len());
         for ci in 0..self.cfg.cameras.len() {
-            let feats = self.track_camera(ci, frame_idx, &t_w_b, &cameras);
+            let feats = self.track_camera(ci, frame_idx, &t_w_b, &cameras, (t_cap, truth));
             cameras.push(CameraFeatures {
                 cam_id: ci,
                 features: feats,
@@ -464,12 +478,54 @@ impl RigSim {
         )
     }
 
+    /// Where a rolling-shutter camera `ci` sees the landmark of `p` (its projection at the
+    /// capture time `t_cap`): at the pose of the time its own row is exposed. The row depends
+    /// on the projection and the projection on the row's time, so the two are iterated to a
+    /// fixed point (the map contracts by `readout / height × image speed`, a few percent; it
+    /// converges to 1e-9 px in a handful of steps). `None` when the point leaves the valid image
+    /// or the depth range at its row's time.
+    fn rolling_shutter_projection(
+        &self,
+        ci: usize,
+        p: &Projection,
+        t_cap: i64,
+        truth: &mut TruthBuffer,
+    ) -> Option<Projection> {
+        let c = &self.cfg.cameras[ci];
+        let lm = self.landmark_at(self.landmark_index(p.id)?).p;
+        let height = c.model.height();
+        let mut uv = p.uv;
+        let mut depth = p.depth;
+        for _ in 0..MAX_ROW_ITERATIONS {
+            let dt_ns = (c.rolling_shutter.row_time_s(&uv, height) * 1e9).round() as i64;
+            let t_w_b = truth.kinematics(t_cap + dt_ns)?.pose;
+            let p_c = t_w_b.compose(&c.t_b_c).inverse().transform(&lm);
+            if p_c.z < c.min_depth || p_c.z > c.max_depth {
+                return None;
+            }
+            let next = c.model.project(&p_c)?;
+            let step = (next - uv).norm();
+            (uv, depth) = (next, p_c.z);
+            if step < 1e-9 {
+                break;
+            }
+        }
+        c.model.is_valid(&uv).then_some(Projection {
+            id: p.id,
+            uv,
+            depth,
+        })
+    }
+
+    /// The features camera `ci` reports in frame `frame`, captured at `t_cap` (body pose
+    /// `t_w_b`; rolling-shutter rows at their own times from `truth`).
     fn track_camera(
         &mut self,
         ci: usize,
         frame: u32,
         t_w_b: &Pose,
         earlier: &[CameraFeatures],
+        (t_cap, truth): (i64, &mut TruthBuffer),
     ) -> Vec<FeatureObservation> {
         let c = &self.cfg.cameras[ci];
         let t_w_c = t_w_b.compose(&c.t_b_c);
@@ -636,6 +692,21 @@ impl RigSim {
             self.start_track_id(ci, ix);
         }
         kept.sort_by_key(|p| p.id);
+        if self.cfg.cameras[ci].rolling_shutter.is_rolling() {
+            // Each feature where its row saw it; a track whose row time leaves it outside the
+            // image (or behind the camera) ends.
+            let mut rolled = Vec::with_capacity(kept.len());
+            for p in kept {
+                match self.rolling_shutter_projection(ci, &p, t_cap, truth) {
+                    Some(q) => rolled.push(q),
+                    None => {
+                        let ix = self.index_of(p.id);
+                        self.cams[ci].track_start[ix] = u32::MAX;
+                    }
+                }
+            }
+            kept = rolled;
+        }
         let c = &self.cfg.cameras[ci];
         let (sigma, realistic) = (c.pixel_sigma, self.cfg.track_ids == TrackIds::Realistic);
         let kept_ix: Vec<usize> = kept.iter().map(|p| self.index_of(p.id)).collect();

@@ -345,6 +345,7 @@ mod tests {
                 Vector3::new(0.0, y, 0.0),
             ),
             pixel_sigma: 1.0,
+            rolling_shutter: crate::camera::RollingShutter::GLOBAL,
         };
         let mut c = EstimatorConfig::new(
             Suite::StereoImu,

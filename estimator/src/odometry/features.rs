@@ -216,10 +216,19 @@ impl super::Estimator {
                         velocity = (p1 - p0) / dt;
                     }
                 }
+                // A rolling-shutter row is exposed after the stamp: the measurement is stamped
+                // with an offset earlier by its row's time, so that the time-offset model shifts
+                // it to its frame's time along its image velocity.
+                let camera = &self.config.cameras[cf.cam_id];
+                let row_s = if self.config.model_rolling_shutter {
+                    camera.rolling_shutter.row_time_s(&f.uv, model.height())
+                } else {
+                    0.0
+                };
                 o.meas[cf.cam_id] = Some(FeatureMeasurement {
                     point,
                     velocity,
-                    td: self.window.td,
+                    td: self.window.td - row_s,
                 });
                 o.uv[cf.cam_id] = Some(f.uv);
             }

@@ -325,7 +325,9 @@ impl Estimator {
                 .window
                 .relinearize_drifted_states(points, self.config.frame_relinearize_fraction);
         }
-        if imu_active && self.window.calibration.td_variable() {
+        // The image velocities the time-offset model shifts along: needed when `td` moves, and
+        // for rolling-shutter rows, which are shifted to their frame's time even with `td` fixed.
+        if imu_active && (self.window.calibration.td_variable() || self.models_rolling_shutter()) {
             self.window.predict_image_velocities();
         }
     }
@@ -382,6 +384,16 @@ impl Estimator {
                 kind: EventKind::GnssAligned,
             });
         }
+    }
+
+    /// Whether the window shifts observations by their rolling-shutter row times.
+    fn models_rolling_shutter(&self) -> bool {
+        self.config.model_rolling_shutter
+            && self
+                .config
+                .cameras
+                .iter()
+                .any(|c| c.rolling_shutter.is_rolling())
     }
 
     /// The camera a monocular initialization uses: the mono+IMU suite's camera, or the one

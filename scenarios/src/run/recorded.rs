@@ -277,6 +277,7 @@ pub(crate) fn replay_euroc(
             model: camera_model(sensor, &yaml)?,
             T_b_c: imu_sensor.t_bs.inverse().compose(&sensor.t_bs),
             pixel_sigma: options.pixel_sigma_px,
+            rolling_shutter: estimator::camera::RollingShutter::GLOBAL,
         });
     }
     settings.suite = suite;

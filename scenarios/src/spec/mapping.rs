@@ -508,6 +508,9 @@ impl Scenario {
                 sc.max_depth = v;
             }
             sc.max_track_length = c.max_track_length;
+            if let Some(r) = &c.rolling_shutter {
+                sc.rolling_shutter = r.readout();
+            }
             cameras.push(sc);
         }
         let rig = RigConfig {
@@ -672,6 +675,9 @@ impl Scenario {
                 // Below half a pixel the noise model would trust the simulated corner more
                 // than any real one; `estimator.pixel_sigma_px` overrides it.
                 pixel_sigma: c.pixel_sigma_px.max(0.5),
+                rolling_shutter: c
+                    .rolling_shutter
+                    .map_or(estimator::camera::RollingShutter::GLOBAL, |r| r.readout()),
             });
         }
         let mut cfg = EstimatorConfig {

@@ -534,6 +534,33 @@ pub struct CameraSpec {
     /// The estimator starts from a wrong extrinsic for this camera (the simulator keeps
     /// `T_b_c`): for online calibration studies (`estimator.estimate_extrinsics`).
     pub calibration_error: Option<CalibrationErrorSpec>,
+    /// A rolling shutter: the rows are read out over `readout_ms` after the frame's stamp
+    /// (the first row's time); without it, a global shutter.
+    pub rolling_shutter: Option<RollingShutterSpec>,
+}
+
+/// `rolling_shutter = { readout_ms = 20.0, direction = "top_to_bottom" }`: row `r` of an image
+/// `h` rows tall is exposed `readout_ms · r / h` after the stamp, counted from the top
+/// (`top_to_bottom`, the default) or the bottom (`bottom_to_top`). The simulator exposes each
+/// row at its time; the estimator models it with `estimator.model_rolling_shutter` (default on).
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RollingShutterSpec {
+    /// Time from the first row to one past the last (ms), at most the frame period.
+    pub readout_ms: f64,
+    /// Which row is read first.
+    #[serde(default)]
+    pub direction: estimator::camera::ReadoutDirection,
+}
+
+impl RollingShutterSpec {
+    /// The camera's readout.
+    pub fn readout(&self) -> estimator::camera::RollingShutter {
+        estimator::camera::RollingShutter {
+            readout_s: self.readout_ms * 1e-3,
+            direction: self.direction,
+        }
+    }
 }
 
 /// `calibration_error = { rotation_deg = [x, y, z], translation_m = [x, y, z] }`: the

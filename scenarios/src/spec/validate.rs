@@ -355,6 +355,16 @@ impl Scenario {
                     "a shift of at most 0.5 m",
                 )?;
             }
+            if let Some(r) = &cam.rolling_shutter {
+                // A readout longer than the frame period would overlap the next frame's.
+                c.within(
+                    &k("rolling_shutter.readout_ms"),
+                    r.readout_ms,
+                    0.0,
+                    1e3 / rig.rate_hz,
+                    "at most the frame period (1000 / rig.rate_hz ms)",
+                )?;
+            }
             if let Some(d) = cam.min_depth_m {
                 c.positive(&k("min_depth_m"), d)?;
             }

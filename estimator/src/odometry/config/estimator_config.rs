@@ -4,7 +4,7 @@ use std::sync::Arc;
 
 use super::error::{ConfigError, non_negative, positive, positive_or_infinite};
 use super::{GnssConfig, HealthLimits, WheelConfig, ZeroVelocityConfig};
-use crate::camera::CameraModel;
+use crate::camera::{CameraModel, RollingShutter};
 use crate::geometry::Pose;
 use crate::imu::ImuNoise;
 use crate::problem::SolverOptions;
@@ -47,6 +47,9 @@ pub struct CameraConfig {
     pub T_b_c: Pose,
     /// Pixel noise standard deviation (px).
     pub pixel_sigma: f64,
+    /// The camera's readout ([`RollingShutter::GLOBAL`] for a global shutter): with
+    /// `model_rolling_shutter`, each observation belongs to its row's time.
+    pub rolling_shutter: RollingShutter,
 }
 
 /// Sliding-window estimator settings (defaults follow VINS-Fusion's EuRoC configuration).
@@ -107,6 +110,11 @@ pub struct EstimatorConfig {
     /// motions (EuRoC V1_01 with 10 ms: 23 IMU-χ² resets and 0.27 m held fixed, 0.0069 m
     /// estimated). It costs 0.15–0.4 ms per frame on the default motion (window bench).
     pub estimate_td: bool,
+    /// Model the cameras' rolling shutter (`CameraConfig::rolling_shutter`): each observation
+    /// is shifted along its predicted image velocity to its frame's time from its row's own
+    /// time, as the time offset shifts it (VINS-Fusion's model). Off: every row is taken at
+    /// the stamp, as an estimator that does not know the readout would.
+    pub model_rolling_shutter: bool,
     /// Estimate the camera extrinsics online (with the IMU), held near the configured values by
     /// `extrinsic_prior_sigma_*` and, between cameras, `extrinsic_relative_prior_sigma_*`. The
     /// rig's rotation and translation are each held at the configured values until the window
@@ -360,6 +368,7 @@ impl EstimatorConfig {
             max_depth_m: 100.0,
             td_s: 0.0,
             estimate_td: true,
+            model_rolling_shutter: true,
             estimate_extrinsics: false,
             extrinsic_prior_sigma_deg: 2.0,
             extrinsic_prior_sigma_m: 0.02,
@@ -434,6 +443,10 @@ impl EstimatorConfig {
         }
         for (i, c) in self.cameras.iter().enumerate() {
             positive(&format!("cameras[{i}].pixel_sigma"), c.pixel_sigma)?;
+            non_negative(
+                &format!("cameras[{i}].rolling_shutter.readout_s"),
+                c.rolling_shutter.readout_s,
+            )?;
             let t = &c.T_b_c;
             if !(t.p.iter().all(|v| v.is_finite()) && t.q.coords.iter().all(|v| v.is_finite())) {
                 return Err(ConfigError::new(

@@ -104,6 +104,7 @@ impl World {
                 model: Arc::new(self.camera.clone()),
                 T_b_c: *e,
                 pixel_sigma: self.pixel_sigma.max(0.5),
+                rolling_shutter: estimator::camera::RollingShutter::GLOBAL,
             })
             .collect();
         EstimatorConfig::new(suite, cams, self.noise)
