@@ -18,4 +18,5 @@ mod imu_fidelity;
 mod recorded_imu;
 mod reliability;
 mod rendered;
+mod rolling_shutter;
 mod zero_velocity;

@@ -6,6 +6,7 @@ use crate::common;
 use std::sync::Arc;
 
 use common::{check, pose, rotation, small_rotation, speed_bias, vec3};
+use estimator::camera::{ReadoutDirection, RollingShutter};
 use estimator::factors::{
     AnchorBearing, FeatureMeasurement, ImuFactor, PointProjection, ProjectionOneFrameTwoCam,
     ProjectionTwoFrameOneCam, ProjectionTwoFrameTwoCam, WorldPointProjection,
@@ -104,6 +105,40 @@ proptest! {
         let factor = ProjectionTwoFrameOneCam {
             obs_i: measurement(Vector2::new(x, y), vel_i.xy(), 0.0),
             obs_j: measurement(z_j.unwrap() + noise.xy(), vel_j.xy(), 0.01),
+            weight: 460.0 / 1.5,
+        };
+        let params = vec![
+            pose_i.to_array().to_vec(),
+            pose_j.to_array().to_vec(),
+            ex.to_array().to_vec(),
+            vec![1.0 / depth, corr.x, corr.y],
+            vec![td],
+        ];
+        check(&factor, &params, &[&POSE, &POSE, &POSE, &R3, &R1]);
+    }
+
+    #[test]
+    fn rolling_shutter_observation_jacobians(
+        pose_i in pose(10.0), ex in pose(0.2), dq in small_rotation(0.4), dp in vec3(1.0),
+        x in -0.85..0.85f64, y in -0.55..0.55f64, depth in 0.3..60.0f64,
+        vel_i in vec3(2.0), vel_j in vec3(2.0), td in -0.03..0.03f64, noise in vec3(0.01),
+        corr in vec3(0.01), readout_s in 0.0..0.033f64, bottom_first in any::<bool>(),
+    ) {
+        // Each observation stamped as the window stamps a rolling-shutter row: earlier than
+        // the frame's offset by its row's time (pixel rows of a 480-row EuRoC-like pinhole).
+        let shutter = RollingShutter {
+            readout_s,
+            direction: if bottom_first { ReadoutDirection::BottomToTop } else { ReadoutDirection::TopToBottom },
+        };
+        let row_s = |z: Vector2<f64>| shutter.row_time_s(&Vector2::new(458.0 * z.x + 367.0, 457.0 * z.y + 248.0), 480);
+        let pose_j = Pose::new(pose_i.q * dq, pose_i.p + dp);
+        let p_w = pose_i.compose(&ex).transform(&(Vector3::new(x, y, 1.0) * depth));
+        let z_j = project(&pose_j, &ex, &p_w);
+        prop_assume!(z_j.is_some());
+        let (z_i, z_j) = (Vector2::new(x, y), z_j.unwrap() + noise.xy());
+        let factor = ProjectionTwoFrameOneCam {
+            obs_i: measurement(z_i, vel_i.xy(), 0.002 - row_s(z_i)),
+            obs_j: measurement(z_j, vel_j.xy(), 0.002 - row_s(z_j)),
             weight: 460.0 / 1.5,
         };
         let params = vec![

@@ -386,3 +386,63 @@ fn realistic_track_ids_are_new_after_every_reacquisition() {
     let landmarks: std::collections::BTreeSet<u64> = ideal[0].keys().copied().collect();
     assert!(realistic[0].len() > landmarks.len() + back / 2);
 }
+
+#[test]
+fn rolling_shutter_pixels_are_where_their_own_row_saw_them() {
+    use estimator::camera::{ReadoutDirection, RollingShutter};
+    let mut rig = common::rig(2);
+    for (c, direction) in rig
+        .cameras
+        .iter_mut()
+        .zip([ReadoutDirection::TopToBottom, ReadoutDirection::BottomToTop])
+    {
+        c.pixel_sigma = 0.0;
+        c.rolling_shutter = RollingShutter {
+            readout_s: 0.02,
+            direction,
+        };
+    }
+    let world = World::new(WorldConfig {
+        seed: 4,
+        duration_s: 10.0,
+        rig: Some(rig.clone()),
+        ..WorldConfig::default()
+    })
+    .unwrap();
+    let mut stream = world.stream();
+    let (mut n, mut worst, mut shifts) = (0usize, 0.0f64, Vec::new());
+    while let Some(m) = stream.next() {
+        let Measurement::Frame(f) = m else { continue };
+        let t_cap = f.t_ns + rig.td_ns;
+        let at_stamp = stream.truth(t_cap).unwrap().pose;
+        for cf in &f.cameras {
+            let c = &rig.cameras[cf.cam_id];
+            for o in &cf.features {
+                let lm = stream.landmark(o.feature_id).unwrap().p;
+                let dt_ns = (c.rolling_shutter.row_time_s(&o.uv, c.model.height()) * 1e9).round();
+                let pose = stream.truth(t_cap + dt_ns as i64).unwrap().pose;
+                let uv = c
+                    .model
+                    .project(&pose.compose(&c.t_b_c).inverse().transform(&lm))
+                    .unwrap();
+                worst = worst.max((uv - o.uv).norm());
+                let global = c
+                    .model
+                    .project(&at_stamp.compose(&c.t_b_c).inverse().transform(&lm))
+                    .unwrap();
+                shifts.push((global - o.uv).norm());
+                n += 1;
+            }
+        }
+    }
+    shifts.sort_by(f64::total_cmp);
+    let median = shifts[shifts.len() / 2];
+    println!(
+        "{n} observations, worst {worst:.2e} px off its row's projection, median shift {median:.2} px"
+    );
+    assert!(n > 201 * 2 * 100, "{n}");
+    // The fixed point is solved to 1e-9 px; the row time is rounded to the nanosecond.
+    assert!(worst < 1e-4, "worst {worst}");
+    // On the figure-eight the rows' motion moves features by pixels: the test sees the shutter.
+    assert!(median > 0.3, "median shift {median} px");
+}
