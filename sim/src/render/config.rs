@@ -121,6 +121,10 @@ pub struct RenderConfig {
     pub depth: bool,
     /// Motion blur, if any.
     pub motion_blur: Option<MotionBlur>,
+    /// Renders spanning a rolling-shutter readout (2–64; used only when a camera of the rig has
+    /// a rolling shutter): each row interpolates the two around its time, so their spacing
+    /// bounds the blur it adds (default 9: 2.5 ms over a 20 ms readout).
+    pub readout_samples: u32,
     /// Exposure, vignetting and noise.
     pub photometric: Photometric,
 }
@@ -142,6 +146,7 @@ impl Default for RenderConfig {
             max_pinhole_size: 2048,
             depth: false,
             motion_blur: None,
+            readout_samples: 9,
             photometric: Photometric::default(),
         }
     }
@@ -202,7 +207,7 @@ impl RenderConfig {
                 && g.factor > 0.0
                 && g.factor <= 100.0
         });
-        let checks: [(&'static str, String, bool, &'static str); 14] = [
+        let checks: [(&'static str, String, bool, &'static str); 15] = [
             (
                 "texture_size",
                 c.texture_size.to_string(),
@@ -244,6 +249,12 @@ impl RenderConfig {
                 format!("{:?}", c.motion_blur),
                 blur_ok,
                 "exposure_s in (0, 0.5] and samples in 2..=32",
+            ),
+            (
+                "readout_samples",
+                c.readout_samples.to_string(),
+                (2..=64).contains(&c.readout_samples),
+                "in 2..=64",
             ),
             (
                 "photometric.gain",

@@ -19,7 +19,10 @@
 //!    software adapter this costs ≈0.5 ms per image against ≈5 ms for the same remap as a GPU
 //!    pass.)
 //! 4. **Motion blur** (optional): the scene pass runs for `samples` poses spread evenly over the
-//!    exposure; their remapped sums are averaged.
+//!    exposure; their remapped sums are averaged. **Rolling shutter** (a camera's
+//!    `rolling_shutter`): the scene pass runs for `readout_samples` poses spanning the readout and
+//!    each row takes the renders around its own time, weighted as a sequence linear in time
+//!    (integrated over its exposure with motion blur): `shutter.rs`.
 //! 5. **Sensor noise**: Gaussian read noise and shot noise from the ChaCha8 stream
 //!    `<camera name>/pixels` of the seed (ChaCha stream index = frame index, so any frame can be
 //!    re-rendered alone with the same noise), then rounding to 8 bits.
@@ -43,6 +46,7 @@ mod images;
 mod readback;
 mod remap;
 mod setup;
+mod shutter;
 mod texture;
 
 pub use config::{GainStep, MotionBlur, Photometric, RenderBackend, RenderConfig, RenderError};
@@ -106,6 +110,9 @@ struct CameraTargets {
     inv_depth: Option<(wgpu::Texture, wgpu::TextureView, wgpu::TextureView)>,
     /// Byte offset of this camera's first pinhole image in the readback buffer.
     readback_offset: u64,
+    /// Per row, the weights of the frame's renders (a rig with a rolling shutter; see
+    /// `shutter.rs`); `None`: the renders' plain average.
+    row_weights: Option<Vec<u32>>,
 }
 
 /// The renderer: a wgpu device with the scene, its textures and per-camera targets uploaded.
@@ -124,6 +131,8 @@ pub struct Renderer {
     cameras: Vec<CameraTargets>,
     readback: wgpu::Buffer,
     samples: u32,
+    /// Render times relative to the capture time (ns).
+    offsets_ns: Vec<i64>,
     /// The scene's background grey level.
     background: f64,
 }
@@ -364,7 +373,13 @@ impl Renderer {
             .depth
             .then(|| pipeline_for("fs_inv_depth", INV_DEPTH_FORMAT, 1));
 
-        let samples = config.motion_blur.map_or(1, |b| b.samples);
+        let shutters: Vec<_> = rig
+            .cameras
+            .iter()
+            .map(|c| (c.rolling_shutter, c.model.height()))
+            .collect();
+        let mut plan = shutter::plan(&shutters, config.motion_blur, config.readout_samples);
+        let samples = plan.offsets_ns.len() as u32;
         let n_cams = rig.cameras.len() as u64;
         let uniforms = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("scene cameras"),
@@ -408,7 +423,7 @@ impl Renderer {
         let copy = wgpu::TextureUsages::COPY_SRC;
         let mut cameras = Vec::new();
         let mut readback_size = 0u64;
-        for cam in &rig.cameras {
+        for (cam, row_weights) in rig.cameras.iter().zip(plan.row_weights.drain(..)) {
             let table = remap::build(
                 cam.model.as_ref(),
                 padded_row,
@@ -476,6 +491,7 @@ impl Renderer {
                 inv_depth,
                 table,
                 readback_offset,
+                row_weights,
             });
         }
         if readback_size > device.limits().max_buffer_size {
@@ -508,6 +524,7 @@ impl Renderer {
             cameras,
             readback,
             samples,
+            offsets_ns: plan.offsets_ns,
             background: scene.background,
         })
     }
@@ -534,17 +551,10 @@ impl Renderer {
 
     /// Times (ns, relative to the capture time) of the poses [`Renderer::render`] needs: one
     /// without motion blur, else `samples` spread evenly over the exposure (centres of equal
-    /// sub-intervals).
+    /// sub-intervals); with a rolling-shutter camera, `readout_samples` spanning the readouts
+    /// (see `shutter.rs`).
     pub fn exposure_offsets_ns(&self) -> Vec<i64> {
-        match self.config.motion_blur {
-            None => vec![0],
-            Some(b) => (0..b.samples)
-                .map(|k| {
-                    let f = (f64::from(k) + 0.5) / f64::from(b.samples) - 0.5;
-                    (f * b.exposure_s * 1e9).round() as i64
-                })
-                .collect(),
-        }
+        self.offsets_ns.clone()
     }
 
     /// Gain at true time `t_ns`.

@@ -26,14 +26,28 @@ pub(super) fn finish_camera(
             data: remap::remap_u8(&cam.table, &data[base..base + image_bytes]),
         }
     } else {
-        let mut acc = vec![0u32; cam.width as usize * cam.height as usize];
+        let mut acc = vec![0u64; cam.width as usize * cam.height as usize];
         for k in 0..samples {
             let at = base + k * image_bytes;
-            remap::accumulate(&cam.table, &data[at..at + image_bytes], &mut acc);
+            let pinhole = &data[at..at + image_bytes];
+            match &cam.row_weights {
+                None => remap::accumulate(&cam.table, pinhole, &mut acc),
+                Some(w) => remap::accumulate_weighted(
+                    &cam.table,
+                    pinhole,
+                    (w, samples, k),
+                    cam.width as usize,
+                    &mut acc,
+                ),
+            }
         }
+        let den = match &cam.row_weights {
+            None => (samples as u64) << 16,
+            Some(_) => u64::from(shutter::WEIGHT_ONE) << 16,
+        };
         remap::finish(
             &acc,
-            samples as u32,
+            den,
             (cam.width, cam.height),
             p,
             (seed, &cam.name, frame_index),

@@ -198,28 +198,53 @@ pub(crate) fn noisy(p: &Photometric) -> bool {
 }
 
 /// Adds one pinhole readback (`table.row` bytes per row) through the table into `acc` (sums
-/// of grey levels in 1/65536; up to 255 samples fit a u32).
-pub(crate) fn accumulate(table: &RemapTable, pinhole: &[u8], acc: &mut [u32]) {
+/// of grey levels in 1/65536).
+pub(crate) fn accumulate(table: &RemapTable, pinhole: &[u8], acc: &mut [u64]) {
     let row = table.row;
     for (a, t) in acc.iter_mut().zip(&table.taps) {
-        *a += tap_value(t, pinhole, row);
+        *a += u64::from(tap_value(t, pinhole, row));
     }
 }
 
-/// Turns the sums of `samples` accumulated images into grey levels: without noise rounded
+/// Adds one pinhole readback through the table into `acc`, each image row weighted by its
+/// weight in `row_weights[row * renders + render]` (a rolling shutter's rows).
+pub(crate) fn accumulate_weighted(
+    table: &RemapTable,
+    pinhole: &[u8],
+    (row_weights, renders, render): (&[u32], usize, usize),
+    width: usize,
+    acc: &mut [u64],
+) {
+    let row = table.row;
+    for (r, (acc_row, taps)) in acc
+        .chunks_exact_mut(width)
+        .zip(table.taps.chunks_exact(width))
+        .enumerate()
+    {
+        let w = u64::from(row_weights[r * renders + render]);
+        if w == 0 {
+            continue;
+        }
+        for (a, t) in acc_row.iter_mut().zip(taps) {
+            *a += w * u64::from(tap_value(t, pinhole, row));
+        }
+    }
+}
+
+/// Turns sums of accumulated images into grey levels (`den`: the sum of a uniform grey level
+/// of 1, `samples << 16` for a plain sum of `samples` images): without noise rounded
 /// exactly in integers; with noise, read noise and shot noise from the stream
 /// `<name>/pixels` of `seed` (ChaCha stream = `frame_index`) are added before rounding.
 pub(crate) fn finish(
-    acc: &[u32],
-    samples: u32,
+    acc: &[u64],
+    den: u64,
     (width, height): (u32, u32),
     p: &Photometric,
     (seed, name, frame_index): (u64, &str, u64),
 ) -> GrayImage {
-    let den = u64::from(samples) << 16;
     let data = if !noisy(p) {
         acc.iter()
-            .map(|&a| ((u64::from(a) * 2 + den) / (2 * den)).min(255) as u8)
+            .map(|&a| ((a * 2 + den) / (2 * den)).min(255) as u8)
             .collect()
     } else {
         let mut rng: ChaCha8Rng = sensor_rng(seed, &format!("{name}/pixels"));
