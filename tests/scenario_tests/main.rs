@@ -8,6 +8,7 @@ mod common;
 
 mod aiding;
 mod calibration;
+mod camera_errors;
 mod consistency;
 mod convergence;
 mod determinism;
@@ -18,5 +19,4 @@ mod imu_fidelity;
 mod recorded_imu;
 mod reliability;
 mod rendered;
-mod rolling_shutter;
 mod zero_velocity;

@@ -28,10 +28,56 @@ impl Scenario {
     /// The projection model of camera `i`.
     pub(super) fn camera_model(&self, i: usize) -> Result<Arc<dyn CameraModel>, SpecError> {
         let c = &self.spec.rig.cameras[i];
+        self.camera_model_with(i, c.intrinsics, &c.distortion)
+    }
+
+    /// The model the estimator starts from for camera `i`: the true one, or with the camera's
+    /// `intrinsics_error` applied (focal lengths scaled, principal point shifted, distortion
+    /// coefficients offset).
+    pub(super) fn estimator_camera_model(
+        &self,
+        i: usize,
+    ) -> Result<Arc<dyn CameraModel>, SpecError> {
+        let c = &self.spec.rig.cameras[i];
+        let Some(e) = &c.intrinsics_error else {
+            return self.camera_model(i);
+        };
+        let [fx, fy, cx, cy] = c.intrinsics;
+        let intrinsics = [
+            fx * (1.0 + e.focal_percent[0] * 0.01),
+            fy * (1.0 + e.focal_percent[1] * 0.01),
+            cx + e.principal_point_px[0],
+            cy + e.principal_point_px[1],
+        ];
+        let mut distortion = c.distortion.clone();
+        if !e.distortion.is_empty() {
+            if e.distortion.len() != distortion.len() {
+                return Err(self.error(
+                    &format!("rig.cameras[{i}].intrinsics_error.distortion"),
+                    format!(
+                        "expected {} offsets (one per distortion coefficient) or none, got {}",
+                        distortion.len(),
+                        e.distortion.len()
+                    ),
+                ));
+            }
+            for (d, de) in distortion.iter_mut().zip(&e.distortion) {
+                *d += de;
+            }
+        }
+        self.camera_model_with(i, intrinsics, &distortion)
+    }
+
+    /// Camera `i`'s model with the given intrinsics and distortion.
+    fn camera_model_with(
+        &self,
+        i: usize,
+        [fx, fy, cx, cy]: [f64; 4],
+        d: &[f64],
+    ) -> Result<Arc<dyn CameraModel>, SpecError> {
+        let c = &self.spec.rig.cameras[i];
         let key = |k: &str| format!("rig.cameras[{i}].{k}");
         let [w, h] = c.resolution;
-        let [fx, fy, cx, cy] = c.intrinsics;
-        let d = &c.distortion;
         let need_d = |n: usize, what: &str| -> Result<(), SpecError> {
             if d.len() == n {
                 Ok(())
@@ -670,7 +716,10 @@ impl Scenario {
         let used = s.suite.suite().cameras();
         for (i, c) in s.rig.cameras.iter().enumerate().take(used) {
             cameras.push(EstCamera {
-                model: self.models[i].clone(),
+                model: match c.intrinsics_error {
+                    None => self.models[i].clone(),
+                    Some(_) => self.estimator_camera_model(i)?,
+                },
                 T_b_c: self.estimator_extrinsic(i)?,
                 // Below half a pixel the noise model would trust the simulated corner more
                 // than any real one; `estimator.pixel_sigma_px` overrides it.

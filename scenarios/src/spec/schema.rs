@@ -534,9 +534,31 @@ pub struct CameraSpec {
     /// The estimator starts from a wrong extrinsic for this camera (the simulator keeps
     /// `T_b_c`): for online calibration studies (`estimator.estimate_extrinsics`).
     pub calibration_error: Option<CalibrationErrorSpec>,
+    /// The estimator starts from wrong intrinsics for this camera (the simulator keeps
+    /// `intrinsics` and `distortion`): what a calibration error costs.
+    pub intrinsics_error: Option<IntrinsicsErrorSpec>,
     /// A rolling shutter: the rows are read out over `readout_ms` after the frame's stamp
     /// (the first row's time); without it, a global shutter.
     pub rolling_shutter: Option<RollingShutterSpec>,
+}
+
+/// `intrinsics_error = { focal_percent = [0.5, 0.5], principal_point_px = [2.0, -1.0],
+/// distortion = [0.01, 0.0, 0.0, 0.0] }`: the estimator's focal lengths are the true ones
+/// times `1 + percent / 100`, its principal point shifted by the pixels given, its distortion
+/// coefficients offset by `distortion` (one per coefficient, or none). Every key defaults to no
+/// error.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IntrinsicsErrorSpec {
+    /// `[fx, fy]` errors (%).
+    #[serde(default, deserialize_with = "exact::array")]
+    pub focal_percent: [f64; 2],
+    /// `[cx, cy]` shifts (px).
+    #[serde(default, deserialize_with = "exact::array")]
+    pub principal_point_px: [f64; 2],
+    /// Offsets of the distortion coefficients.
+    #[serde(default)]
+    pub distortion: Vec<f64>,
 }
 
 /// `rolling_shutter = { readout_ms = 20.0, direction = "top_to_bottom" }`: row `r` of an image

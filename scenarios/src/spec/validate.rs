@@ -355,6 +355,34 @@ impl Scenario {
                     "a shift of at most 0.5 m",
                 )?;
             }
+            if let Some(e) = &cam.intrinsics_error {
+                c.finite_all(&k("intrinsics_error.focal_percent"), &e.focal_percent)?;
+                c.finite_all(
+                    &k("intrinsics_error.principal_point_px"),
+                    &e.principal_point_px,
+                )?;
+                c.finite_all(&k("intrinsics_error.distortion"), &e.distortion)?;
+                for v in e.focal_percent {
+                    c.within(
+                        &k("intrinsics_error.focal_percent"),
+                        v,
+                        -20.0,
+                        20.0,
+                        "within ±20 % (a calibration error, not another lens)",
+                    )?;
+                }
+                for (v, side) in e.principal_point_px.into_iter().zip([w, h]) {
+                    let most = 0.1 * f64::from(side);
+                    c.within(
+                        &k("intrinsics_error.principal_point_px"),
+                        v,
+                        -most,
+                        most,
+                        "within a tenth of the image side",
+                    )?;
+                }
+                self.estimator_camera_model(i)?;
+            }
             if let Some(r) = &cam.rolling_shutter {
                 // A readout longer than the frame period would overlap the next frame's.
                 c.within(

@@ -308,6 +308,54 @@ fn calibration_errors_out_of_range_are_refused() {
 }
 
 #[test]
+fn camera_realism_keys_out_of_range_are_refused() {
+    for (tag, value, key) in [
+        (
+            "focal",
+            "intrinsics_error = { focal_percent = [25.0, 0.0] }",
+            "rig.cameras[0].intrinsics_error.focal_percent",
+        ),
+        (
+            "principal",
+            "intrinsics_error = { principal_point_px = [0.0, 60.0] }",
+            "rig.cameras[0].intrinsics_error.principal_point_px",
+        ),
+        (
+            "distortion-len",
+            "intrinsics_error = { distortion = [0.01] }",
+            "rig.cameras[0].intrinsics_error.distortion",
+        ),
+        (
+            "distortion-nan",
+            "intrinsics_error = { distortion = [nan, 0.0, 0.0, 0.0] }",
+            "rig.cameras[0].intrinsics_error.distortion",
+        ),
+        (
+            "readout-long",
+            "rolling_shutter = { readout_ms = 60.0 }",
+            "rig.cameras[0].rolling_shutter.readout_ms",
+        ),
+        (
+            "readout-negative",
+            "rolling_shutter = { readout_ms = -1.0 }",
+            "rig.cameras[0].rolling_shutter.readout_ms",
+        ),
+        (
+            "readout-direction",
+            "rolling_shutter = { readout_ms = 10.0, direction = \"left_to_right\" }",
+            "rig.cameras[0].rolling_shutter",
+        ),
+    ] {
+        let text = default_text(2.0).replacen(
+            "pixel_sigma_px = 1.0",
+            &format!("pixel_sigma_px = 1.0\n{value}"),
+            1,
+        );
+        assert_bad(tag, &text, key, &[]);
+    }
+}
+
+#[test]
 fn aiding_sensor_keys_are_checked_with_their_names() {
     let with_gnss = |g: &str| default_text(2.0) + "\n[rig.gnss]\n" + g + "\n";
     assert_bad(
