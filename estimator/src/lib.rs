@@ -15,7 +15,7 @@
 //! - [`problem`]: the nonlinear least-squares problem and its solver;
 //! - [`factors`]: the residuals (IMU, reprojection, prior, GNSS, wheel, calibration);
 //! - [`frontend`]: the KLT image front end; [`camera`]: camera models; [`imu`]:
-//!   preintegration; [`aiding`]: GNSS and wheel inputs; [`geometry`]: poses and rotations.
+//!   preintegration; [`aiding_samples`]: GNSS and wheel inputs; [`geometry`]: poses and rotations.
 
 pub mod aiding_samples;
 pub mod camera;

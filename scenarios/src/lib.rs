@@ -5,16 +5,17 @@
 //!   evo's definitions.
 //! - [`spec`] — the scenario TOML schema and its mapping onto the simulator and the estimator;
 //! - [`catalog`] — the built-in scenarios (`scenarios/catalog/*.toml`, embedded);
-//! - [`run`] — simulated stream → estimator, collecting estimates, ground truth, timings, events;
-//! - [`report`] — evaluation, `report.json`, TUM files, the human summary;
+//! - [`run`] — the one run pipeline: a scenario or a recorded dataset → estimator → evaluated
+//!   report ([`run::run_to_report`]); [`run_output`] — what a run produced;
+//! - [`report`] — evaluation, `report.json` and its sections (window against batch, recovery,
+//!   replay and recorded-IMU checks, calibration), the TUM files, the human summary;
 //! - [`plot`] — `trajectory.png`;
-//! - [`replay_report`] — what the checks of a replayed recording found and did;
-//! - [`recorded_imu_report`] — a recorded IMU log's checks against the replayed ground truth;
 //! - [`export`] — a scenario's measurements as an EuRoC ASL folder and `features.csv`;
+//! - [`frontend`] — the image front end's statistics in a run;
 //! - [`images`], [`tracks_image`] — `vio render`: images, depth, and the front end's tracks;
-//! - [`regress`] — `vio regress`: a regression catalog against a stored baseline, JUnit XML;
-//! - [`sweep`] — `vio sweep` / `sweep-merge`: a scenario over a parameter grid × seeds, sharded;
-//! - [`bench`] — `vio bench`: per-stage timing, frames per second and peak memory;
+//! - [`studies`] — `vio regress` (the regression catalog against a baseline, JUnit XML),
+//!   `vio sweep` / `sweep-merge` (a scenario over a parameter grid × seeds, sharded),
+//!   `vio bench` (per-stage timing) and `vio nees` (Monte-Carlo consistency);
 //! - [`selfcheck`] — a quick end-to-end check of the estimator's mathematics;
 //! - [`imu_model`] — `vio imu-model`: Allan deviation, noise-model fit, spectra and the residual
 //!   of a recorded IMU log against its ground truth.

@@ -86,7 +86,7 @@ struct PendingFrame {
     images: Option<PendingImages>,
 }
 
-/// The aiding sensors of a stream (see [`crate::aiding`]).
+/// The aiding sensors of a stream (see [`crate::aiding_sensors`]).
 #[derive(Debug, Default)]
 pub(crate) struct AidingSims {
     pub gnss: Option<GnssSim>,

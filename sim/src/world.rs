@@ -180,7 +180,7 @@ impl World {
     }
 
     /// A fresh measurement stream whose frames are preceded by their rendered images
-    /// ([`stream::Measurement::Images`]); otherwise identical to [`World::stream`].
+    /// ([`stream::Measurement::Images`](crate::stream::Measurement::Images)); otherwise identical to [`World::stream`].
     pub fn rendered_stream(&self, renderer: Renderer) -> Stream {
         self.stream().with_renderer(renderer)
     }

@@ -33,7 +33,7 @@ pub enum TrajectoryConfig {
     Reference(Arc<dyn Reference>),
 }
 
-/// Rest before the motion (see [`StaticStart`]).
+/// Rest before the motion (see [`StaticStart`](crate::motion::StaticStart)).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StaticStartConfig {
     /// Rest duration (s).
@@ -54,7 +54,7 @@ pub struct WorldConfig {
     pub trajectory: TrajectoryConfig,
     /// Optional rest before the motion.
     pub static_start: Option<StaticStartConfig>,
-    /// Stops inserted into the motion (run time, sorted, not overlapping; see [`Stops`]).
+    /// Stops inserted into the motion (run time, sorted, not overlapping; see [`Stops`](crate::motion::Stops)).
     pub stops: Vec<Stop>,
     /// Body mass properties.
     pub body: BodyParams,

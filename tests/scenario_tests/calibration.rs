@@ -1,5 +1,5 @@
-//! Online calibration, gated by what the window observes (`estimator/src/estimator/
-//! calibration.rs`): the time offset on the default motion (60 s, seed 1), estimated through
+//! Online calibration, gated by what the window observes (`estimator/src/odometry/
+//! calibration_gates.rs`): the time offset on the default motion (60 s, seed 1), estimated through
 //! image velocities predicted from the window's motion (`time_offset.rs`; with the track's
 //! previous pixel displacement it went from −10 to −7.6 ms in 60 s); extrinsics from the truth,
 //! where the figure-eight determines the rotation but not the translation; the whole

@@ -15,7 +15,7 @@ pub struct TrackerConfig {
     pub min_distance_px: f64,
     /// Shi–Tomasi quality level (fraction of the strongest response).
     pub quality_level: f64,
-    /// Shi–Tomasi absolute floor (see [`CornerParams::min_response`]).
+    /// Shi–Tomasi absolute floor (see [`CornerParams::min_response`](super::corners::CornerParams::min_response)).
     pub min_corner_response: f64,
     /// Grid `[columns, rows]` for bucketing new corners (`[1, 1]`: none).
     pub grid: [usize; 2],

@@ -11,7 +11,7 @@
 //! Coordinates: level-0 pixels in the OpenCV convention (pixel centres at integers). Pyramid
 //! level `l` keeps every `2^l`-th filtered pixel, so level-0 `u` is `u / 2^l` on level `l`.
 //!
-//! Sums are accumulated in eight explicit lanes ([`super::lanes`]): the order of every
+//! Sums are accumulated in eight explicit lanes (`lanes.rs`): the order of every
 //! floating-point operation is fixed by the source, whatever the compiler vectorizes, so tracks
 //! are bit-identical run to run.
 

@@ -3,7 +3,7 @@
 //! prior), how they become one nonlinear least-squares problem ([`Window::build`]), how the
 //! solved values return ([`Window::write_back`]), and how frames leave it
 //! ([`Window::remove_oldest`], [`Window::remove_second_newest`]). What goes into the prior when a
-//! frame leaves is decided in [`super::marginalization`].
+//! frame leaves is decided in [`super::marginalization_policy`].
 
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;

@@ -6,12 +6,12 @@
 //! carried by the IMU without visual constraints, is part of the run's error), each paired with the ground truth at its own time,
 //! and [`crate::metrics`] (evo's definitions):
 //! - Alignment: stereo+IMU estimates are aligned to ground truth by position + yaw
-//!   ([`Alignment::PosYaw`], the 4 unobservable degrees of freedom); vision-only estimates by a
-//!   rigid SE(3) alignment ([`Alignment::Se3`]: their world frame is the first camera pose, not
+//!   ([`Alignment::PosYaw`](crate::metrics::Alignment::PosYaw), the 4 unobservable degrees of freedom); vision-only estimates by a
+//!   rigid SE(3) alignment ([`Alignment::Se3`](crate::metrics::Alignment::Se3): their world frame is the first camera pose, not
 //!   gravity-aligned). No scale.
-//! - ATE ([`metrics::ate`]): RMSE of the position error (m) and of the rotation angle (deg) after
+//! - ATE ([`metrics::ate`](crate::metrics::ate)): RMSE of the position error (m) and of the rotation angle (deg) after
 //!   that alignment.
-//! - RPE ([`metrics::rpe`] with [`RpeOptions::meters`] of [`RPE_DELTA_M`]): translation RMSE
+//! - RPE ([`metrics::rpe`](crate::metrics::rpe) with [`RpeOptions::meters`](crate::metrics::RpeOptions::meters) of [`RPE_DELTA_M`]): translation RMSE
 //!   of relative poses over Δ = 1 m of travelled distance. Pairs come from the ground truth: its
 //!   first evaluated pose is an anchor, each later pose at which the ground-truth path since the
 //!   last anchor reaches 1 m becomes the next one, and successive anchors form the pairs (evo's

@@ -259,7 +259,7 @@ pub struct EstimatorConfig {
     /// estimate has moved from its first estimate by more than this fraction of its distance
     /// from the newest frame gets the estimate as its new first estimate, and the prior's
     /// Jacobian carries the unobservable directions along so that the nullspace stays exact
-    /// (`estimator/src/estimator/relinearization.rs`). Measured (seed 1 unless named, 60 s):
+    /// (`estimator/src/odometry/relinearization.rs`). Measured (seed 1 unless named, 60 s):
     /// left-camera death 0.0289 → 0.0109 m (seeds 2, 3: 0.0069 / 0.0080, unchanged), left-camera
     /// freeze 0.0235 → 0.0081 m, default figure-eight and circle unchanged (no point moves that
     /// far), mono+IMU 0.0187 m either way; 0.05 and 0.2 gave the same within 10 %.
@@ -287,11 +287,11 @@ pub struct EstimatorConfig {
     /// `min_track_frames_4_does_not_starve_a_starting_window`). Default 1: every triangulated
     /// track counts at once.
     pub min_track_frames: usize,
-    /// Keep every frame's factors to allow [`super::Estimator::batch_solve`] at the end.
+    /// Keep every frame's factors to allow [`crate::Estimator::batch_solve`] at the end.
     pub record_history: bool,
     /// Return the marginal covariance of the newest state with every estimate
-    /// ([`super::Estimate::covariance`]) and of the newest pose relative to an earlier window
-    /// frame ([`super::Estimate::relative_pose`]). Both come from the window's Gauss-Newton
+    /// ([`crate::Estimate::covariance`]) and of the newest pose relative to an earlier window
+    /// frame ([`crate::Estimate::relative_pose`]). Both come from the window's Gauss-Newton
     /// information (all factors, landmarks and the prior included) of the solve's last
     /// linearization, with the landmarks eliminated by the Schur complement and the
     /// state-sized system factored once: about 0.6 ms per frame on the window bench, so it is
@@ -330,8 +330,8 @@ pub struct EstimatorConfig {
     /// Wheel odometry (used when readings are pushed; IMU suites).
     pub wheel: WheelConfig,
     /// Fewest landmark observations in the newest frame's solve for the estimate to count as
-    /// tracking ([`super::Status::Tracking`]); below it the frame is reported
-    /// [`super::Status::Degraded`]. Ten: well above the three points a pose needs, so a
+    /// tracking ([`crate::Status::Tracking`]); below it the frame is reported
+    /// [`crate::Status::Degraded`]. Ten: well above the three points a pose needs, so a
     /// frame that sees only a handful of features is not called tracked.
     pub min_tracking_observations: usize,
 }
