@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use estimator::EstimatorConfig;
-use estimator::camera::CameraModel;
+use estimator::camera::{CameraModel, RollingShutter};
 use estimator::frontend::{
     CameraImageView, FeatureFrame, FeatureTracker, ImageError, ImageView, TrackStatistics,
     TrackSummary, TrackerCamera, TrackerConfig, TrackerError,
@@ -39,20 +39,18 @@ pub struct ImageFrontend {
 
 impl ImageFrontend {
     /// A front end for `cameras` (the estimator's view of the rig) in `scene`; `true_cameras`
-    /// are the simulator's (ground truth) extrinsics, camera by camera.
-    #[allow(non_snake_case)]
+    /// are the simulator's (ground truth: intrinsics, extrinsics, readout), camera by camera.
     pub fn new(
         config: TrackerConfig,
         cameras: Vec<TrackerCamera>,
         scene: Arc<Scene>,
-        true_T_b_c: Vec<Pose>,
+        true_cameras: &[sim::camera::CameraConfig],
     ) -> Result<Self, TrackerError> {
-        let models = cameras.iter().map(|c| c.model.clone()).collect();
         Ok(Self {
             cameras: cameras.len(),
             tracker: FeatureTracker::new(config, cameras)?,
             gyro: GyroIntegrator::default(),
-            eval: TrackEvaluation::new(scene, models, true_T_b_c),
+            eval: TrackEvaluation::new(scene, true_cameras),
             counts: TrackStatistics::default(),
         })
     }
@@ -67,13 +65,12 @@ impl ImageFrontend {
         self.gyro.push(s);
     }
 
-    /// Tracks one capture; `T_w_b_true` (the true pose at the capture time) feeds the
+    /// Tracks one capture; `truth` (the true body poses over the capture's readout) feeds the
     /// ground-truth statistics when given. Returns the frame and the tracker's time (s).
-    #[allow(non_snake_case)]
     pub fn process(
         &mut self,
         images: &ImageFrame,
-        T_w_b_true: Option<&Pose>,
+        truth: Option<&CapturePoses>,
     ) -> Result<(FeatureFrame, f64), TrackerError> {
         let mut views = image_views(images).map_err(|e| TrackerError::Config {
             field: "image",
@@ -84,11 +81,11 @@ impl ImageFrontend {
         let frame = self.tracker.track(&views, images.t_ns, rotation)?;
         let seconds = self.tracker.report().times.total_s;
         self.counts.add(self.tracker.report(), &frame);
-        if let Some(pose) = T_w_b_true {
+        if let Some(poses) = truth {
             self.eval.add(
                 &frame,
                 self.tracker.report().ransac_rejected.as_slice(),
-                pose,
+                poses,
             );
         }
         Ok((frame, seconds))
@@ -189,12 +186,44 @@ pub struct FrontendStats {
     pub unverifiable: usize,
 }
 
+/// The true body poses over one capture: pose `k` at `k · step_s` after the capture time (one
+/// pose for a global-shutter rig), linear in between (position lerp, attitude slerp) — finer than
+/// the physics' own 1 ms steps, between which the ground truth is interpolated the same way.
+#[derive(Clone, Debug)]
+pub struct CapturePoses {
+    step_s: f64,
+    poses: Vec<Pose>,
+}
+
+impl CapturePoses {
+    /// Poses `poses` spaced `step_s` apart from the capture time.
+    pub fn new(step_s: f64, poses: Vec<Pose>) -> Self {
+        assert!(!poses.is_empty(), "a capture has a pose");
+        Self { step_s, poses }
+    }
+
+    /// The body pose `dt_s` after the capture time (clamped to the poses held).
+    pub fn at(&self, dt_s: f64) -> Pose {
+        let last = self.poses.len() - 1;
+        if last == 0 || self.step_s <= 0.0 || dt_s <= 0.0 {
+            return self.poses[0];
+        }
+        let x = (dt_s / self.step_s).min(last as f64);
+        let k = (x.floor() as usize).min(last - 1);
+        let f = x - k as f64;
+        let (a, b) = (&self.poses[k], &self.poses[k + 1]);
+        Pose::new(a.q.slerp(&b.q, f), a.p + (b.p - a.p) * f)
+    }
+}
+
 /// Ground-truth bookkeeping of the tracks.
 #[derive(Debug)]
 struct TrackEvaluation {
     scene: Arc<Scene>,
+    /// The simulator's cameras: true intrinsics, extrinsics and readouts.
     models: Vec<Arc<dyn CameraModel>>,
     true_t_b_c: Vec<Pose>,
+    shutters: Vec<RollingShutter>,
     /// Scene point of each track's first observation (`None`: the ray hit nothing).
     anchors: BTreeMap<u64, Option<Vector3<f64>>>,
     track_errors: Vec<f64>,
@@ -206,11 +235,12 @@ struct TrackEvaluation {
 }
 
 impl TrackEvaluation {
-    fn new(scene: Arc<Scene>, models: Vec<Arc<dyn CameraModel>>, true_t_b_c: Vec<Pose>) -> Self {
+    fn new(scene: Arc<Scene>, cameras: &[sim::camera::CameraConfig]) -> Self {
         Self {
             scene,
-            models,
-            true_t_b_c,
+            models: cameras.iter().map(|c| c.model.clone()).collect(),
+            true_t_b_c: cameras.iter().map(|c| c.t_b_c).collect(),
+            shutters: cameras.iter().map(|c| c.rolling_shutter).collect(),
             anchors: BTreeMap::new(),
             track_errors: Vec::new(),
             rejected_errors: Vec::new(),
@@ -221,31 +251,51 @@ impl TrackEvaluation {
         }
     }
 
-    /// The scene point seen at pixel `uv` of camera `cam` with the body at `T_w_b`.
+    /// The body pose when camera `cam` exposed the row of pixel `uv`.
+    fn pose_at_row(&self, cam: usize, uv: &Vector2<f64>, poses: &CapturePoses) -> Pose {
+        let height = self.models[cam].height();
+        poses.at(self.shutters[cam].row_time_s(uv, height))
+    }
+
+    /// The scene point seen at pixel `uv` of camera `cam` (at its row's time).
     #[allow(non_snake_case)]
-    fn ray_point(&self, cam: usize, uv: &Vector2<f64>, T_w_b: &Pose) -> Option<Vector3<f64>> {
-        let T_w_c = T_w_b.compose(&self.true_t_b_c[cam]);
+    fn ray_point(
+        &self,
+        cam: usize,
+        uv: &Vector2<f64>,
+        poses: &CapturePoses,
+    ) -> Option<Vector3<f64>> {
+        let T_w_c = self
+            .pose_at_row(cam, uv, poses)
+            .compose(&self.true_t_b_c[cam]);
         let d = (T_w_c.q * self.models[cam].unproject(uv)?).normalize();
         let (t, _) = self.scene.ray_cast(&T_w_c.p, &d, 1e-3, 1e4)?;
         Some(T_w_c.p + d * t)
     }
 
-    /// Pixel error of `uv` in camera `cam` against scene point `x_w`.
+    /// Pixel error of `uv` in camera `cam` against scene point `x_w`, seen at the time of
+    /// `uv`'s row (a track near its truth is on nearly the same row).
     #[allow(non_snake_case)]
     fn error(
         &self,
         cam: usize,
         uv: &Vector2<f64>,
         x_w: &Vector3<f64>,
-        T_w_b: &Pose,
+        poses: &CapturePoses,
     ) -> Option<f64> {
-        let T_w_c = T_w_b.compose(&self.true_t_b_c[cam]);
+        let T_w_c = self
+            .pose_at_row(cam, uv, poses)
+            .compose(&self.true_t_b_c[cam]);
         let p_c = T_w_c.inverse().transform(x_w);
         Some((self.models[cam].project(&p_c)? - uv).norm())
     }
 
-    #[allow(non_snake_case)]
-    fn add(&mut self, frame: &FeatureFrame, rejected: &[(u64, Vector2<f64>)], T_w_b: &Pose) {
+    fn add(
+        &mut self,
+        frame: &FeatureFrame,
+        rejected: &[(u64, Vector2<f64>)],
+        poses: &CapturePoses,
+    ) {
         let Some(primary) = frame.cameras.first() else {
             self.features.push(0);
             return;
@@ -257,11 +307,11 @@ impl TrackEvaluation {
             left.insert(f.feature_id, f.uv);
             match self.anchors.get(&f.feature_id) {
                 None => {
-                    let x = self.ray_point(p, &f.uv, T_w_b);
+                    let x = self.ray_point(p, &f.uv, poses);
                     self.anchors.insert(f.feature_id, x);
                 }
                 Some(Some(x)) => {
-                    let e = self.error(p, &f.uv, x, T_w_b);
+                    let e = self.error(p, &f.uv, x, poses);
                     self.track_errors.push(e.unwrap_or(f64::INFINITY));
                 }
                 Some(None) => self.unverifiable += 1,
@@ -269,7 +319,7 @@ impl TrackEvaluation {
         }
         for (id, uv) in rejected {
             if let Some(Some(x)) = self.anchors.get(id) {
-                let e = self.error(p, uv, x, T_w_b).unwrap_or(f64::INFINITY);
+                let e = self.error(p, uv, x, poses).unwrap_or(f64::INFINITY);
                 self.rejected_errors.push(e);
             }
         }
@@ -279,9 +329,9 @@ impl TrackEvaluation {
                 let Some(uv0) = left.get(&f.feature_id) else {
                     continue;
                 };
-                match self.ray_point(p, uv0, T_w_b) {
+                match self.ray_point(p, uv0, poses) {
                     Some(x) => {
-                        let e = self.error(cam.cam_id, &f.uv, &x, T_w_b);
+                        let e = self.error(cam.cam_id, &f.uv, &x, poses);
                         self.stereo_errors.push(e.unwrap_or(f64::INFINITY));
                     }
                     None => self.unverifiable += 1,

@@ -12,7 +12,7 @@ use sim::stream::{GroundTruth, Measurement, Stream};
 
 use super::driver::{Input, Source, drive};
 use super::{Recorder, RunControl, RunError, RunOptions, RunOutput};
-use crate::frontend::ImageFrontend;
+use crate::frontend::{CapturePoses, ImageFrontend};
 use crate::spec::Scenario;
 
 /// The scenario's measurement stream: with rendered images when `camera.mode = "rendered"`
@@ -65,6 +65,12 @@ pub(crate) fn simulate(
         message: e.to_string(),
     })?;
     let end_ns = world.end_ns();
+    let readout_s = world.config().rig.as_ref().map_or(0.0, |r| {
+        r.cameras
+            .iter()
+            .map(|c| c.rolling_shutter.readout_s)
+            .fold(0.0, f64::max)
+    });
     let (stream, renderer) = measurement_stream(scenario, &world)?;
     let out = RunOutput::new(scenario.name.clone(), seed, end_ns as f64 * 1e-9, renderer);
     let recorder = Recorder::new(out, estimator.status());
@@ -74,6 +80,7 @@ pub(crate) fn simulate(
         end_ns,
         frontend,
         uses_imu,
+        readout_s,
         render_s: 0.0,
     };
     drive(source, estimator, recorder, options, control).map(|(out, _)| out)
@@ -89,6 +96,9 @@ struct Simulated<'a> {
     frontend: Option<ImageFrontend>,
     /// Whether the front end predicts rotations from the gyroscope.
     uses_imu: bool,
+    /// The rig's longest rolling-shutter readout (s): the span of the true poses the front
+    /// end's statistics need per capture.
+    readout_s: f64,
     /// The latest images' render time (s).
     render_s: f64,
 }
@@ -109,7 +119,8 @@ impl Source for Simulated<'_> {
                     let Some(fe) = self.frontend.as_mut() else {
                         continue;
                     };
-                    let truth = self.stream.truth(images.t_capture_ns).map(|g| g.pose);
+                    let truth =
+                        capture_poses(&mut self.stream, images.t_capture_ns, self.readout_s);
                     let (frame, frontend_s) =
                         fe.process(&images, truth.as_ref())
                             .map_err(|e| RunError::Frontend {
@@ -163,16 +174,38 @@ pub fn image_frontend(
     cfg: TrackerConfig,
 ) -> Result<ImageFrontend, RunError> {
     let cameras = crate::frontend::tracker_cameras(est_cfg);
-    let true_t_b_c = world
+    let true_cameras = world
         .config()
         .rig
         .as_ref()
-        .map(|r| r.cameras.iter().map(|c| c.t_b_c).collect())
+        .map(|r| r.cameras.as_slice())
         .unwrap_or_default();
-    ImageFrontend::new(cfg, cameras, world.scene().clone(), true_t_b_c).map_err(|e| {
+    ImageFrontend::new(cfg, cameras, world.scene().clone(), true_cameras).map_err(|e| {
         RunError::Frontend {
             file: scenario.file_label(),
             message: e.to_string(),
         }
     })
+}
+
+/// Poses the ground-truth track statistics sample over a rolling-shutter readout.
+const READOUT_POSES: usize = 33;
+
+/// The true body poses over the readout `readout_s` of the capture at `t_capture_ns` (one pose
+/// for a global shutter); `None` outside the ground truth.
+fn capture_poses(stream: &mut Stream, t_capture_ns: i64, readout_s: f64) -> Option<CapturePoses> {
+    if readout_s <= 0.0 {
+        return Some(CapturePoses::new(
+            0.0,
+            vec![stream.truth(t_capture_ns)?.pose],
+        ));
+    }
+    let step_s = readout_s / (READOUT_POSES - 1) as f64;
+    let poses = (0..READOUT_POSES)
+        .map(|k| {
+            let dt_ns = (k as f64 * step_s * 1e9).round() as i64;
+            stream.truth(t_capture_ns + dt_ns).map(|g| g.pose)
+        })
+        .collect::<Option<Vec<_>>>()?;
+    Some(CapturePoses::new(step_s, poses))
 }
