@@ -25,6 +25,7 @@ pub mod camera;
 pub mod faults;
 pub mod imu;
 pub mod imu_source;
+pub mod input_file;
 pub mod limits;
 pub mod motion;
 pub mod render;

@@ -103,7 +103,7 @@ pub(crate) fn invalid(path: &Path, message: impl Into<String>) -> DatasetError {
 }
 
 pub(crate) fn read_text(path: &Path) -> Result<String, DatasetError> {
-    let bytes = std::fs::read(path).map_err(|source| DatasetError::Io {
+    let bytes = sim::input_file::read(path).map_err(|source| DatasetError::Io {
         path: path.to_path_buf(),
         source,
     })?;

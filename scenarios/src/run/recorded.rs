@@ -124,7 +124,7 @@ fn settings(options: &EurocOptions) -> Result<(EstimatorConfig, TrackerConfig), 
         ));
     };
     let file = path.display().to_string();
-    let text = std::fs::read_to_string(path)
+    let text = sim::input_file::read_to_string(path)
         .map_err(|e| RunError::input(path, format!("cannot read the settings: {e}")))?;
     let root: toml::Table = crate::spec::error::deserialize_toml(&text, &file)?;
     // An absent table keeps the defaults; anything but a table is refused with its key.
@@ -214,6 +214,8 @@ fn image_frames(data: &EurocDataset, mav0: &Path, cameras: usize) -> Vec<(i64, V
 
 /// Reads one 8-bit grey image (a colour PNG is converted).
 fn load_image(path: &Path) -> Result<image::GrayImage, RunError> {
+    sim::input_file::check(path)
+        .map_err(|e| RunError::input(path, format!("cannot read the image: {e}")))?;
     image::open(path)
         .map(|i| i.to_luma8())
         .map_err(|e| RunError::input(path, format!("cannot read the image: {e}")))

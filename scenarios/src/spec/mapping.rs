@@ -511,7 +511,7 @@ impl Scenario {
                 let path = base.join(rel);
                 // Bytes that are not UTF-8 (a Latin-1 comment) are replaced, not refused: the
                 // data files' numbers are ASCII.
-                std::fs::read(&path)
+                sim::input_file::read(&path)
                     .map(|b| String::from_utf8_lossy(&b).into_owned())
                     .map_err(|e| {
                         self.error(

@@ -164,7 +164,7 @@ impl Scenario {
 
     /// Reads and parses a scenario file.
     pub fn from_file(path: &Path) -> Result<Self, SpecError> {
-        let text = std::fs::read_to_string(path).map_err(|e| SpecError {
+        let text = sim::input_file::read_to_string(path).map_err(|e| SpecError {
             file: path.display().to_string(),
             key: String::new(),
             line: None,
@@ -372,7 +372,7 @@ fn kalibr_expansion(file: &str, origin: &Origin, text: &str) -> Result<Option<St
                 .ok_or_else(|| err(&key, format!("no embedded catalog data file `{rel}`"))),
             Origin::File(p) => {
                 let path = p.parent().unwrap_or(Path::new(".")).join(rel);
-                std::fs::read(&path)
+                sim::input_file::read(&path)
                     .map(|b| {
                         (
                             String::from_utf8_lossy(&b).into_owned(),

@@ -296,7 +296,7 @@ pub fn catalog_files(dir: &Path) -> Result<Vec<PathBuf>, String> {
 /// Reads a baseline file with its text (`None`: none there yet); syntax and schema errors
 /// name the file and line.
 pub fn read_baseline(path: &Path) -> Result<Option<(Baseline, String)>, String> {
-    match std::fs::read_to_string(path) {
+    match sim::input_file::read_to_string(path) {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
         Err(e) => Err(format!("--baseline {}: {e}", path.display())),
         Ok(text) => serde_json::from_str(&text)

@@ -6,6 +6,7 @@
 use crate::common;
 
 use common::{assert_bad, default_text, scratch, vio, write};
+use std::path::Path;
 
 fn with_fault(fault: &str) -> String {
     default_text(2.0) + "\n[[faults]]\n" + fault + "\n"
@@ -391,5 +392,99 @@ fn aiding_sensor_keys_are_checked_with_their_names() {
         &with_estimator("[estimator.gnss]\ngate_sigmas = 0.0"),
         "gnss.gate_sigmas",
         &["> 0"],
+    );
+}
+
+/// Runs `vio args`; a run still going after `limit_s` is killed and the test fails (a FIFO read
+/// blocks forever: the guard turns that hang into a failure instead of a stuck CI).
+fn vio_within(args: &[&str], limit_s: u64) -> std::process::Output {
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_vio"))
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run vio");
+    for _ in 0..limit_s * 10 {
+        if child.try_wait().expect("wait for vio").is_some() {
+            return child.wait_with_output().expect("vio's output");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    let _ = child.kill();
+    panic!("vio {args:?} still running after {limit_s} s: it blocked on its input");
+}
+
+#[test]
+fn fifos_and_folders_are_refused_at_the_door_not_read() {
+    let dir = common::scratch("fifo");
+    let mkfifo = |p: &Path| {
+        let ok = std::process::Command::new("mkfifo")
+            .arg(p)
+            .status()
+            .expect("mkfifo")
+            .success();
+        assert!(ok, "mkfifo {}", p.display());
+    };
+    // A scenario that is a FIFO.
+    let fifo = dir.path().join("scenario.toml");
+    mkfifo(&fifo);
+    let out = vio_within(
+        &["run", fifo.to_str().unwrap(), "--out", "/nonexistent/never"],
+        60,
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("scenario.toml") && err.contains("not a regular file"),
+        "{err}"
+    );
+    // A scenario that is a folder.
+    let out = vio_within(
+        &[
+            "run",
+            dir.path().to_str().unwrap(),
+            "--out",
+            "/nonexistent/never",
+        ],
+        60,
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("a folder"), "{err}");
+    // A EuRoC folder one of whose images is a FIFO.
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("catalog/data/euroc_V1_01_easy_excerpt");
+    let copy = dir.path().join("excerpt");
+    let status = std::process::Command::new("cp")
+        .arg("-r")
+        .arg(&src)
+        .arg(&copy)
+        .status()
+        .expect("cp");
+    assert!(status.success());
+    let images = copy.join("mav0/cam0/data");
+    let mut names: Vec<_> = std::fs::read_dir(&images)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    names.sort();
+    let victim = names[names.len() / 2].clone();
+    std::fs::remove_file(&victim).unwrap();
+    mkfifo(&victim);
+    let out_dir = dir.path().join("out");
+    let out = vio_within(
+        &[
+            "euroc",
+            copy.to_str().unwrap(),
+            "--out",
+            out_dir.to_str().unwrap(),
+        ],
+        120,
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    let name = victim.file_name().unwrap().to_string_lossy();
+    assert!(
+        err.contains(name.as_ref()) && err.contains("not a regular file"),
+        "{err}"
     );
 }

@@ -633,7 +633,7 @@ impl Replay {
     /// [`load_recording`] (no repair). Bytes that are not UTF-8 (a Latin-1
     /// comment) are replaced, not refused: only the numbers matter.
     pub fn from_file(path: &Path, knot_spacing_s: f64) -> Result<Self, TrajectoryError> {
-        let bytes = std::fs::read(path).map_err(|e| TrajectoryError::Io {
+        let bytes = crate::input_file::read(path).map_err(|e| TrajectoryError::Io {
             path: path.display().to_string(),
             source: e,
         })?;

@@ -94,7 +94,7 @@ impl Sweep {
             line,
             message: m,
         };
-        let text = std::fs::read_to_string(path)
+        let text = sim::input_file::read_to_string(path)
             .map_err(|e| err("", None, format!("cannot read the sweep file: {e}")))?;
         let spec: SweepSpec = crate::spec::error::deserialize_toml(&text, &file)?;
         let at = |key: &str, m: String| err(key, crate::spec::error::line_of_key(&text, key), m);
@@ -103,7 +103,7 @@ impl Sweep {
             Some(e) => (e.name.to_string(), e.text.to_string(), Origin::Catalog),
             None => {
                 let p: PathBuf = path.parent().unwrap_or(Path::new(".")).join(&spec.scenario);
-                let t = std::fs::read_to_string(&p).map_err(|e| {
+                let t = sim::input_file::read_to_string(&p).map_err(|e| {
                     at(
                         "scenario",
                         format!("no catalog scenario of that name, and {}: {e}", p.display()),

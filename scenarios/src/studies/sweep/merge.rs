@@ -30,8 +30,9 @@ struct AxisMeta {
 
 /// Merges the shard folders `dirs` into `out`; returns the files written.
 pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>, String> {
-    let read =
-        |p: PathBuf| std::fs::read_to_string(&p).map_err(|e| format!("{}: {e}", p.display()));
+    let read = |p: PathBuf| {
+        sim::input_file::read_to_string(&p).map_err(|e| format!("{}: {e}", p.display()))
+    };
     let first = dirs.first().ok_or("no shard folders given")?;
     let json = read(first.join("sweep.json"))?;
     let meta: SweepMeta = serde_json::from_str(&json)
