@@ -71,6 +71,7 @@ use sim::render::{RenderConfig, RenderError};
 use crate::catalog;
 
 mod calibration_truth;
+mod camera_schema;
 pub mod error;
 pub(crate) mod exact;
 pub mod imu_error_model;
