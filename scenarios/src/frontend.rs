@@ -10,7 +10,6 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use estimator::EstimatorConfig;
-use estimator::camera::{CameraModel, RollingShutter};
 use estimator::frontend::{
     CameraImageView, FeatureFrame, FeatureTracker, ImageError, ImageView, TrackStatistics,
     TrackSummary, TrackerCamera, TrackerConfig, TrackerError,
@@ -221,9 +220,7 @@ impl CapturePoses {
 struct TrackEvaluation {
     scene: Arc<Scene>,
     /// The simulator's cameras: true intrinsics, extrinsics and readouts.
-    models: Vec<Arc<dyn CameraModel>>,
-    true_t_b_c: Vec<Pose>,
-    shutters: Vec<RollingShutter>,
+    cameras: Vec<sim::camera::CameraConfig>,
     /// Scene point of each track's first observation (`None`: the ray hit nothing).
     anchors: BTreeMap<u64, Option<Vector3<f64>>>,
     track_errors: Vec<f64>,
@@ -238,9 +235,7 @@ impl TrackEvaluation {
     fn new(scene: Arc<Scene>, cameras: &[sim::camera::CameraConfig]) -> Self {
         Self {
             scene,
-            models: cameras.iter().map(|c| c.model.clone()).collect(),
-            true_t_b_c: cameras.iter().map(|c| c.t_b_c).collect(),
-            shutters: cameras.iter().map(|c| c.rolling_shutter).collect(),
+            cameras: cameras.to_vec(),
             anchors: BTreeMap::new(),
             track_errors: Vec::new(),
             rejected_errors: Vec::new(),
@@ -253,8 +248,8 @@ impl TrackEvaluation {
 
     /// The body pose when camera `cam` exposed the row of pixel `uv`.
     fn pose_at_row(&self, cam: usize, uv: &Vector2<f64>, poses: &CapturePoses) -> Pose {
-        let height = self.models[cam].height();
-        poses.at(self.shutters[cam].row_time_s(uv, height))
+        let c = &self.cameras[cam];
+        poses.at(c.rolling_shutter.row_time_s(uv, c.model.height()))
     }
 
     /// The scene point seen at pixel `uv` of camera `cam` (at its row's time).
@@ -267,8 +262,8 @@ impl TrackEvaluation {
     ) -> Option<Vector3<f64>> {
         let T_w_c = self
             .pose_at_row(cam, uv, poses)
-            .compose(&self.true_t_b_c[cam]);
-        let d = (T_w_c.q * self.models[cam].unproject(uv)?).normalize();
+            .compose(&self.cameras[cam].t_b_c);
+        let d = (T_w_c.q * self.cameras[cam].model.unproject(uv)?).normalize();
         let (t, _) = self.scene.ray_cast(&T_w_c.p, &d, 1e-3, 1e4)?;
         Some(T_w_c.p + d * t)
     }
@@ -285,9 +280,9 @@ impl TrackEvaluation {
     ) -> Option<f64> {
         let T_w_c = self
             .pose_at_row(cam, uv, poses)
-            .compose(&self.true_t_b_c[cam]);
+            .compose(&self.cameras[cam].t_b_c);
         let p_c = T_w_c.inverse().transform(x_w);
-        Some((self.models[cam].project(&p_c)? - uv).norm())
+        Some((self.cameras[cam].model.project(&p_c)? - uv).norm())
     }
 
     fn add(
