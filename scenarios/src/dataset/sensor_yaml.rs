@@ -5,6 +5,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use estimator::camera::{Camera, KannalaBrandt, PinholeRadtan};
 use estimator::geometry::Pose;
 use estimator::imu::ImuNoise;
 use nalgebra::{Matrix3, Matrix4, Rotation3, UnitQuaternion, Vector3};
@@ -34,6 +35,45 @@ pub struct CameraSensor {
     pub distortion_model: String,
     /// Distortion coefficients, for `radial-tangential` `[k1, k2, p1, p2]`.
     pub distortion_coefficients: Vec<f64>,
+}
+
+impl CameraSensor {
+    /// The estimator's camera (`pinhole` with `radial-tangential` or `equidistant`
+    /// distortion); the error says which value is wrong, for the caller to name the file.
+    pub fn camera(&self) -> Result<Camera, String> {
+        let [w, h] = self.resolution;
+        let i = &self.intrinsics;
+        let d = &self.distortion_coefficients;
+        if self.camera_model != "pinhole" || i.len() != 4 {
+            return Err(format!(
+                "camera_model `{}` with {} intrinsics: expected `pinhole` [fu, fv, cu, cv]",
+                self.camera_model,
+                i.len()
+            ));
+        }
+        if d.len() != 4 {
+            return Err(format!(
+                "distortion_coefficients: expected 4, got {}",
+                d.len()
+            ));
+        }
+        let bad = |e: estimator::camera::CameraError| format!("intrinsics: {e}");
+        Ok(match self.distortion_model.as_str() {
+            "radial-tangential" | "radtan" => Camera::PinholeRadtan(
+                PinholeRadtan::new(w, h, i[0], i[1], i[2], i[3], d[0], d[1], d[2], d[3])
+                    .map_err(bad)?,
+            ),
+            "equidistant" => Camera::KannalaBrandt(
+                KannalaBrandt::new(w, h, i[0], i[1], i[2], i[3], d[0], d[1], d[2], d[3])
+                    .map_err(bad)?,
+            ),
+            other => {
+                return Err(format!(
+                    "distortion_model `{other}`: expected `radial-tangential` or `equidistant`"
+                ));
+            }
+        })
+    }
 }
 
 /// An IMU `sensor.yaml` with the Kalibr noise values.

@@ -22,7 +22,6 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use estimator::camera::{Camera, CameraModel, KannalaBrandt, PinholeRadtan};
 use estimator::frontend::{
     CameraImageView, FeatureFrame, FeatureTracker, ImageView, TrackStatistics, TrackerConfig,
 };
@@ -34,9 +33,7 @@ use sim::stream::GroundTruth;
 
 use super::driver::{Input, Source, drive};
 use super::{Recorder, RunControl, RunError, RunOptions, RunOutput};
-use crate::dataset::{
-    CameraSensor, EurocDataset, GroundTruthState, read_euroc_cameras, read_features_csv,
-};
+use crate::dataset::{EurocDataset, GroundTruthState, read_euroc_cameras, read_features_csv};
 use crate::frontend::GyroIntegrator;
 use crate::spec::{SpecError, SuiteSpec};
 
@@ -70,50 +67,6 @@ impl EurocOptions {
 
 /// The front end's RANSAC seed of a dataset run that names none.
 pub const DEFAULT_SEED: u64 = 1;
-
-/// The estimator's camera `i` from its `sensor.yaml` (`pinhole` with `radial-tangential` or
-/// `equidistant` distortion).
-fn camera_model(sensor: &CameraSensor, path: &Path) -> Result<Arc<dyn CameraModel>, RunError> {
-    let [w, h] = sensor.resolution;
-    let i = &sensor.intrinsics;
-    let d = &sensor.distortion_coefficients;
-    if sensor.camera_model != "pinhole" || i.len() != 4 {
-        return Err(RunError::input(
-            path,
-            format!(
-                "camera_model `{}` with {} intrinsics: expected `pinhole` [fu, fv, cu, cv]",
-                sensor.camera_model,
-                i.len()
-            ),
-        ));
-    }
-    if d.len() != 4 {
-        return Err(RunError::input(
-            path,
-            format!("distortion_coefficients: expected 4, got {}", d.len()),
-        ));
-    }
-    let bad = |e: estimator::camera::CameraError| RunError::input(path, format!("intrinsics: {e}"));
-    let cam = match sensor.distortion_model.as_str() {
-        "radial-tangential" | "radtan" => Camera::PinholeRadtan(
-            PinholeRadtan::new(w, h, i[0], i[1], i[2], i[3], d[0], d[1], d[2], d[3])
-                .map_err(bad)?,
-        ),
-        "equidistant" => Camera::KannalaBrandt(
-            KannalaBrandt::new(w, h, i[0], i[1], i[2], i[3], d[0], d[1], d[2], d[3])
-                .map_err(bad)?,
-        ),
-        other => {
-            return Err(RunError::input(
-                path,
-                format!(
-                    "distortion_model `{other}`: expected `radial-tangential` or `equidistant`"
-                ),
-            ));
-        }
-    };
-    Ok(Arc::new(cam))
-}
 
 /// The settings file's `[estimator]` and `[camera.tracker]` tables over the defaults.
 fn settings(options: &EurocOptions) -> Result<(EstimatorConfig, TrackerConfig), RunError> {
@@ -212,15 +165,6 @@ fn image_frames(data: &EurocDataset, mav0: &Path, cameras: usize) -> Vec<(i64, V
     out
 }
 
-/// Reads one 8-bit grey image (a colour PNG is converted).
-fn load_image(path: &Path) -> Result<image::GrayImage, RunError> {
-    sim::input_file::check(path)
-        .map_err(|e| RunError::input(path, format!("cannot read the image: {e}")))?;
-    image::open(path)
-        .map(|i| i.to_luma8())
-        .map_err(|e| RunError::input(path, format!("cannot read the image: {e}")))
-}
-
 /// A dataset run's output, and what its report needs to know of the dataset.
 pub(crate) struct RecordedRun {
     /// The run, on the shifted clock.
@@ -276,7 +220,7 @@ pub(crate) fn replay_euroc(
             RunError::input(&yaml, "missing: the camera's calibration comes from it")
         })?;
         cameras.push(CameraConfig {
-            model: camera_model(sensor, &yaml)?,
+            model: Arc::new(sensor.camera().map_err(|e| RunError::input(&yaml, e))?),
             T_b_c: imu_sensor.t_bs.inverse().compose(&sensor.t_bs),
             pixel_sigma: options.pixel_sigma_px,
             rolling_shutter: estimator::camera::RollingShutter::GLOBAL,
@@ -421,7 +365,7 @@ impl Recorded<'_> {
                 let (t, paths) = &list[self.frame_i];
                 let images = paths
                     .iter()
-                    .map(|p| load_image(p))
+                    .map(|p| crate::images::read_gray_image(p).map_err(|e| RunError::input(p, e)))
                     .collect::<Result<Vec<_>, _>>()?;
                 let views = images
                     .iter()
