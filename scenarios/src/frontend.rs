@@ -361,7 +361,7 @@ impl TrackEvaluation {
 }
 
 /// Nearest-rank percentile (`p` in 0..=1); 0 when empty.
-fn percentile(v: &[f64], p: f64) -> f64 {
+pub(crate) fn percentile(v: &[f64], p: f64) -> f64 {
     if v.is_empty() {
         return 0.0;
     }

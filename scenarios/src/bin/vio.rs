@@ -16,6 +16,8 @@ mod attended;
 mod euroc;
 #[path = "vio/eval.rs"]
 mod eval;
+#[path = "vio/image_stats.rs"]
+mod image_stats;
 #[path = "vio/imu_model.rs"]
 mod imu_model;
 #[path = "vio/studies.rs"]
@@ -24,6 +26,7 @@ mod studies;
 use attended::{finish_attended, run_attended};
 use euroc::{EurocArgs, euroc_command};
 use eval::{EvalArgs, eval};
+use image_stats::{ImageStatsArgs, image_stats_command};
 use imu_model::{ImuModelArgs, imu_model_command};
 use studies::{bench_command, nees_command, regress_command, sweep_command};
 
@@ -201,6 +204,13 @@ enum Command {
     /// frame check, and the IMU error model fitted to that residual (`OUT/error_model.toml`, for
     /// `[rig.imu] error_model`). Writes `OUT/imu_model.json`, `OUT/allan.png`, `OUT/spectrum.png`.
     ImuModel(ImuModelArgs),
+    /// Measure static frames (a camera at rest) of EuRoC ASL folders side by side: temporal
+    /// noise against intensity with the renderer's fitted `read_noise` and
+    /// `electrons_per_level`, flat-area spatial residual, radial brightness, gradient and
+    /// Shi–Tomasi response distributions, corner density, and the KLT front end's drift from
+    /// each track's first position. Compare a real recording with `vio export` of a rendered
+    /// scenario held at rest (`trajectory.static_start`).
+    ImageStats(ImageStatsArgs),
 }
 
 /// Writes to stdout; a closed pipe (`vio list | head`) ends the output quietly instead of
@@ -358,6 +368,7 @@ fn main() -> ExitCode {
             }
         }
         Command::ImuModel(args) => imu_model_command(args),
+        Command::ImageStats(args) => image_stats_command(args),
         Command::Eval(args) => match eval(&args) {
             Ok(report) => {
                 say(&report);
