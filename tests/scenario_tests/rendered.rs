@@ -22,8 +22,8 @@ fn catalog_text(name: &str) -> String {
 /// The rendered default scenario with the simulator's ideal tracks instead of the front end.
 fn rendered_with_ideal_tracks() -> Scenario {
     let text = catalog_text("room_figure8_rendered_stereo_imu").replace(
-        "[camera.photometric]",
-        "frontend = \"truth\"\n\n[camera.photometric]",
+        "mode = \"rendered\"",
+        "mode = \"rendered\"\nfrontend = \"truth\"",
     );
     Scenario::parse(
         "rendered_truth",
@@ -138,10 +138,12 @@ fn bad_render_settings_name_the_key_and_line() {
         err.to_string().contains("camera.photometric.vignetting"),
         "{err}"
     );
-    let blur = text.replace(
-        "[camera.photometric]",
-        "[camera.render]\nmotion_blur = { exposure_s = 100.0, samples = 4 }\n\n[camera.photometric]",
-    ).replace("vignetting = 1.5", "vignetting = 0.2");
+    let blur = text
+        .replace(
+            "[camera.render]\n",
+            "[camera.render]\nmotion_blur = { exposure_s = 100.0, samples = 4 }\n",
+        )
+        .replace("vignetting = 1.5", "vignetting = 0.2");
     let err = Scenario::parse("bad", Origin::File("bad.toml".into()), &blur).unwrap_err();
     assert!(
         err.to_string().contains("camera.render.motion_blur"),

@@ -354,6 +354,31 @@ fn camera_realism_keys_out_of_range_are_refused() {
         );
         assert_bad(tag, &text, key, &[]);
     }
+    // The renderer's texture and optics keys (checked in feature-level scenarios too: `vio
+    // render` uses them).
+    for (tag, table, value, key) in [
+        (
+            "contrast",
+            "render",
+            "texture_contrast = 0.0",
+            "camera.render.texture_contrast",
+        ),
+        (
+            "density",
+            "render",
+            "texture_density = 9.0",
+            "camera.render.texture_density",
+        ),
+        (
+            "blur",
+            "photometric",
+            "optical_blur_px = -0.5",
+            "camera.photometric.optical_blur_px",
+        ),
+    ] {
+        let text = format!("{}\n[camera.{table}]\n{value}\n", default_text(2.0));
+        assert_bad(tag, &text, key, &[]);
+    }
 }
 
 #[test]

@@ -59,6 +59,9 @@ pub struct Photometric {
     pub electrons_per_level: f64,
     /// A sudden exposure change: from this true time on, the gain is multiplied by a factor.
     pub gain_step: Option<GainStep>,
+    /// The lens and sensor's blur: a Gaussian point spread of this σ (px of the camera image),
+    /// applied before the noise (0 = a perfectly sharp image).
+    pub optical_blur_px: f64,
 }
 
 /// A step in the gain (an auto-exposure jump between two frames).
@@ -82,6 +85,7 @@ impl Default for Photometric {
             read_noise: 0.0,
             electrons_per_level: 0.0,
             gain_step: None,
+            optical_blur_px: 0.0,
         }
     }
 }
@@ -111,6 +115,12 @@ pub struct RenderConfig {
     pub texture_size: u32,
     /// Texel size on the surfaces (m).
     pub texel_m: f64,
+    /// Contrast of the textured materials about mid-grey (1 as generated; 0.5 halves every
+    /// grey level's distance from 0.5).
+    pub texture_contrast: f64,
+    /// How many shapes (posters, stones, clutter) the textured materials carry, relative to the
+    /// generator's own (1; 0.25 leaves three quarters of the surfaces to the smooth fBm shading).
+    pub texture_density: f64,
     /// Bearings further off-axis than this are not rendered (black); the virtual pinhole covers
     /// the rest. Below 90°.
     pub max_half_angle_deg: f64,
@@ -142,6 +152,8 @@ impl Default for RenderConfig {
             pinhole_scale: 0.85,
             texture_size: 2048,
             texel_m: 0.004,
+            texture_contrast: 1.0,
+            texture_density: 1.0,
             max_half_angle_deg: 75.0,
             max_pinhole_size: 2048,
             depth: false,
@@ -207,7 +219,7 @@ impl RenderConfig {
                 && g.factor > 0.0
                 && g.factor <= 100.0
         });
-        let checks: [(&'static str, String, bool, &'static str); 15] = [
+        let checks: [(&'static str, String, bool, &'static str); 18] = [
             (
                 "texture_size",
                 c.texture_size.to_string(),
@@ -219,6 +231,18 @@ impl RenderConfig {
                 c.texel_m.to_string(),
                 (1e-4..=0.1).contains(&c.texel_m),
                 "in [1e-4, 0.1] m",
+            ),
+            (
+                "texture_contrast",
+                c.texture_contrast.to_string(),
+                c.texture_contrast > 0.0 && c.texture_contrast <= 2.0,
+                "in (0, 2]",
+            ),
+            (
+                "texture_density",
+                c.texture_density.to_string(),
+                c.texture_density > 0.0 && c.texture_density <= 4.0,
+                "in (0, 4]",
             ),
             (
                 "max_half_angle_deg",
@@ -297,6 +321,12 @@ impl RenderConfig {
                 format!("{:?}", p.gain_step),
                 step_ok,
                 "at_s >= 0 and factor in (0, 100]",
+            ),
+            (
+                "photometric.optical_blur_px",
+                p.optical_blur_px.to_string(),
+                (0.0..=5.0).contains(&p.optical_blur_px),
+                "in [0, 5] px",
             ),
         ];
         for (field, value, ok, expected) in checks {

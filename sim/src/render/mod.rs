@@ -43,6 +43,7 @@
 
 mod config;
 mod images;
+mod optics;
 mod readback;
 mod remap;
 mod setup;
@@ -232,7 +233,11 @@ impl Renderer {
         });
         let mut tex_rng = sensor_rng(seed, "render/textures");
         for (layer, m) in texture::MATERIALS.iter().enumerate() {
-            let levels = texture::generate(*m, n as usize, config.texel_m, &mut tex_rng);
+            let style = texture::TextureStyle {
+                contrast: config.texture_contrast as f32,
+                density: config.texture_density as f32,
+            };
+            let levels = texture::generate(*m, n as usize, config.texel_m, style, &mut tex_rng);
             for (level, data) in levels.iter().enumerate() {
                 let s = (n >> level).max(1);
                 queue.write_texture(

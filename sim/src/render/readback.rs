@@ -18,7 +18,7 @@ pub(super) fn finish_camera(
     let image_bytes = row * ph as usize;
     let base = cam.readback_offset as usize;
     let p = &config.photometric;
-    let image = if samples == 1 && !remap::noisy(p) {
+    let image = if samples == 1 && !remap::noisy(p) && p.optical_blur_px == 0.0 {
         // The common case in one pass: no sum buffer.
         GrayImage {
             width: cam.width,

@@ -8,7 +8,7 @@
 //! and the vignetting factor in 1/65536. A frame is then four byte loads and a few integer
 //! multiply-adds per pixel, streaming a table small enough to stay cheap.
 
-use super::{GrayImage, Photometric, VirtualPinhole};
+use super::{GrayImage, Photometric, VirtualPinhole, optics};
 use crate::rng::sensor_rng;
 use estimator::camera::CameraModel;
 use nalgebra::{Vector2, Vector3};
@@ -233,7 +233,7 @@ pub(crate) fn accumulate_weighted(
 
 /// Turns sums of accumulated images into grey levels (`den`: the sum of a uniform grey level
 /// of 1, `samples << 16` for a plain sum of `samples` images): without noise rounded
-/// exactly in integers; with noise, read noise and shot noise from the stream
+/// exactly in integers; with an optical blur, blurred (see [`optics`]); with noise, read noise and shot noise from the stream
 /// `<name>/pixels` of `seed` (ChaCha stream = `frame_index`) are added before rounding.
 pub(crate) fn finish(
     acc: &[u64],
@@ -242,28 +242,39 @@ pub(crate) fn finish(
     p: &Photometric,
     (seed, name, frame_index): (u64, &str, u64),
 ) -> GrayImage {
-    let data = if !noisy(p) {
+    let data = if !noisy(p) && p.optical_blur_px == 0.0 {
         acc.iter()
             .map(|&a| ((a * 2 + den) / (2 * den)).min(255) as u8)
             .collect()
     } else {
-        let mut rng: ChaCha8Rng = sensor_rng(seed, &format!("{name}/pixels"));
-        rng.set_stream(frame_index);
-        let read2 = (p.read_noise * p.read_noise) as f32;
-        let per_level = if p.electrons_per_level > 0.0 {
-            (1.0 / p.electrons_per_level) as f32
-        } else {
-            0.0
-        };
         let scale = (1.0 / den as f64) as f32;
-        acc.iter()
-            .map(|&a| {
-                let i = a as f32 * scale;
-                let n: f32 = StandardNormal.sample(&mut rng);
-                let v = i + (read2 + i * per_level).sqrt() * n;
-                v.round().clamp(0.0, 255.0) as u8
-            })
-            .collect()
+        let mut levels: Vec<f32> = acc.iter().map(|&a| a as f32 * scale).collect();
+        if p.optical_blur_px > 0.0 {
+            optics::gaussian_blur(&mut levels, width as usize, p.optical_blur_px);
+        }
+        if noisy(p) {
+            let mut rng: ChaCha8Rng = sensor_rng(seed, &format!("{name}/pixels"));
+            rng.set_stream(frame_index);
+            let read2 = (p.read_noise * p.read_noise) as f32;
+            let per_level = if p.electrons_per_level > 0.0 {
+                (1.0 / p.electrons_per_level) as f32
+            } else {
+                0.0
+            };
+            levels
+                .iter()
+                .map(|&i| {
+                    let n: f32 = StandardNormal.sample(&mut rng);
+                    let v = i + (read2 + i * per_level).sqrt() * n;
+                    v.round().clamp(0.0, 255.0) as u8
+                })
+                .collect()
+        } else {
+            levels
+                .iter()
+                .map(|&i| i.round().clamp(0.0, 255.0) as u8)
+                .collect()
+        }
     };
     GrayImage {
         width,

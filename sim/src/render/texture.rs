@@ -4,7 +4,9 @@
 //! value-noise fBm (octaves from a quarter of the tile down to two texels, amplitude falling as
 //! `cell^H`) plus "splats" — rectangles and disks of random grey, from 1 cm to half a metre, like
 //! posters, labels, stains and gravel — that give a tracker corners at every scale. The
-//! texture-poor material is a painted wall: a faint, low-frequency shading only. Mip levels are
+//! texture-poor material is a painted wall: a faint, low-frequency shading only. A
+//! [`TextureStyle`] thins the shapes out and scales the contrast of the textured materials
+//! (fitted to real frames with `vio image-stats`). Mip levels are
 //! 2×2 box averages in floating point, rounded once to `u8`.
 
 use rand::RngExt;
@@ -127,14 +129,39 @@ fn splat_disk(out: &mut [f32], n: usize, (cx, cy): (f32, f32), r: f32, g: f32, a
     }
 }
 
+/// How the textured materials are drawn (`RenderConfig::texture_contrast`, `texture_density`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct TextureStyle {
+    /// Contrast about mid-grey (1: as generated).
+    pub contrast: f32,
+    /// Shape count relative to the generator's own (1: as generated).
+    pub density: f32,
+}
+
+impl TextureStyle {
+    /// The generator's own textures.
+    #[cfg(test)]
+    pub(crate) const GENERATED: TextureStyle = TextureStyle {
+        contrast: 1.0,
+        density: 1.0,
+    };
+}
+
 /// The base (level 0) image of `material`, values in [0, 1].
-fn base_level(material: Material, n: usize, texel_m: f64, rng: &mut ChaCha8Rng) -> Vec<f32> {
+fn base_level(
+    material: Material,
+    n: usize,
+    texel_m: f64,
+    style: TextureStyle,
+    rng: &mut ChaCha8Rng,
+) -> Vec<f32> {
     let mut img = vec![0.5f32; n * n];
     let tex = |m: f32| ((f64::from(m) / texel_m).round() as usize).max(1); // metres → texels
     let texf = |m: f32| (f64::from(m) / texel_m) as f32;
     // Number of splats for a mean covered fraction `cover` of the tile at a mean area `area_m2`.
     let area = (n as f64 * texel_m).powi(2) as f32;
-    let count = |cover: f32, area_m2: f32| (cover * area / area_m2).round() as usize;
+    let count =
+        |cover: f32, area_m2: f32| (cover * style.density * area / area_m2).round() as usize;
     match material {
         Material::Posters => {
             add_fbm(&mut img, n, (tex(1.0), 2), 0.45, 0.3, rng);
@@ -185,7 +212,12 @@ fn base_level(material: Material, n: usize, texel_m: f64, rng: &mut ChaCha8Rng) 
         Material::Painted => {
             img.fill(0.72);
             add_fbm(&mut img, n, (tex(2.0), tex(0.25)), 0.8, 0.02, rng);
+            return img;
         }
+    }
+    if style.contrast != 1.0 {
+        img.iter_mut()
+            .for_each(|v| *v = 0.5 + style.contrast * (*v - 0.5));
     }
     img
 }
@@ -195,9 +227,10 @@ pub(crate) fn generate(
     material: Material,
     size: usize,
     texel_m: f64,
+    style: TextureStyle,
     rng: &mut ChaCha8Rng,
 ) -> Vec<Vec<u8>> {
-    let mut level = base_level(material, size, texel_m, rng);
+    let mut level = base_level(material, size, texel_m, style, rng);
     let mut n = size;
     let to_u8 = |l: &[f32]| -> Vec<u8> {
         l.iter()
@@ -234,8 +267,20 @@ mod tests {
     fn materials_are_deterministic_and_textured_as_named() {
         let n = 256;
         for (i, m) in MATERIALS.iter().enumerate() {
-            let a = generate(*m, n, 0.004, &mut sensor_rng(3, "tex"));
-            let b = generate(*m, n, 0.004, &mut sensor_rng(3, "tex"));
+            let a = generate(
+                *m,
+                n,
+                0.004,
+                TextureStyle::GENERATED,
+                &mut sensor_rng(3, "tex"),
+            );
+            let b = generate(
+                *m,
+                n,
+                0.004,
+                TextureStyle::GENERATED,
+                &mut sensor_rng(3, "tex"),
+            );
             assert_eq!(a, b);
             assert_eq!(a.len(), 9); // 256 … 1
             // Mean absolute horizontal gradient: rich layers have structure, the painted one not.
