@@ -1,4 +1,4 @@
-//! Images on disk: 8-bit grey PNGs read and written and 16-bit depth PNGs (millimetres, 0 = no
+//! Rendered images on disk: 8-bit grey PNGs and 16-bit depth PNGs (millimetres, 0 = no
 //! surface; the TUM RGB-D convention uses 5000 per metre, we use 1000 so values read as mm).
 
 use std::path::Path;
@@ -16,15 +16,6 @@ pub fn write_gray_png(path: &Path, img: &GrayImage) -> Result<(), String> {
         image::ImageFormat::Png,
     )
     .map_err(|e| format!("{}: cannot write the image: {e}", path.display()))
-}
-
-/// Reads one 8-bit grey image (a colour image is converted); only a regular file is opened. The
-/// error says why, for the caller to name the file.
-pub fn read_gray_image(path: &Path) -> Result<image::GrayImage, String> {
-    sim::input_file::check(path).map_err(|e| format!("cannot read the image: {e}"))?;
-    image::open(path)
-        .map(|i| i.to_luma8())
-        .map_err(|e| format!("cannot read the image: {e}"))
 }
 
 /// Depth in millimetres as u16 (0 where no surface is seen; saturates at 65.535 m).

@@ -10,6 +10,7 @@
 
 mod euroc_asl;
 mod features;
+mod image_file;
 pub mod kalibr;
 mod sensor_yaml;
 mod tum;
@@ -26,6 +27,7 @@ pub use euroc_asl::{
 pub use features::{
     format_features_csv, parse_features_csv, read_features_csv, write_features_csv,
 };
+pub use image_file::read_gray_image;
 pub use sensor_yaml::{
     CameraSensor, ImuSensor, SensorYaml, format_sensor_yaml, parse_sensor_yaml, read_sensor_yaml,
     write_sensor_yaml,

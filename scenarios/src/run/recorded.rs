@@ -365,7 +365,7 @@ impl Recorded<'_> {
                 let (t, paths) = &list[self.frame_i];
                 let images = paths
                     .iter()
-                    .map(|p| crate::images::read_gray_image(p).map_err(|e| RunError::input(p, e)))
+                    .map(|p| crate::dataset::read_gray_image(p).map_err(|e| RunError::input(p, e)))
                     .collect::<Result<Vec<_>, _>>()?;
                 let views = images
                     .iter()

@@ -5,8 +5,7 @@ use std::path::{Path, PathBuf};
 
 use estimator::camera::Camera;
 
-use crate::dataset::read_euroc_cameras;
-use crate::images::read_gray_image;
+use crate::dataset::{read_euroc_cameras, read_gray_image};
 
 /// The frames of one camera, in time order, all of one size.
 #[derive(Clone, Debug)]
