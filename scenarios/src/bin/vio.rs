@@ -20,6 +20,8 @@ mod eval;
 mod image_stats;
 #[path = "vio/imu_model.rs"]
 mod imu_model;
+#[path = "vio/interrupt.rs"]
+mod interrupt;
 #[path = "vio/studies.rs"]
 mod studies;
 
@@ -154,7 +156,8 @@ enum Command {
     /// Run a sweep (a base scenario over a grid of parameter values × seeds; see
     /// `scenarios/sweeps/`): `OUT/results.csv`, `OUT/sweep.json` and, without `--shard`, a plot
     /// per metric and axis. `--shard i/n` (0 ≤ i < n) runs every n-th run from the i-th, for one
-    /// machine of many; `vio sweep-merge` joins the shards.
+    /// machine of many; `vio sweep-merge` joins the shards. Ctrl-C stops it keeping the runs
+    /// done (exit 130); `--resume` finishes it.
     Sweep {
         /// The sweep file.
         file: PathBuf,
@@ -167,6 +170,14 @@ enum Command {
         /// Worker threads [default: the machine's cores]; the result does not depend on it.
         #[arg(long)]
         jobs: Option<usize>,
+        /// Finish an interrupted sweep in `--out`: run only the runs it has not kept
+        /// (`OUT/partial/`); the result is what an uninterrupted sweep writes.
+        #[arg(long, conflicts_with = "force")]
+        resume: bool,
+        /// Replace a previous sweep's results in `--out` (without it they are refused, never
+        /// mixed).
+        #[arg(long)]
+        force: bool,
     },
     /// Join sweep shard folders into `--out` (exactly what one process would have written) and
     /// draw the plots.
@@ -337,7 +348,9 @@ fn main() -> ExitCode {
             out,
             shard,
             jobs,
-        } => sweep_command(&file, &out, shard.as_deref(), jobs),
+            resume,
+            force,
+        } => sweep_command(&file, &out, shard.as_deref(), jobs, (resume, force)),
         Command::SweepMerge { dirs, out } => {
             match scenarios::studies::sweep::merge::merge(&dirs, &out) {
                 Ok(files) => {

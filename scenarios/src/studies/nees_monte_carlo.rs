@@ -19,7 +19,7 @@
 
 use std::collections::BTreeMap;
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use estimator::geometry::{Pose, skew, so3_log};
 use estimator::odometry::chi2_quantile;
@@ -99,6 +99,17 @@ pub fn band(runs: usize, dof: usize) -> [f64; 2] {
 
 /// Runs the study: every seed of `options`, then the metrics.
 pub fn run_nees(scenario: &Scenario, options: &NeesOptions) -> Result<NeesReport, RunError> {
+    run_nees_until(scenario, options, None).map(|r| r.expect("nothing stops it: every seed ran"))
+}
+
+/// [`run_nees`] that stops once `stop` is set (Ctrl-C): no seed starts, the runs under way
+/// stop and are dropped, and the report covers the seeds that finished (`None` when none
+/// did).
+pub fn run_nees_until(
+    scenario: &Scenario,
+    options: &NeesOptions,
+    stop: Option<&AtomicBool>,
+) -> Result<Option<NeesReport>, RunError> {
     if scenario.spec.suite == SuiteSpec::Stereo {
         return Err(RunError::Estimator {
             file: scenario.file_label(),
@@ -109,12 +120,13 @@ pub fn run_nees(scenario: &Scenario, options: &NeesOptions) -> Result<NeesReport
     let results: Mutex<Vec<Option<Result<ReportedRun, RunError>>>> =
         Mutex::new((0..n).map(|_| None).collect());
     let next = AtomicUsize::new(0);
+    let stopped = || stop.is_some_and(|s| s.load(Ordering::Relaxed));
     std::thread::scope(|s| {
         for _ in 0..options.threads.clamp(1, n.max(1)) {
             s.spawn(|| {
                 loop {
                     let i = next.fetch_add(1, Ordering::Relaxed);
-                    if i >= n {
+                    if i >= n || stopped() {
                         break;
                     }
                     let run_options = RunOptions {
@@ -123,21 +135,47 @@ pub fn run_nees(scenario: &Scenario, options: &NeesOptions) -> Result<NeesReport
                         covariance: true,
                         ..Default::default()
                     };
-                    let out = run_to_report(
-                        RunInput::Scenario(scenario),
-                        &run_options,
-                        RunControl::default(),
-                    );
+                    let control = RunControl {
+                        progress: None,
+                        stop,
+                    };
+                    let out = run_to_report(RunInput::Scenario(scenario), &run_options, control);
+                    if out
+                        .as_ref()
+                        .is_ok_and(|r| r.report.interrupted_at_s.is_some())
+                    {
+                        break;
+                    }
                     results.lock().expect("no worker panicked")[i] = Some(out);
                 }
             });
         }
     });
     let mut runs = Vec::with_capacity(n);
-    for r in results.into_inner().expect("no worker panicked") {
-        runs.push(r.expect("every seed ran")?);
+    let mut seeds = Vec::with_capacity(n);
+    for (i, r) in results
+        .into_inner()
+        .expect("no worker panicked")
+        .into_iter()
+        .enumerate()
+    {
+        match r {
+            Some(r) => {
+                runs.push(r?);
+                seeds.push(options.seeds[i]);
+            }
+            None if stopped() => {}
+            None => unreachable!("every seed ran"),
+        }
     }
-    Ok(report(scenario, options, &runs))
+    if runs.is_empty() {
+        return Ok(None);
+    }
+    let finished = NeesOptions {
+        seeds,
+        ..options.clone()
+    };
+    Ok(Some(report(scenario, &finished, &runs)))
 }
 
 /// NEES of every metric at one frame of one run, `None` where it cannot be computed.

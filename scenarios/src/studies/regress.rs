@@ -26,6 +26,7 @@ use serde::{Deserialize, Serialize};
 use crate::report::Report;
 use crate::run::{RunControl, RunInput, RunOptions, run_to_report};
 use crate::spec::Scenario;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Which way a metric gets worse.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -386,22 +387,35 @@ pub fn check_baseline(
     Ok(())
 }
 
-/// Runs every scenario file; `(name, report)` in order, or the first error.
+/// Runs every scenario file; `(name, report)` in order, or the first error. Once `stop` is set
+/// (Ctrl-C) no scenario starts and the one under way stops and is dropped: the list ends
+/// with the last scenario that finished.
 pub fn run_catalog(
     files: &[PathBuf],
     progress: &mut dyn FnMut(&str),
+    stop: Option<&AtomicBool>,
 ) -> Result<Vec<(String, Report)>, String> {
     let mut out = Vec::new();
     for f in files {
+        if stop.is_some_and(|s| s.load(Ordering::Relaxed)) {
+            break;
+        }
         let path = f.to_string_lossy().into_owned();
         let scenario = Scenario::load(&path).map_err(|e| e.to_string())?;
         progress(&scenario.name);
+        let control = RunControl {
+            progress: None,
+            stop,
+        };
         let run = run_to_report(
             RunInput::Scenario(&scenario),
             &RunOptions::default(),
-            RunControl::default(),
+            control,
         )
         .map_err(|e| e.to_string())?;
+        if run.report.interrupted_at_s.is_some() {
+            break;
+        }
         out.push((scenario.name.clone(), run.report));
     }
     Ok(out)

@@ -300,3 +300,134 @@ fn a_merge_refuses_shard_results_it_cannot_trust_naming_file_and_line() {
     }
     let _ = std::fs::remove_dir_all(dir);
 }
+
+/// Starts `vio sweep FILE --out OUT --shard SHARD --jobs 1`, waits until it has kept its first
+/// finished run, then sends it `signal` (`INT`: Ctrl-C; `KILL`: a preempted batch job); returns
+/// its exit code (None: killed) and how many runs it had kept.
+fn interrupt_sweep(file: &str, out: &Path, shard: &str, signal: &str) -> (Option<i32>, usize) {
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_vio"))
+        .args(["sweep", file, "--out", out.to_str().unwrap()])
+        .args(["--shard", shard, "--jobs", "1"])
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let kept = |out: &Path| {
+        std::fs::read_dir(out.join("partial")).map_or(0, |d| {
+            d.filter(|e| {
+                e.as_ref()
+                    .is_ok_and(|e| e.file_name().to_string_lossy().ends_with(".csv"))
+            })
+            .count()
+        })
+    };
+    let started = std::time::Instant::now();
+    while kept(out) == 0 {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the sweep ended before it could be interrupted"
+        );
+        assert!(
+            started.elapsed().as_secs() < 300,
+            "no run finished in 300 s"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let status = std::process::Command::new("kill")
+        .args([&format!("-{signal}"), &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let code = child.wait().unwrap().code();
+    (code, kept(out))
+}
+
+#[test]
+fn an_interrupted_then_resumed_sharded_sweep_merges_byte_identical_to_an_uninterrupted_one() {
+    let dir = scratch("sweep-resume");
+    let dir = dir.path();
+    // Longer runs than the other tests' (4 s): time to interrupt after the first of four.
+    let file = write(
+        dir,
+        "s.toml",
+        &SWEEP.replace("duration_s = 2.0", "duration_s = 4.0"),
+    );
+    let f = file.to_str().unwrap();
+    let vio_ok = |args: &[&str]| {
+        let out = vio(args);
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    let one = dir.join("one");
+    vio_ok(&["sweep", f, "--out", one.to_str().unwrap(), "--jobs", "2"]);
+
+    // Shard 0 gets Ctrl-C: it stops at once (130) keeping what finished.
+    let s0 = dir.join("s0");
+    let (code, kept) = interrupt_sweep(f, &s0, "0/2", "INT");
+    assert_eq!(code, Some(130));
+    assert!((1..4).contains(&kept), "{kept} of 4 runs kept");
+    assert!(!s0.join("results.csv").exists());
+    // Shard 1 is killed outright, as a preempted job is.
+    let s1 = dir.join("s1");
+    let (code, kept) = interrupt_sweep(f, &s1, "1/2", "KILL");
+    assert_eq!(code, None);
+    assert!((1..4).contains(&kept), "{kept} of 4 runs kept");
+    // Without --resume the folders are refused, not mixed; --resume finishes them.
+    let again = vio(&["sweep", f, "--out", s0.to_str().unwrap(), "--shard", "0/2"]);
+    assert_eq!(again.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&again.stderr).contains("--resume"));
+    for (d, shard) in [(&s0, "0/2"), (&s1, "1/2")] {
+        let d = d.to_str().unwrap();
+        vio_ok(&["sweep", f, "--out", d, "--shard", shard, "--resume"]);
+    }
+    assert!(!s0.join("partial").exists());
+    let merged = dir.join("merged");
+    vio_ok(&[
+        "sweep-merge",
+        s0.to_str().unwrap(),
+        s1.to_str().unwrap(),
+        "--out",
+        merged.to_str().unwrap(),
+    ]);
+    let (a, b) = (files(&one), files(&merged));
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(x.0, y.0);
+        assert!(
+            x.1 == y.1,
+            "{} differs after interruption and resumption",
+            x.0
+        );
+    }
+    // A kept run that is not this sweep's is refused naming the file; --force starts over.
+    let other = write(
+        dir,
+        "other.toml",
+        &SWEEP.replace("seeds = [1, 2]", "seeds = [1, 3]"),
+    );
+    let wrong = vio(&[
+        "sweep",
+        other.to_str().unwrap(),
+        "--out",
+        one.to_str().unwrap(),
+        "--resume",
+    ]);
+    assert_eq!(wrong.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&wrong.stderr).contains("another sweep"),
+        "{}",
+        String::from_utf8_lossy(&wrong.stderr)
+    );
+    let tampered = dir.join("tampered");
+    std::fs::create_dir_all(tampered.join("partial")).unwrap();
+    std::fs::write(tampered.join("partial/run-3.csv"), "run,point\n3,1\n").unwrap();
+    let out = vio(&["sweep", f, "--out", tampered.to_str().unwrap(), "--resume"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("partial/run-3.csv:1"), "{err}");
+    vio_ok(&["sweep", f, "--out", tampered.to_str().unwrap(), "--force"]);
+    assert!(!tampered.join("partial").exists());
+}

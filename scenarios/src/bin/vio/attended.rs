@@ -5,7 +5,6 @@
 use std::io::IsTerminal;
 use std::path::Path;
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use scenarios::report;
@@ -13,23 +12,13 @@ use scenarios::run::{ReportedRun, RunControl, RunError, RunInput, RunOptions, ru
 
 use super::{BAD_INPUT, say};
 
-/// Set by Ctrl-C: the run stops and writes what it has; a second Ctrl-C exits at once.
-static INTERRUPTED: AtomicBool = AtomicBool::new(false);
-
 /// Runs `input` (called `label` on the progress bar) to its report.
 pub fn run_attended(
     label: &str,
     input: RunInput,
     options: &RunOptions,
 ) -> Result<ReportedRun, RunError> {
-    let _ = ctrlc::set_handler(|| {
-        if INTERRUPTED.swap(true, Ordering::Relaxed) {
-            std::process::exit(130);
-        }
-        eprintln!(
-            "\ninterrupted: stopping the run and writing what it has (Ctrl-C again to quit now)"
-        );
-    });
+    let stop = super::interrupt::on_ctrl_c("stopping the run and writing what it has");
     let terminal = std::io::stderr().is_terminal();
     let bar = ProgressBar::with_draw_target(
         Some(1000),
@@ -60,7 +49,7 @@ pub fn run_attended(
     };
     let control = RunControl {
         progress: Some(&mut progress),
-        stop: Some(&INTERRUPTED),
+        stop: Some(stop),
     };
     let result = run_to_report(input, options, control);
     bar.finish_and_clear();

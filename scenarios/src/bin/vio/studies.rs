@@ -5,13 +5,20 @@ use std::process::ExitCode;
 
 use super::{BAD_INPUT, check_duration, check_out_dir, load_scenario, say};
 
+/// `vio sweep`: exit 0 done, 2 bad input (or a run that failed), 130 interrupted (the runs
+/// done are kept for `--resume`).
 pub(super) fn sweep_command(
     file: &std::path::Path,
     out: &std::path::Path,
     shard: Option<&str>,
     jobs: Option<usize>,
+    (resume, force): (bool, bool),
 ) -> ExitCode {
-    use scenarios::studies::sweep::{Sweep, run::Shard};
+    use scenarios::studies::sweep::partial::{forget_rows, keep_row, kept_rows, partial_dir};
+    use scenarios::studies::sweep::{
+        Sweep,
+        run::{Shard, SweepControl},
+    };
     let bad = |e: String| {
         eprintln!("vio sweep: error: {e}");
         ExitCode::from(BAD_INPUT)
@@ -24,25 +31,68 @@ pub(super) fn sweep_command(
         Ok(s) => s,
         Err(e) => return bad(e),
     };
+    let shard = shard_spec.unwrap_or(Shard::ALL);
     if let Err(code) = check_out_dir(out) {
         return code;
+    }
+    let json = serde_json::to_string_pretty(&sweep.json()).expect("plain data") + "\n";
+    if let Err(e) = prepare_sweep_out(out, &json, resume, force) {
+        return bad(e);
+    }
+    let kept = if resume {
+        match kept_rows(out, &sweep, shard) {
+            Ok(rows) => rows,
+            Err(e) => return bad(e),
+        }
+    } else {
+        Vec::new()
+    };
+    if let Err(e) = std::fs::write(out.join("sweep.json"), &json) {
+        return bad(format!("--out {}: {e}", out.display()));
     }
     let jobs = jobs.unwrap_or_else(|| {
         std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
     });
+    let stop = super::interrupt::on_ctrl_c(
+        "stopping: the runs under way are dropped, the finished ones kept for --resume",
+    );
     let started = std::time::Instant::now();
-    let rows = match sweep.run(shard_spec.unwrap_or(Shard::ALL), jobs, &|done, total| {
-        eprint!("\r{done}/{total} runs");
-    }) {
+    let control = SweepControl {
+        done: kept.iter().map(|r| r.run).collect(),
+        stop: Some(stop),
+        keep: &|row| keep_row(out, &sweep, row),
+        progress: &|done, total| eprint!("\r{done}/{total} runs"),
+    };
+    let new_rows = sweep.run(shard, jobs, &control);
+    eprintln!();
+    let mut rows = match new_rows {
         Ok(r) => r,
         Err(e) => return bad(e),
     };
-    eprintln!();
-    let json = serde_json::to_string_pretty(&sweep.json()).expect("plain data") + "\n";
-    for (name, text) in [("results.csv", sweep.csv(&rows)), ("sweep.json", json)] {
-        if let Err(e) = std::fs::write(out.join(name), text) {
-            return bad(format!("--out {}: {e}", out.display()));
-        }
+    let shard_runs = (0..sweep.points().len() * sweep.spec.seeds.len())
+        .filter(|&r| shard.has(r))
+        .count();
+    if super::interrupt::interrupted() {
+        let done = kept.len() + rows.len();
+        eprintln!(
+            "vio sweep: interrupted after {done} of {shard_runs} runs, kept in {}; `vio sweep {} --out {}{} --resume` runs the rest",
+            partial_dir(out).display(),
+            file.display(),
+            out.display(),
+            shard_spec.map_or(String::new(), |s| format!(
+                " --shard {}/{}",
+                s.index, s.count
+            ))
+        );
+        return ExitCode::from(130);
+    }
+    rows.extend(kept);
+    rows.sort_by_key(|r| r.run);
+    if let Err(e) = std::fs::write(out.join("results.csv"), sweep.csv(&rows)) {
+        return bad(format!("--out {}: {e}", out.display()));
+    }
+    if let Err(e) = forget_rows(out) {
+        return bad(e);
     }
     if shard_spec.is_none()
         && let Err(e) = scenarios::studies::sweep::merge::merge(&[out.to_path_buf()], out)
@@ -57,6 +107,61 @@ pub(super) fn sweep_command(
         out.display()
     ));
     ExitCode::SUCCESS
+}
+
+/// What a sweep finds in `--out` before it starts: a folder of another sweep's results is
+/// refused (or, with `force`, emptied of them); with `resume` the folder's `sweep.json`, if
+/// any, must be this sweep's.
+fn prepare_sweep_out(
+    out: &std::path::Path,
+    json: &str,
+    resume: bool,
+    force: bool,
+) -> Result<(), String> {
+    use scenarios::studies::sweep::partial::{PARTIAL_DIR, forget_rows};
+    let previous = out.join("sweep.json");
+    if resume {
+        return match std::fs::read_to_string(&previous) {
+            Ok(text) if text != json => Err(format!(
+                "--resume: {} is another sweep's (its definition differs from this file's); resume with the sweep file that started it, or use another --out",
+                previous.display()
+            )),
+            _ => Ok(()),
+        };
+    }
+    let entries = std::fs::read_dir(out).map_err(|e| format!("--out {}: {e}", out.display()))?;
+    let ours: Vec<std::path::PathBuf> = entries
+        .filter_map(Result::ok)
+        .map(|e| e.path())
+        .filter(|p| {
+            let name = p
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            name == "sweep.json"
+                || name == "results.csv"
+                || name == PARTIAL_DIR
+                || (name.contains("_vs_") && name.ends_with(".png"))
+        })
+        .collect();
+    if ours.is_empty() {
+        return Ok(());
+    }
+    if !force {
+        return Err(format!(
+            "--out {} holds a previous sweep's results ({}): --resume to finish it, --force to replace it",
+            out.display(),
+            ours.iter()
+                .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    forget_rows(out)?;
+    for p in ours.iter().filter(|p| p.is_file()) {
+        std::fs::remove_file(p).map_err(|e| format!("{}: {e}", p.display()))?;
+    }
+    Ok(())
 }
 
 pub(super) fn bench_command(quick: bool, out: Option<PathBuf>, one: Option<String>) -> ExitCode {
@@ -82,8 +187,13 @@ pub(super) fn bench_command(quick: bool, out: Option<PathBuf>, one: Option<Strin
         Ok(e) => e,
         Err(e) => return bad(format!("cannot find the vio executable: {e}")),
     };
+    // Ctrl-C reaches the child too (one process group): it stops there, and so does the table.
+    let _ = super::interrupt::on_ctrl_c("stopping: the table and bench.json cover the rows done");
     let mut rows = Vec::new();
     for &(name, ..) in bench::SCENARIOS {
+        if super::interrupt::interrupted() {
+            break;
+        }
         eprintln!("bench {name}");
         let mut cmd = std::process::Command::new(&exe);
         cmd.args(["bench", "--one", name]);
@@ -94,6 +204,9 @@ pub(super) fn bench_command(quick: bool, out: Option<PathBuf>, one: Option<Strin
             Ok(o) => o,
             Err(e) => return bad(format!("{name}: {e}")),
         };
+        if super::interrupt::interrupted() {
+            break;
+        }
         if !child.status.success() {
             return bad(format!(
                 "{name}: {}",
@@ -125,6 +238,14 @@ pub(super) fn bench_command(quick: bool, out: Option<PathBuf>, one: Option<Strin
         return bad(format!("{}: {e}", path.display()));
     }
     say(&format!("written: {}\n", path.display()));
+    if super::interrupt::interrupted() {
+        eprintln!(
+            "vio bench: interrupted after {} of {} scenarios",
+            json.rows.len(),
+            bench::SCENARIOS.len()
+        );
+        return ExitCode::from(130);
+    }
     ExitCode::SUCCESS
 }
 
@@ -171,10 +292,23 @@ pub(super) fn regress_command(
     {
         return bad(format!("--junit {}: {e}", path.display()));
     }
-    let reports = match regress::run_catalog(&files, &mut |name| eprintln!("running {name}")) {
-        Ok(r) => r,
-        Err(e) => return bad(e),
-    };
+    let stop = super::interrupt::on_ctrl_c(
+        "stopping: the scenario under way is dropped, the finished ones compared",
+    );
+    let reports =
+        match regress::run_catalog(&files, &mut |name| eprintln!("running {name}"), Some(stop)) {
+            Ok(r) => r,
+            Err(e) => return bad(e),
+        };
+    let interrupted = super::interrupt::interrupted();
+    if interrupted && update {
+        eprintln!(
+            "vio regress: interrupted after {} of {} scenarios: the baseline is left as it was",
+            reports.len(),
+            files.len()
+        );
+        return ExitCode::from(130);
+    }
     if update {
         let b = regress::updated_baseline(&reports, &old.unwrap_or_default());
         let text = serde_json::to_string_pretty(&b).expect("plain data") + "\n";
@@ -199,10 +333,17 @@ pub(super) fn regress_command(
     {
         return bad(format!("--junit {}: {e}", path.display()));
     }
-    if checks.iter().any(|c| c.failed()) {
-        for c in checks.iter().filter(|c| c.failed()) {
-            eprintln!("regression: {}", c.describe());
-        }
+    for c in checks.iter().filter(|c| c.failed()) {
+        eprintln!("regression: {}", c.describe());
+    }
+    if interrupted {
+        eprintln!(
+            "vio regress: interrupted after {} of {} scenarios: the table covers those",
+            reports.len(),
+            files.len()
+        );
+        ExitCode::from(130)
+    } else if checks.iter().any(|c| c.failed()) {
         ExitCode::from(1)
     } else {
         ExitCode::SUCCESS
@@ -236,13 +377,22 @@ pub(super) fn nees_command(
             std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
         }),
     };
-    let r = match scenarios::studies::nees_monte_carlo::run_nees(&scenario, &options) {
-        Ok(r) => r,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::from(BAD_INPUT);
-        }
-    };
+    let stop = super::interrupt::on_ctrl_c(
+        "stopping: the seeds under way are dropped, the NEES of the finished ones written",
+    );
+    let r =
+        match scenarios::studies::nees_monte_carlo::run_nees_until(&scenario, &options, Some(stop))
+        {
+            Ok(Some(r)) => r,
+            Ok(None) => {
+                eprintln!("vio nees: interrupted before any seed finished: nothing written");
+                return ExitCode::from(130);
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(BAD_INPUT);
+            }
+        };
     let out_dir =
         out.unwrap_or_else(|| PathBuf::from("vio-out").join(format!("{}-nees", scenario.name)));
     say(&scenarios::studies::nees_monte_carlo::summary(&r));
@@ -253,7 +403,13 @@ pub(super) fn nees_command(
             return ExitCode::from(BAD_INPUT);
         }
     }
-    if r.passed {
+    if super::interrupt::interrupted() {
+        eprintln!(
+            "vio nees: interrupted: {} of {seeds} seeds finished; the files cover those",
+            r.seeds.len()
+        );
+        ExitCode::from(130)
+    } else if r.passed {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(1)

@@ -232,7 +232,20 @@ impl Sweep {
         Ok(sweep)
     }
 
-    /// Every point of the grid, the last axis fastest.
+    /// Point `index` of the grid (the axes' value indices, the last axis fastest).
+    pub fn point(&self, index: usize) -> Point {
+        let mut rest = index;
+        let mut point = vec![0; self.spec.axes.len()];
+        for (a, axis) in self.spec.axes.iter().enumerate().rev() {
+            let n = axis.values.len().max(1);
+            point[a] = rest % n;
+            rest /= n;
+        }
+        point
+    }
+
+    /// Every point, in index order (the Cartesian product of the axes, the last varying
+    /// fastest).
     pub fn points(&self) -> Vec<Point> {
         let mut out = vec![Vec::new()];
         for a in &self.spec.axes {
@@ -312,14 +325,28 @@ impl Sweep {
             line: None,
             message: e.to_string(),
         })?;
+        // The error names the sweep file (the point's values come from it), the axis that
+        // set the refused key, and where the base scenario holds it.
         Scenario::parse(&self.scenario_name, self.base_origin.clone(), &text).map_err(|e| {
+            let axis = self
+                .spec
+                .axes
+                .iter()
+                .find(|a| a.keys.iter().any(|k| e.key.starts_with(k.as_str())))
+                .map_or(String::new(), |a| format!("axis `{}` sets it; ", a.name));
+            let base = match e.line {
+                Some(l) => format!("{}:{l}", e.file),
+                None => e.file.clone(),
+            };
             SpecError {
+                file: self.file.clone(),
+                line: None,
                 message: format!(
-                    "at sweep point {}: {}",
+                    "at sweep point {}: {} ({axis}base scenario {base})",
                     self.describe_point(point),
-                    e.message
+                    e.message,
                 ),
-                ..e
+                key: e.key,
             }
         })
     }

@@ -78,16 +78,22 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>, String> {
             }
             let parsed = parse_row(line, &meta).map_err(at)?;
             if rows.insert(run, (line.to_string(), parsed)).is_some() {
-                return Err(format!("run {run} appears in two shards"));
+                return Err(at(format!(
+                    "run {run} appears twice (in this shard or in two of the folders given)"
+                )));
             }
         }
     }
     let missing: Vec<usize> = (0..meta.runs).filter(|r| !rows.contains_key(r)).collect();
     if let Some(r) = missing.first() {
         return Err(format!(
-            "{} of {} runs are missing (first: run {r}): a shard has not finished",
+            "{} of {} runs are missing from the results.csv of {} (first: run {r}): a shard has not finished or is not among them",
             missing.len(),
-            meta.runs
+            meta.runs,
+            dirs.iter()
+                .map(|d| d.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
         ));
     }
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;

@@ -24,10 +24,13 @@
 //! names are unique; at most [`MAX_RUNS`] runs, counted without overflow. Points are the
 //! Cartesian product of the axes (the last axis varies fastest); runs are points × seeds, in
 //! that order. `--shard i/n` (0 ≤ i < n) runs the runs whose index is `i` modulo `n`; `vio sweep-merge`
-//! joins shards into what one process would have written, byte for byte.
+//! joins shards into what one process would have written, byte for byte. Each finished run is
+//! kept in `OUT/partial/` as it finishes; after Ctrl-C (or a killed job) `vio sweep --resume`
+//! runs only the rest and writes what an uninterrupted sweep writes.
 
 mod grid;
 pub mod merge;
+pub mod partial;
 pub mod run;
 
 pub use grid::{AxisSpec, DEFAULT_METRICS, MAX_RUNS, Point, Sweep, SweepSpec};

@@ -2,9 +2,10 @@
 //! `results.csv` (one row per run, in run order) and `sweep.json` (the sweep's definition and
 //! size, identical for every shard, so merged shards equal one process's output).
 
+use std::collections::BTreeSet;
 use std::fmt::Write as _;
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use serde::Serialize;
 
@@ -45,6 +46,18 @@ impl Shard {
     pub fn has(self, r: usize) -> bool {
         r % self.count == self.index
     }
+}
+
+/// How a caller steers [`Sweep::run`].
+pub struct SweepControl<'a> {
+    /// Runs already done (kept from an interrupted sweep): not run again.
+    pub done: BTreeSet<usize>,
+    /// Once set (Ctrl-C), no run starts and the runs under way stop.
+    pub stop: Option<&'a AtomicBool>,
+    /// Called with each finished row as it finishes (to keep it); an error fails that run.
+    pub keep: &'a (dyn Fn(&RunRow) -> Result<(), String> + Sync),
+    /// Called with (runs finished, runs to do).
+    pub progress: &'a (dyn Fn(usize, usize) + Sync),
 }
 
 /// One finished run: its index, point, seed and metric values.
@@ -121,41 +134,55 @@ impl Sweep {
         }
     }
 
-    /// Runs the shard's runs on `jobs` threads; rows in run order (the result does not depend
-    /// on `jobs`). `progress` is told each finished run.
+    /// Runs the shard's runs on `jobs` threads, but not those in `control.done`; rows of the
+    /// runs that finished, in run order (the result does not depend on `jobs`). Each finished
+    /// row is handed to `control.keep` at once; `control.progress` is told each finished run.
+    /// Once `control.stop` is set no run starts, and the runs under way stop and are dropped
+    /// (a shortened run's metrics are not the run's).
     pub fn run(
         &self,
         shard: Shard,
         jobs: usize,
-        progress: &(dyn Fn(usize, usize) + Sync),
+        control: &SweepControl<'_>,
     ) -> Result<Vec<RunRow>, String> {
         let points = self.points();
         let seeds = &self.spec.seeds;
         let todo: Vec<usize> = (0..points.len() * seeds.len())
-            .filter(|&r| shard.has(r))
+            .filter(|&r| shard.has(r) && !control.done.contains(&r))
             .collect();
         let results: Mutex<Vec<Option<Result<RunRow, String>>>> =
             Mutex::new(vec![None; todo.len()]);
         let next = AtomicUsize::new(0);
-        let done = AtomicUsize::new(0);
+        let finished = AtomicUsize::new(0);
+        let stopped = || control.stop.is_some_and(|s| s.load(Ordering::Relaxed));
         std::thread::scope(|s| {
             for _ in 0..jobs.clamp(1, todo.len().max(1)) {
                 s.spawn(|| {
                     loop {
                         let k = next.fetch_add(1, Ordering::Relaxed);
-                        if k >= todo.len() {
+                        if k >= todo.len() || stopped() {
                             break;
                         }
                         let r = todo[k];
                         let (p, si) = (r / seeds.len(), r % seeds.len());
-                        let row = self.run_one(&points[p], seeds[si]).map(|values| RunRow {
-                            run: r,
-                            point: p,
-                            seed: seeds[si],
-                            values,
-                        });
+                        let row = match self.run_one(&points[p], seeds[si], control.stop) {
+                            Ok(None) => break,
+                            Ok(Some(values)) => {
+                                let row = RunRow {
+                                    run: r,
+                                    point: p,
+                                    seed: seeds[si],
+                                    values,
+                                };
+                                (control.keep)(&row).map(|()| row)
+                            }
+                            Err(e) => Err(e),
+                        };
                         results.lock().expect("no worker panicked")[k] = Some(row);
-                        progress(done.fetch_add(1, Ordering::Relaxed) + 1, todo.len());
+                        (control.progress)(
+                            finished.fetch_add(1, Ordering::Relaxed) + 1,
+                            todo.len(),
+                        );
                     }
                 });
             }
@@ -164,35 +191,54 @@ impl Sweep {
             .into_inner()
             .expect("no worker panicked")
             .into_iter()
-            .map(|r| r.expect("every run ran"))
+            .flatten()
             .collect()
     }
 
-    /// One run's metric values.
-    fn run_one(&self, point: &[usize], seed: u64) -> Result<Vec<Option<f64>>, String> {
+    /// One run's metric values; `None` when `stop` ended it early.
+    fn run_one(
+        &self,
+        point: &[usize],
+        seed: u64,
+        stop: Option<&AtomicBool>,
+    ) -> Result<Option<Vec<Option<f64>>>, String> {
         let scenario = self.scenario(point).map_err(|e| e.to_string())?;
         let options = RunOptions {
             seed: Some(seed),
             duration_s: self.spec.duration_s,
             ..Default::default()
         };
-        let run = run_to_report(
-            RunInput::Scenario(&scenario),
-            &options,
-            RunControl::default(),
-        )
-        .map_err(|e| format!("{} seed {seed}: {e}", self.describe_point(point)))?;
-        Ok(self
-            .metrics
-            .iter()
-            .map(|m| run.report.metric(m).filter(|v| v.is_finite()))
-            .collect())
+        let control = RunControl {
+            progress: None,
+            stop,
+        };
+        let run = run_to_report(RunInput::Scenario(&scenario), &options, control)
+            .map_err(|e| format!("{} seed {seed}: {e}", self.describe_point(point)))?;
+        if run.report.interrupted_at_s.is_some() {
+            return Ok(None);
+        }
+        Ok(Some(
+            self.metrics
+                .iter()
+                .map(|m| run.report.metric(m).filter(|v| v.is_finite()))
+                .collect(),
+        ))
     }
 
     /// `results.csv`: a header, then one row per run in run order. Numbers are written in
     /// their shortest exact form; an empty cell is a metric that could not be computed.
     pub fn csv(&self, rows: &[RunRow]) -> String {
-        let points = self.points();
+        let mut s = self.csv_header();
+        s.push('\n');
+        for row in rows {
+            s.push_str(&self.csv_row(row));
+            s.push('\n');
+        }
+        s
+    }
+
+    /// `results.csv`'s header.
+    pub fn csv_header(&self) -> String {
         let mut s = String::from("run,point,seed");
         for a in &self.spec.axes {
             let _ = write!(s, ",{}", a.name);
@@ -200,21 +246,23 @@ impl Sweep {
         for m in &self.metrics {
             let _ = write!(s, ",{m}");
         }
-        s.push('\n');
-        for row in rows {
-            let _ = write!(s, "{},{},{}", row.run, row.point, row.seed);
-            for (a, &i) in points[row.point].iter().enumerate() {
-                let _ = write!(s, ",{}", self.x(a, i));
-            }
-            for v in &row.values {
-                match v {
-                    Some(v) => {
-                        let _ = write!(s, ",{v}");
-                    }
-                    None => s.push(','),
+        s
+    }
+
+    /// One row of `results.csv` (without its line end): run, point, seed, the point's axis
+    /// values, the metrics.
+    pub fn csv_row(&self, row: &RunRow) -> String {
+        let mut s = format!("{},{},{}", row.run, row.point, row.seed);
+        for (a, &i) in self.point(row.point).iter().enumerate() {
+            let _ = write!(s, ",{}", self.x(a, i));
+        }
+        for v in &row.values {
+            match v {
+                Some(v) => {
+                    let _ = write!(s, ",{v}");
                 }
+                None => s.push(','),
             }
-            s.push('\n');
         }
         s
     }
