@@ -23,6 +23,21 @@ pub const FEATURES_HEADER: &str = "t_ns,cam_id,feature_id,u,v";
 
 /// Parses `features.csv` text; `path` names the source in errors.
 pub fn parse_features_csv(text: &str, path: &Path) -> Result<Vec<FeatureFrame>, DatasetError> {
+    parse_features_csv_within(text, path, &[])
+}
+
+/// How far outside its image a feature's pixel may lie (px): a tracked pixel is inside it.
+pub const PIXEL_SLACK_PX: f64 = 1.0;
+
+/// [`parse_features_csv`] for cameras of `sizes` (`[width, height]` per camera, in order): a
+/// pixel more than [`PIXEL_SLACK_PX`] outside its camera's image is an error naming the line.
+/// Rows of cameras beyond `sizes` are not checked (the caller leaves them out); an empty
+/// `sizes` checks no pixel.
+pub fn parse_features_csv_within(
+    text: &str,
+    path: &Path,
+    sizes: &[[u32; 2]],
+) -> Result<Vec<FeatureFrame>, DatasetError> {
     let mut frames: Vec<FeatureFrame> = Vec::new();
     for (line, content) in data_lines(text) {
         let compact: String = content.chars().filter(|c| !c.is_whitespace()).collect();
@@ -49,6 +64,16 @@ pub fn parse_features_csv(text: &str, path: &Path) -> Result<Vec<FeatureFrame>, 
         })?;
         let u = parse_f64(f[3], "u").map_err(err)?;
         let v = parse_f64(f[4], "v").map_err(err)?;
+        if let Some(&[w, h]) = sizes.get(cam_id) {
+            let inside =
+                |x: f64, n: u32| (-PIXEL_SLACK_PX..=f64::from(n) + PIXEL_SLACK_PX).contains(&x);
+            if !inside(u, w) || !inside(v, h) {
+                return Err(err(format!(
+                    "pixel ({}, {}) is outside camera {cam_id}'s {w}×{h} image",
+                    f[3], f[4]
+                )));
+            }
+        }
         let obs = FeatureObservation {
             feature_id,
             uv: Vector2::new(u, v),
@@ -102,8 +127,16 @@ pub fn parse_features_csv(text: &str, path: &Path) -> Result<Vec<FeatureFrame>, 
 
 /// Reads `features.csv`.
 pub fn read_features_csv(path: impl AsRef<Path>) -> Result<Vec<FeatureFrame>, DatasetError> {
+    read_features_csv_within(path, &[])
+}
+
+/// Reads `features.csv` for cameras of `sizes` (see [`parse_features_csv_within`]).
+pub fn read_features_csv_within(
+    path: impl AsRef<Path>,
+    sizes: &[[u32; 2]],
+) -> Result<Vec<FeatureFrame>, DatasetError> {
     let path = path.as_ref();
-    parse_features_csv(&read_text(path)?, path)
+    parse_features_csv_within(&read_text(path)?, path, sizes)
 }
 
 /// Formats feature frames as `features.csv` text (header line first). Frames must have strictly

@@ -25,6 +25,19 @@ pub struct KalibrError {
     pub message: String,
 }
 
+impl std::fmt::Display for KalibrError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.file)?;
+        if let Some(l) = self.line {
+            write!(f, ":{l}")?;
+        }
+        if !self.key.is_empty() {
+            write!(f, ": key `{}`", self.key)?;
+        }
+        write!(f, ": {}", self.message)
+    }
+}
+
 /// Errors of `file`: `(key, line, message)` → [`KalibrError`].
 fn located(file: &str) -> impl Fn(&str, Option<usize>, String) -> KalibrError + '_ {
     move |key, line, message| KalibrError {
@@ -83,7 +96,30 @@ pub fn cameras_toml(text: &str, file: &str, pixel_sigma_px: f64) -> Result<Strin
                 Err(e)
             }
         })?;
-        let res = nums("resolution")?;
+        let res_entry = get("resolution")?;
+        // Whole numbers are passed on as written (the scenario's checks then quote them, and
+        // the error is pointed back here); others as the numbers they are.
+        let res: Vec<String> = list(&res_entry.value)
+            .map_err(|m| err(&res_entry.key, Some(res_entry.line), m))?
+            .into_iter()
+            .map(|x| {
+                let whole = x
+                    .trim_start_matches('-')
+                    .chars()
+                    .all(|c| c.is_ascii_digit())
+                    && x.trim_start_matches('-').len() < 20
+                    && !x.trim_start_matches('-').is_empty();
+                match x.parse::<f64>() {
+                    Ok(_) if whole => Ok(x),
+                    Ok(v) if v.is_finite() => Ok(format!("{v:?}")),
+                    _ => Err(err(
+                        &res_entry.key,
+                        Some(res_entry.line),
+                        format!("`{x}` is not a finite number"),
+                    )),
+                }
+            })
+            .collect::<Result<_, _>>()?;
         let need = |n: usize, what: &str, e: &Entry| {
             if intr.len() == n {
                 Ok(())
@@ -156,9 +192,9 @@ pub fn cameras_toml(text: &str, file: &str, pixel_sigma_px: f64) -> Result<Strin
                 .join(", ")
         };
         out.push_str(&format!(
-            "\n[[rig.cameras]]\nname = \"{cam}\"\nmodel = \"{ours}\"\nresolution = [{}, {}]\nintrinsics = [{}]\ndistortion = [{}]\n",
-            res.first().copied().unwrap_or(0.0) as u32,
-            res.get(1).copied().unwrap_or(0.0) as u32,
+            "\n[[rig.cameras]]\nname = {}\nmodel = \"{ours}\"\nresolution = [{}]\nintrinsics = [{}]\ndistortion = [{}]\n",
+            toml::Value::String(cam.to_string()),
+            res.join(", "),
             f(intrinsics),
             f(&coeffs)
         ));
@@ -211,4 +247,56 @@ pub fn imu_toml(text: &str, file: &str) -> Result<String, KalibrError> {
         out.push_str(&format!("{ours} = {v:?}\n"));
     }
     Ok(out)
+}
+
+/// Where a rig key the Kalibr files gave comes from: the Kalibr file's key (`cam1.resolution`,
+/// `imu0.update_rate`), its line and its value as written. `camchain` and `imu` are the two
+/// files' texts; `key` a scenario key such as `rig.cameras[1].resolution[0]` or
+/// `rig.imu.rate_hz`. `None` for a key the files did not give.
+pub fn locate(camchain: &str, imu: Option<&str>, key: &str) -> Option<(String, usize, String)> {
+    let found = |text: &str, k: String| {
+        let doc = Doc::parse(text).ok()?;
+        let e = doc.get(&k)?;
+        Some((e.key.clone(), e.line, e.value.trim().to_string()))
+    };
+    if let Some(rest) = key.strip_prefix("rig.cameras[") {
+        let (index, field) = rest.split_once(']')?;
+        let index: usize = index.parse().ok()?;
+        let field = field.trim_start_matches('.');
+        let field = field.split(['.', '[']).next().unwrap_or("");
+        let kalibr = match field {
+            "resolution" => "resolution",
+            "intrinsics" | "xi" | "alpha" => "intrinsics",
+            "distortion" => "distortion_coeffs",
+            "T_b_c" => "T_cam_imu",
+            "model" | "" => "camera_model",
+            _ => return None,
+        };
+        let doc = Doc::parse(camchain).ok()?;
+        let cam = doc
+            .entries
+            .iter()
+            .filter(|e| !e.key.contains('.') && e.key.starts_with("cam"))
+            .nth(index)?
+            .key
+            .clone();
+        return found(camchain, format!("{cam}.{kalibr}"));
+    }
+    let field = key.strip_prefix("rig.imu.")?;
+    let kalibr = match field {
+        "rate_hz" => "update_rate",
+        f @ ("gyroscope_noise_density"
+        | "accelerometer_noise_density"
+        | "gyroscope_random_walk"
+        | "accelerometer_random_walk") => f,
+        _ => return None,
+    };
+    let text = imu?;
+    let doc = Doc::parse(text).ok()?;
+    let prefix = if doc.get("imu0").is_some() {
+        "imu0."
+    } else {
+        ""
+    };
+    found(text, format!("{prefix}{kalibr}"))
 }

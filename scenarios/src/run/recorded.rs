@@ -33,7 +33,9 @@ use sim::stream::GroundTruth;
 
 use super::driver::{Input, Source, drive};
 use super::{Recorder, RunControl, RunError, RunOptions, RunOutput};
-use crate::dataset::{EurocDataset, GroundTruthState, read_euroc_cameras, read_features_csv};
+use crate::dataset::{
+    EurocDataset, GroundTruthState, read_euroc_cameras, read_features_csv_within,
+};
 use crate::frontend::GyroIntegrator;
 use crate::spec::{SpecError, SuiteSpec};
 
@@ -252,6 +254,11 @@ pub(crate) fn replay_euroc(
     // estimate may move): the IMU is read that far past the last frame.
     let frame_to_imu_ns =
         ((settings.td_s.abs() + settings.health.max_time_offset_deviation_s) * 1e9).ceil() as i64;
+    let sizes: Vec<[u32; 2]> = settings
+        .cameras
+        .iter()
+        .map(|c| [c.model.width(), c.model.height()])
+        .collect();
     let estimator = Estimator::new(settings).map_err(|e| RunError::Estimator {
         file: label.clone(),
         message: e.to_string(),
@@ -259,7 +266,7 @@ pub(crate) fn replay_euroc(
 
     let frames = match &options.features {
         Some(p) => {
-            let mut f = read_features_csv(p)?;
+            let mut f = read_features_csv_within(p, &sizes)?;
             for frame in &mut f {
                 frame.cameras.retain(|c| c.cam_id < n_cams);
             }

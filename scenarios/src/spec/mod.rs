@@ -184,8 +184,21 @@ impl Scenario {
             Origin::Catalog => format!("catalog:{name}"),
             Origin::File(p) => p.display().to_string(),
         };
-        let expanded = kalibr_expansion(&file, &origin, text)?;
-        let text = expanded.as_deref().unwrap_or(text);
+        match kalibr_expansion(&file, &origin, text)? {
+            None => Self::parse_expanded(name, origin, text, &file),
+            Some((expanded, sources)) => Self::parse_expanded(name, origin, &expanded, &file)
+                .map_err(|e| sources.relocate(e)),
+        }
+    }
+
+    /// [`Scenario::parse`] of the text with any Kalibr tables already appended.
+    fn parse_expanded(
+        name: &str,
+        origin: Origin,
+        text: &str,
+        file: &str,
+    ) -> Result<Self, SpecError> {
+        let file = file.to_string();
         let spec: ScenarioSpec = error::deserialize_toml(text, &file)?;
         let (settings, tracker) =
             overlay::estimator_and_tracker(&spec.estimator, &spec.camera.tracker, text, &file)?;
@@ -344,7 +357,11 @@ impl Scenario {
 
 /// With `rig.kalibr`, the scenario text with the Kalibr files' `[[rig.cameras]]` and
 /// `[rig.imu]` tables appended (the original lines keep their numbers); `None` without it.
-fn kalibr_expansion(file: &str, origin: &Origin, text: &str) -> Result<Option<String>, SpecError> {
+fn kalibr_expansion(
+    file: &str,
+    origin: &Origin,
+    text: &str,
+) -> Result<Option<(String, KalibrSources)>, SpecError> {
     let Ok(table) = text.parse::<toml::Table>() else {
         return Ok(None); // the deserializer reports the syntax error with its line
     };
@@ -417,6 +434,10 @@ fn kalibr_expansion(file: &str, origin: &Origin, text: &str) -> Result<Option<St
     }
     let (t, name) = read("camchain", &camchain)?;
     out.push_str(&crate::dataset::kalibr::cameras_toml(&t, &name, sigma).map_err(kalibr_err)?);
+    let mut sources = KalibrSources {
+        camchain: (name, t),
+        imu: None,
+    };
     if let Some(imu) = path_of("imu")? {
         if rig.get("imu").is_some() {
             return Err(err(
@@ -426,8 +447,39 @@ fn kalibr_expansion(file: &str, origin: &Origin, text: &str) -> Result<Option<St
         }
         let (t, name) = read("imu", &imu)?;
         out.push_str(&crate::dataset::kalibr::imu_toml(&t, &name).map_err(kalibr_err)?);
+        sources.imu = Some((name, t));
     }
-    Ok(Some(out))
+    Ok(Some((out, sources)))
+}
+
+/// The Kalibr files a scenario's rig came from: `(file, text)` of each.
+struct KalibrSources {
+    camchain: (String, String),
+    imu: Option<(String, String)>,
+}
+
+impl KalibrSources {
+    /// An error about a key the Kalibr files gave, pointed at the Kalibr file's line and key
+    /// with the value as written there (the appended tables' lines are in no file).
+    fn relocate(&self, e: SpecError) -> SpecError {
+        let imu = self.imu.as_ref().map(|(_, t)| t.as_str());
+        match crate::dataset::kalibr::locate(&self.camchain.1, imu, &e.key) {
+            Some((key, line, value)) => {
+                let file = if e.key.starts_with("rig.imu") {
+                    self.imu.as_ref().map_or(&self.camchain.0, |(f, _)| f)
+                } else {
+                    &self.camchain.0
+                };
+                SpecError {
+                    file: file.clone(),
+                    key,
+                    line: Some(line),
+                    message: format!("`{value}` as written: {} (as `{}`)", e.message, e.key),
+                }
+            }
+            None => e,
+        }
+    }
 }
 
 #[cfg(test)]

@@ -12,9 +12,9 @@ use rand_distr::{Distribution, StandardNormal};
 use scenarios::dataset::{
     CameraFrame, CameraSensor, DatasetError, EurocCamera, EurocDataset, GroundTruthState,
     ImuSensor, SensorYaml, StampedPose, format_features_csv, format_tum, parse_camera_csv,
-    parse_features_csv, parse_groundtruth_csv, parse_imu_csv, parse_sensor_yaml, parse_tum,
-    read_euroc, read_euroc_cameras, read_features_csv, read_tum, write_euroc, write_features_csv,
-    write_tum,
+    parse_features_csv, parse_features_csv_within, parse_groundtruth_csv, parse_imu_csv,
+    parse_sensor_yaml, parse_tum, read_euroc, read_euroc_cameras, read_features_csv, read_tum,
+    write_euroc, write_features_csv, write_tum,
 };
 
 fn tmp(name: &str) -> PathBuf {
@@ -494,6 +494,23 @@ fn features_csv_malformed_rows_name_file_and_line() {
         let e = parse_features_csv(&text, p).unwrap_err();
         assert_names(&e, "out/features.csv", Some(line));
     }
+    // With the cameras' image sizes known, a pixel far outside its image is refused as
+    // written; rows of a camera the run does not use are not judged.
+    let sizes = [[752, 480]];
+    for (text, line) in [
+        (format!("{h}1,0,1,2,3\n1,0,2,1e9,3\n"), 3),
+        (format!("{h}1,0,1,-40,3\n"), 2),
+        (format!("{h}1,0,1,2,481.5\n"), 2),
+    ] {
+        let e = parse_features_csv_within(&text, p, &sizes).unwrap_err();
+        assert_names(&e, "out/features.csv", Some(line));
+        assert!(e.to_string().contains("outside camera 0"), "{e}");
+    }
+    let edge = format!("{h}1,0,1,-0.5,479.9\n1,1,1,5000,3\n");
+    assert_eq!(
+        parse_features_csv_within(&edge, p, &sizes).unwrap().len(),
+        1
+    );
 }
 
 #[test]

@@ -38,6 +38,9 @@ fn scenario_with(tag: &str, camchain: &str, imu_keys: &str) -> Result<Scenario, 
     s
 }
 
+/// The `imu` key of `rig.kalibr`.
+const IMU: &str = ", imu = \"imu.yaml\"";
+
 fn camchain() -> String {
     std::fs::read_to_string(fixtures().join("euroc-camchain-imucam.yaml")).unwrap()
 }
@@ -99,4 +102,26 @@ fn malformed_kalibr_files_name_file_key_and_line() {
         e.contains("cam0.intrinsics") && e.contains("needs 4"),
         "{e}"
     );
+    // Values the scenario's own checks refuse are reported at the Kalibr file's line, quoted
+    // as written there (not at a line of the scenario file that does not exist, not as 0).
+    let at = |text: &str, needle: &str| text.lines().position(|l| l.contains(needle)).unwrap() + 1;
+    let negative = camchain().replacen("resolution: [752, 480]", "resolution: [-752, 480]", 1);
+    let e = scenario_with("negative", &negative, IMU).unwrap_err();
+    let line = at(&negative, "-752");
+    assert!(
+        e.contains(&format!("camchain.yaml:{line}: key `cam0.resolution`")) && e.contains("-752"),
+        "{e}"
+    );
+    let focal = camchain().replacen("intrinsics: [458.654,", "intrinsics: [0.5,", 1);
+    let e = scenario_with("focal", &focal, IMU).unwrap_err();
+    let line = at(&focal, "[0.5,");
+    assert!(
+        e.contains(&format!("camchain.yaml:{line}: key `cam0.intrinsics`")) && e.contains("0.5"),
+        "{e}"
+    );
+    // A camera name that would break TOML is a name, not syntax.
+    let quoted = camchain().replacen("cam0:", "cam0\"]x:", 1);
+    if let Err(e) = scenario_with("quoted", &quoted, IMU) {
+        assert!(e.contains("camchain.yaml"), "{e}");
+    }
 }

@@ -14,6 +14,7 @@ mod evo_agreement;
 mod fuzz;
 mod imu_error_model;
 mod imu_model;
+mod input_fuzz;
 mod kalibr;
 mod metrics;
 mod recorded_imu_input;
