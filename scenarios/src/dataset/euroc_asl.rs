@@ -21,7 +21,7 @@ use super::sensor_yaml::{
 };
 use super::{
     DatasetError, RowResult, check_finite, data_lines, fmt_f64, invalid, parse_error, parse_f64,
-    parse_i64, read_text, unit_quaternion, write_text,
+    parse_stamp_ns, read_text, unit_quaternion, write_text,
 };
 
 /// Header of `mav0/imu0/data.csv`, as in the EuRoC datasets.
@@ -162,7 +162,7 @@ pub fn parse_imu_csv(text: &str, path: &Path) -> Result<Vec<ImuSample>, DatasetE
     for (line, content) in data_lines(text) {
         let row = (|| {
             let f = split_csv(content, 7, "timestamp, 3 gyro, 3 accel")?;
-            let t = parse_i64(f[0], IMU_NAMES[0])?;
+            let t = parse_stamp_ns(f[0], IMU_NAMES[0])?;
             let v: [f64; 6] = parse_numbers(&f[1..], &IMU_NAMES[1..])?;
             Ok(ImuSample {
                 t_ns: t,
@@ -237,7 +237,7 @@ pub fn parse_groundtruth_csv(
     for (line, content) in data_lines(text) {
         let row = (|| {
             let f = split_csv(content, 17, "timestamp, p, q (w x y z), v, b_w, b_a")?;
-            let t = parse_i64(f[0], GT_NAMES[0])?;
+            let t = parse_stamp_ns(f[0], GT_NAMES[0])?;
             let v: [f64; 16] = parse_numbers(&f[1..], &GT_NAMES[1..])?;
             let q = unit_quaternion(v[3], v[4], v[5], v[6])?;
             Ok(GroundTruthState {
@@ -315,7 +315,7 @@ pub fn parse_camera_csv(text: &str, path: &Path) -> Result<Vec<CameraFrame>, Dat
     for (line, content) in data_lines(text) {
         let row = (|| {
             let f = split_csv(content, 2, "timestamp, filename")?;
-            let t = parse_i64(f[0], "timestamp")?;
+            let t = parse_stamp_ns(f[0], "timestamp")?;
             if f[1].is_empty() {
                 return Err("filename is empty".to_string());
             }

@@ -14,8 +14,8 @@ use estimator::frontend::{CameraFeatures, FeatureFrame, FeatureObservation};
 use nalgebra::Vector2;
 
 use super::{
-    DatasetError, check_finite, data_lines, fmt_f64, invalid, parse_error, parse_f64, parse_i64,
-    read_text, write_text,
+    DatasetError, check_finite, data_lines, fmt_f64, invalid, parse_error, parse_f64,
+    parse_stamp_ns, read_text, write_text,
 };
 
 /// Header line of `features.csv`.
@@ -52,7 +52,7 @@ pub fn parse_features_csv_within(
                 f.len()
             )));
         }
-        let t_ns = parse_i64(f[0], "t_ns").map_err(err)?;
+        let t_ns = parse_stamp_ns(f[0], "t_ns").map_err(err)?;
         let cam_id: usize = f[1]
             .parse()
             .map_err(|_| err(format!("cam_id: `{}` is not a non-negative integer", f[1])))?;

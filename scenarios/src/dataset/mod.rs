@@ -156,12 +156,23 @@ pub(crate) fn parse_f64(field: &str, what: &str) -> RowResult<f64> {
     }
 }
 
-/// Parses an integer nanosecond timestamp.
-pub(crate) fn parse_i64(field: &str, what: &str) -> RowResult<i64> {
+/// Parses an integer nanosecond timestamp of at most [`MAX_STAMP_NS`] in magnitude.
+pub(crate) fn parse_stamp_ns(field: &str, what: &str) -> RowResult<i64> {
     let s = field.trim();
-    s.parse::<i64>()
-        .map_err(|_| format!("{what}: `{s}` is not an integer"))
+    let t = s
+        .parse::<i64>()
+        .map_err(|_| format!("{what}: `{s}` is not an integer"))?;
+    if t.unsigned_abs() > MAX_STAMP_NS as u64 {
+        return Err(format!(
+            "{what}: `{s}` ns is beyond ±{MAX_STAMP_NS} ns (years 1824–2116): the difference of two stamps must fit in 64 bits"
+        ));
+    }
+    Ok(t)
 }
+
+/// Largest magnitude of a nanosecond stamp a reader accepts: half the 64-bit range, so that
+/// the difference of any two stamps (durations, the shift to the run's clock) cannot wrap.
+pub const MAX_STAMP_NS: i64 = i64::MAX / 2;
 
 /// Formats an `f64` so that parsing it gives back the same value (shortest round-trip digits);
 /// scientific notation for very small or very large magnitudes to keep lines short.

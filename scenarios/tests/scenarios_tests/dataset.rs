@@ -514,6 +514,25 @@ fn features_csv_malformed_rows_name_file_and_line() {
 }
 
 #[test]
+fn stamps_whose_differences_would_wrap_are_refused_naming_the_line() {
+    let p = Path::new("mav0/imu0/data.csv");
+    let h = "#timestamp [ns],w_x,w_y,w_z,a_x,a_y,a_z\n";
+    let ok = format!("{h}1403715273262142976,0,0,0,0,0,9.8\n");
+    assert_eq!(parse_imu_csv(&ok, p).unwrap().len(), 1);
+    for (text, line) in [
+        (format!("{h}-9223372036854775808,0,0,0,0,0,9.8\n"), 2),
+        (format!("{ok}9223372036854775807,0,0,0,0,0,9.8\n"), 3),
+    ] {
+        let e = parse_imu_csv(&text, p).unwrap_err();
+        assert_names(&e, "mav0/imu0/data.csv", Some(line));
+        assert!(e.to_string().contains("64 bits"), "{e}");
+    }
+    let e =
+        parse_camera_csv("#timestamp [ns],filename\n5000000000000000000,a.png\n", p).unwrap_err();
+    assert!(e.to_string().contains("64 bits"), "{e}");
+}
+
+#[test]
 fn parsers_never_panic_on_garbage() {
     // Random lines from the characters these formats are made of: errors, never panics.
     let alphabet: Vec<char> = "0123456789.,-+e #\n\r\t[]:\"'\\nanNaN_xyzT_BSdatasensor_typeé"

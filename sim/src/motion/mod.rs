@@ -19,6 +19,7 @@
 //! With gyroscopic forces disabled the commanded angular acceleration is what rapier applies
 //! (equivalently, the controller also cancels the gyroscopic term `ω × Iω`).
 
+mod jumps;
 pub mod recording;
 pub mod reference;
 pub mod spline;

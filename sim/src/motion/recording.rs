@@ -10,6 +10,10 @@
 //!   (the recorder's noise), or three times what the recording's 99th-percentile acceleration
 //!   (angular acceleration) can bend a path between those neighbours, whichever is larger, and
 //!   never under 2 mm / 0.5°. Worst first, one at a time.
+//! - **Jumps** (`jumps.rs`): a step between two samples far beyond what the motion can do and
+//!   larger than the fit tolerance, and, within 2 s, the step back: the samples between are an
+//!   excursion, dropped by `repair` with the glitches (and counted with them); a step that never
+//!   comes back is refused with its line, whatever `repair` says.
 //! - **Gaps**: a spacing over ten median spacings and over two knot spacings leaves spline knots
 //!   without data, and the fit rings through them.
 //! - **Fit**: the fitted spline must stay within a tolerance (default 1 cm / 1°) of every kept
@@ -26,6 +30,7 @@ use std::path::Path;
 
 use nalgebra::{UnitQuaternion, Vector3};
 
+use super::jumps::{Jump, MAX_EXCURSION_S, find_jumps};
 use super::reference::Reference;
 
 use super::spline::{PoseSample, Replay, TrajectoryError, parse_recording};
@@ -538,6 +543,61 @@ pub fn load_recording(
         .enumerate()
         .filter(|(i, _)| !drop[*i])
         .map(|(i, s)| (lines[i], *s))
+        .collect();
+    // Jumps: excursions (dropped when repairing, like glitches) and steps (never repaired).
+    let kept_samples: Vec<PoseSample> = kept.iter().map(|(_, s)| *s).collect();
+    // Jumps within the fit tolerance are the fit's to absorb (as they always were).
+    let mut jumps = find_jumps(&kept_samples, accel);
+    let beyond = |j: &Jump| {
+        let (m, rad) = j.size();
+        m > options.fit_tolerance_m || rad > options.fit_tolerance_rad
+    };
+    jumps.steps.retain(beyond);
+    jumps.excursions.retain(|e| beyond(&e.2));
+    if let Some(step) = jumps.steps.first() {
+        let (m, rad) = step.size();
+        return Err(unusable(format!(
+            "line {}: the recording jumps {m:.4} m / {:.2}° at t = {:.6} s, far beyond what the motion can do in {:.4} s, and does not jump back within {MAX_EXCURSION_S} s: a step (the tracker found the body elsewhere), not a glitch; which side is true cannot be told from the recording, so repair does not guess: cut the recording at this line",
+            kept[step.index + 1].0,
+            rad.to_degrees(),
+            kept_samples[step.index].t,
+            kept_samples[step.index + 1].t - kept_samples[step.index].t
+        )));
+    }
+    if let Some(&(first, last, jump)) = jumps.excursions.first()
+        && !options.repair
+    {
+        let (m, rad) = jump.size();
+        return Err(unusable(format!(
+            "lines {}–{}: the recording jumps {m:.4} m / {:.2}° at t = {:.6} s and back {:.3} s later ({} samples off the path; {} such excursions); set `repair = true` to drop them",
+            kept[first].0,
+            kept[last].0,
+            rad.to_degrees(),
+            kept_samples[first].t,
+            kept_samples[last + 1].t - kept_samples[first].t,
+            last + 1 - first,
+            jumps.excursions.len()
+        )));
+    }
+    let mut off_path = vec![false; kept.len()];
+    for &(first, last, jump) in &jumps.excursions {
+        for (k, flag) in off_path.iter_mut().enumerate().take(last + 1).skip(first) {
+            *flag = true;
+            let (dp, dq) = jump.size();
+            glitches.push(Glitch {
+                line: kept[k].0,
+                t_s: kept_samples[k].t,
+                position_m: dp,
+                angle_deg: dq.to_degrees(),
+            });
+        }
+    }
+    glitches.sort_by_key(|g| g.line);
+    let kept: Vec<(usize, PoseSample)> = kept
+        .into_iter()
+        .zip(off_path)
+        .filter(|(_, off)| !off)
+        .map(|(k, _)| k)
         .collect();
     // Gaps.
     let gap_s = (10.0 * median_spacing_s).max(2.0 * options.knot_spacing_s);

@@ -234,3 +234,68 @@ fn placement_moves_the_recording_into_the_scene() {
         assert!((sb.p - want).norm() < 1e-9, "{t}: {} vs {}", sb.p, want);
     }
 }
+
+/// The clean cut with `dx(row)` (m) added to each data row's x.
+fn shifted(dx: impl Fn(usize) -> f64) -> String {
+    let mut row = 0;
+    CLEAN
+        .lines()
+        .map(|l| {
+            if l.starts_with('#') {
+                return l.to_string();
+            }
+            let mut f: Vec<String> = l.split_whitespace().map(str::to_string).collect();
+            let x: f64 = f[1].parse().unwrap();
+            f[1] = format!("{:.6}", x + dx(row));
+            row += 1;
+            f.join(" ")
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+#[test]
+fn a_tracker_jump_and_back_is_dropped_and_a_step_is_refused_naming_its_line() {
+    let repair = RecordingOptions {
+        repair: true,
+        ..Default::default()
+    };
+    let (clean, _) = load_recording(CLEAN, &RecordingOptions::default()).unwrap();
+    // Rows 700–705 (lines 702–707) 8 cm off, as a motion-capture system that lost the body and
+    // found it again nearby records it; and a 0.6 s excursion of 10 cm.
+    for (rows, dx) in [(700..706, 0.08), (700..760, 0.10)] {
+        let text = shifted(|r| if rows.contains(&r) { dx } else { 0.0 });
+        let err = load_recording(&text, &RecordingOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains(&format!("lines 702–{}", rows.end + 1)) && err.contains("repair"),
+            "{err}"
+        );
+        let (fixed, r) = load_recording(&text, &repair).unwrap();
+        let lines: Vec<usize> = r.glitches.iter().map(|g| g.line).collect();
+        assert_eq!(lines, (702..rows.end + 2).collect::<Vec<_>>());
+        // The repaired replay follows the clean motion: within 1 cm everywhere.
+        let end = fixed.duration().unwrap().min(clean.duration().unwrap());
+        let worst = (0..=(end / 0.005) as usize)
+            .map(|k| {
+                let t = k as f64 * 0.005;
+                (fixed.state(t).p - clean.state(t).p).norm()
+            })
+            .fold(0.0, f64::max);
+        assert!(worst < 0.01, "{dx} m for {} rows: {worst} m", rows.len());
+    }
+    // A step that never comes back: which side is true cannot be told; refused either way,
+    // naming the line, not blamed on the knot spacing.
+    let step = shifted(|r| if r >= 700 { 0.08 } else { 0.0 });
+    for options in [RecordingOptions::default(), repair] {
+        let err = load_recording(&step, &options).unwrap_err().to_string();
+        assert!(
+            err.contains("line 702") && err.contains("step") && !err.contains("knot"),
+            "{err}"
+        );
+    }
+    // A jump within the fit tolerance is the fit's to absorb, as before.
+    let small = shifted(|r| if r >= 700 { 0.004 } else { 0.0 });
+    assert!(load_recording(&small, &RecordingOptions::default()).is_ok());
+}
