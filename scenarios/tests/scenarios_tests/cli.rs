@@ -604,3 +604,86 @@ fn eval_scores_a_static_trajectory_from_its_first_pose() {
     assert!((max_of("drift trans (m)") - 2e-3).abs() < 1e-6, "{stdout}");
     assert!((max_of("tilt error (deg)") - 0.5).abs() < 1e-6, "{stdout}");
 }
+
+/// Starts `vio args` (stderr piped), sends it Ctrl-C (SIGINT) once `ready` says so of what it
+/// has printed to stderr so far, and returns its exit code and stderr.
+fn ctrl_c(args: &[&str], ready: impl Fn(&str) -> bool) -> (Option<i32>, String) {
+    use std::io::Read;
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_vio"))
+        .args(args)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stderr = child.stderr.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut buf = [0u8; 256];
+        while let Ok(n) = stderr.read(&mut buf) {
+            if n == 0 || tx.send(buf[..n].to_vec()).is_err() {
+                break;
+            }
+        }
+    });
+    let mut text = String::new();
+    let started = std::time::Instant::now();
+    while !ready(&text) {
+        assert!(
+            started.elapsed().as_secs() < 300,
+            "{args:?}: not ready: {text}"
+        );
+        if let Ok(b) = rx.recv_timeout(std::time::Duration::from_millis(50)) {
+            text.push_str(&String::from_utf8_lossy(&b));
+        }
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "{args:?} ended before Ctrl-C: {text}"
+        );
+    }
+    let kill = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let code = child.wait().unwrap().code();
+    while let Ok(b) = rx.recv_timeout(std::time::Duration::from_secs(5)) {
+        text.push_str(&String::from_utf8_lossy(&b));
+    }
+    (code, text)
+}
+
+#[test]
+fn ctrl_c_stops_regress_and_nees_with_130_saying_what_finished() {
+    // regress: once its first scenario is under way; the baseline is not touched.
+    let catalog = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("regress");
+    let baseline = std::fs::read(catalog.join("baseline.json")).unwrap();
+    let (code, err) = ctrl_c(&["regress", "--catalog", catalog.to_str().unwrap()], |e| {
+        e.contains("running")
+    });
+    assert_eq!(code, Some(130), "{err}");
+    assert!(err.contains("interrupted after"), "{err}");
+    assert_eq!(
+        std::fs::read(catalog.join("baseline.json")).unwrap(),
+        baseline
+    );
+    // nees: a second after it starts (no seed may have finished: then nothing is written).
+    let dir = scratch("nees-ctrl-c");
+    let out = dir.path().join("nees");
+    let started = std::time::Instant::now();
+    let (code, err) = ctrl_c(
+        &[
+            "nees",
+            "--seeds",
+            "6",
+            "--duration",
+            "4",
+            "--threads",
+            "1",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        |_| started.elapsed().as_secs_f64() > 1.0,
+    );
+    assert_eq!(code, Some(130), "{err}");
+    assert!(err.contains("vio nees: interrupted"), "{err}");
+}

@@ -14,6 +14,8 @@ use proptest::test_runner::{Config, RngSeed};
 use scenarios::run::{RunOptions, run_scenario};
 use scenarios::spec::{Origin, Scenario};
 
+use crate::common::numbers;
+
 fn base_text() -> String {
     let text = scenarios::catalog::get(scenarios::catalog::DEFAULT)
         .unwrap()
@@ -113,29 +115,6 @@ fn mutation() -> impl Strategy<Value = Mutation> {
         1 => any::<usize>().prop_map(|line| Mutation::Unknown { line }),
         2 => random_fault().prop_map(Mutation::Fault),
     ]
-}
-
-/// The byte ranges of the numbers in `line`.
-fn numbers(line: &str) -> Vec<(usize, usize)> {
-    let b = line.as_bytes();
-    let mut out = Vec::new();
-    let mut i = 0;
-    while i < b.len() {
-        let starts =
-            b[i].is_ascii_digit() || (b[i] == b'-' && i + 1 < b.len() && b[i + 1].is_ascii_digit());
-        let inside_word = i > 0 && (b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b'_');
-        if starts && !inside_word {
-            let mut j = i + 1;
-            while j < b.len() && (b[j].is_ascii_alphanumeric() || b"+-.".contains(&b[j])) {
-                j += 1;
-            }
-            out.push((i, j));
-            i = j;
-        } else {
-            i += 1;
-        }
-    }
-    out
 }
 
 fn apply(text: &str, m: &Mutation) -> String {

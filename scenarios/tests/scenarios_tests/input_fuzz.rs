@@ -20,7 +20,7 @@ use proptest::test_runner::{Config, RngSeed, TestRunner};
 use scenarios::run::{EurocOptions, RunControl, RunInput, RunOptions, run_to_report};
 use scenarios::spec::SuiteSpec;
 
-use crate::common::{scratch, vio};
+use crate::common::{numbers, scratch, vio};
 
 /// Longest a case may take (s): a hang is a failure, not a slow test.
 const CASE_LIMIT_S: u64 = 60;
@@ -84,29 +84,6 @@ fn mutation() -> impl Strategy<Value = Mutation> {
         1 => Just(Mutation::Bom),
         1 => (0.0..1.0f64).prop_map(|fraction| Mutation::Truncate { fraction }),
     ]
-}
-
-/// Byte ranges of the numbers in `line`.
-fn numbers(line: &str) -> Vec<(usize, usize)> {
-    let b = line.as_bytes();
-    let mut out = Vec::new();
-    let mut i = 0;
-    while i < b.len() {
-        let starts =
-            b[i].is_ascii_digit() || (b[i] == b'-' && i + 1 < b.len() && b[i + 1].is_ascii_digit());
-        let inside_word = i > 0 && (b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b'_');
-        if starts && !inside_word {
-            let mut j = i + 1;
-            while j < b.len() && (b[j].is_ascii_alphanumeric() || b"+-.".contains(&b[j])) {
-                j += 1;
-            }
-            out.push((i, j));
-            i = j;
-        } else {
-            i += 1;
-        }
-    }
-    out
 }
 
 fn apply(text: &str, m: &Mutation) -> String {

@@ -5,7 +5,7 @@ use crate::common;
 
 use std::path::Path;
 
-use common::{scratch, vio, write};
+use common::{scratch, vio, vio_ok, write};
 
 const SWEEP: &str = r#"
 description = "test sweep"
@@ -47,22 +47,13 @@ fn merged_shards_equal_one_process_byte_for_byte() {
     let dir = dir.path();
     let file = write(dir, "s.toml", SWEEP);
     let f = file.to_str().unwrap();
-    let run = |args: &[&str]| {
-        let out = vio(args);
-        assert_eq!(
-            out.status.code(),
-            Some(0),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-    };
     let one = dir.join("one");
-    run(&["sweep", f, "--out", one.to_str().unwrap(), "--jobs", "2"]);
+    vio_ok(&["sweep", f, "--out", one.to_str().unwrap(), "--jobs", "2"]);
     let mut shards = Vec::new();
     for i in 0..3 {
         let d = dir.join(format!("shard{i}"));
         let shard = format!("{i}/3");
-        run(&[
+        vio_ok(&[
             "sweep",
             f,
             "--out",
@@ -82,7 +73,7 @@ fn merged_shards_equal_one_process_byte_for_byte() {
         .collect();
     args.extend(names.iter().map(String::as_str));
     args.extend(["--out", merged.to_str().unwrap()]);
-    run(&args);
+    vio_ok(&args);
     let (a, b) = (files(&one), files(&merged));
     let names_a: Vec<&String> = a.iter().map(|f| &f.0).collect();
     assert_eq!(
@@ -352,15 +343,6 @@ fn an_interrupted_then_resumed_sharded_sweep_merges_byte_identical_to_an_uninter
         &SWEEP.replace("duration_s = 2.0", "duration_s = 4.0"),
     );
     let f = file.to_str().unwrap();
-    let vio_ok = |args: &[&str]| {
-        let out = vio(args);
-        assert_eq!(
-            out.status.code(),
-            Some(0),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-    };
     let one = dir.join("one");
     vio_ok(&["sweep", f, "--out", one.to_str().unwrap(), "--jobs", "2"]);
 

@@ -13,6 +13,41 @@ pub fn vio(args: &[&str]) -> Output {
         .expect("run vio")
 }
 
+/// Runs the `vio` binary with `args` and requires exit 0 (the message shows its stderr).
+pub fn vio_ok(args: &[&str]) -> Output {
+    let out = vio(args);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// The byte ranges of the numbers in `line` (for fuzzers that replace them).
+pub fn numbers(line: &str) -> Vec<(usize, usize)> {
+    let b = line.as_bytes();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < b.len() {
+        let starts =
+            b[i].is_ascii_digit() || (b[i] == b'-' && i + 1 < b.len() && b[i + 1].is_ascii_digit());
+        let inside_word = i > 0 && (b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b'_');
+        if starts && !inside_word {
+            let mut j = i + 1;
+            while j < b.len() && (b[j].is_ascii_alphanumeric() || b"+-.".contains(&b[j])) {
+                j += 1;
+            }
+            out.push((i, j));
+            i = j;
+        } else {
+            i += 1;
+        }
+    }
+    out
+}
+
 /// A fresh scratch folder for one test (`tag` starts its name), removed when dropped.
 pub fn scratch(tag: &str) -> tempfile::TempDir {
     tempfile::Builder::new()
