@@ -25,8 +25,8 @@ pub use euroc_asl::{
     write_camera_csv, write_euroc, write_groundtruth_csv, write_imu_csv,
 };
 pub use features::{
-    format_features_csv, parse_features_csv, parse_features_csv_within, read_features_csv,
-    read_features_csv_within, write_features_csv,
+    PIXEL_SLACK_PX, format_features_csv, parse_features_csv, parse_features_csv_within,
+    read_features_csv, read_features_csv_within, write_features_csv,
 };
 pub use image_file::read_gray_image;
 pub use sensor_yaml::{
