@@ -653,7 +653,7 @@ fn ctrl_c(args: &[&str], ready: impl Fn(&str) -> bool) -> (Option<i32>, String) 
 }
 
 #[test]
-fn ctrl_c_stops_regress_and_nees_with_130_saying_what_finished() {
+fn ctrl_c_stops_regress_nees_and_bench_with_130_saying_what_finished() {
     // regress: once its first scenario is under way; the baseline is not touched.
     let catalog = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("regress");
     let baseline = std::fs::read(catalog.join("baseline.json")).unwrap();
@@ -686,4 +686,14 @@ fn ctrl_c_stops_regress_and_nees_with_130_saying_what_finished() {
     );
     assert_eq!(code, Some(130), "{err}");
     assert!(err.contains("vio nees: interrupted"), "{err}");
+    // bench: during its first scenario (a child process; a terminal's Ctrl-C reaches it too,
+    // here only the parent is told): the table and bench.json hold what finished.
+    let out = dir.path().join("bench");
+    let (code, err) = ctrl_c(&["bench", "--quick", "--out", out.to_str().unwrap()], |e| {
+        e.contains("bench ")
+    });
+    assert_eq!(code, Some(130), "{err}");
+    assert!(err.contains("vio bench: interrupted after"), "{err}");
+    let json = std::fs::read_to_string(out.join("bench.json")).unwrap();
+    assert!(json.contains("\"rows\""), "{json}");
 }
