@@ -15,6 +15,7 @@
 
 use nalgebra::Vector3;
 
+use super::sample_statistics::median;
 use super::spline::PoseSample;
 
 /// Longest excursion (s) from a jump to the jump back.
@@ -62,14 +63,6 @@ fn residual(s: &[PoseSample], i: usize) -> (Vector3<f64>, Vector3<f64>) {
     let step_p = s[i + 1].p - s[i].p;
     let step_q = (s[i].q.inverse() * s[i + 1].q).scaled_axis();
     (step_p - v * dt, step_q - w * dt)
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 /// The jumps of `s` (see the module's documentation); `accel` is the recording's

@@ -22,6 +22,7 @@
 mod jumps;
 pub mod recording;
 pub mod reference;
+mod sample_statistics;
 pub mod spline;
 pub mod vehicle;
 

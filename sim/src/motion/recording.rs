@@ -32,6 +32,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 
 use super::jumps::{Jump, MAX_EXCURSION_S, find_jumps};
 use super::reference::Reference;
+use super::sample_statistics::{median, percentile};
 
 use super::spline::{PoseSample, Replay, TrajectoryError, parse_recording};
 
@@ -185,22 +186,6 @@ impl RecordingReport {
 
 fn unusable(msg: String) -> TrajectoryError {
     TrajectoryError::Unusable(msg)
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
-
-fn percentile(mut v: Vec<f64>, p: f64) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    v.sort_by(f64::total_cmp);
-    v[((v.len() - 1) as f64 * p).round() as usize]
 }
 
 /// The unit that puts the median spacing `raw` (file units) between 0.1 ms and 1 s: `default`

@@ -15,8 +15,9 @@ fn glitchy() -> String {
     String::from_utf8_lossy(GLITCHY).into_owned()
 }
 
-/// The clean cut with its stamps rewritten as `scale × seconds` (written with enough digits).
-fn rescaled(scale: f64) -> String {
+/// The clean cut with each data row's fields changed by `edit(row index, fields)`.
+fn edited(mut edit: impl FnMut(usize, &mut Vec<String>)) -> String {
+    let mut row = 0;
     CLEAN
         .lines()
         .map(|l| {
@@ -24,12 +25,20 @@ fn rescaled(scale: f64) -> String {
                 return l.to_string();
             }
             let mut f: Vec<String> = l.split_whitespace().map(str::to_string).collect();
-            let t: f64 = f[0].parse().unwrap();
-            f[0] = format!("{:.0}", ((t - 1.4e9) * scale).round());
+            edit(row, &mut f);
+            row += 1;
             f.join(" ")
         })
         .collect::<Vec<_>>()
         .join("\n")
+}
+
+/// The clean cut with its stamps rewritten as `scale × seconds` (written with enough digits).
+fn rescaled(scale: f64) -> String {
+    edited(|_, f| {
+        let t: f64 = f[0].parse().unwrap();
+        f[0] = format!("{:.0}", ((t - 1.4e9) * scale).round());
+    })
 }
 
 #[test]
@@ -237,21 +246,10 @@ fn placement_moves_the_recording_into_the_scene() {
 
 /// The clean cut with `dx(row)` (m) added to each data row's x.
 fn shifted(dx: impl Fn(usize) -> f64) -> String {
-    let mut row = 0;
-    CLEAN
-        .lines()
-        .map(|l| {
-            if l.starts_with('#') {
-                return l.to_string();
-            }
-            let mut f: Vec<String> = l.split_whitespace().map(str::to_string).collect();
-            let x: f64 = f[1].parse().unwrap();
-            f[1] = format!("{:.6}", x + dx(row));
-            row += 1;
-            f.join(" ")
-        })
-        .collect::<Vec<_>>()
-        .join("\n")
+    edited(|row, f| {
+        let x: f64 = f[1].parse().unwrap();
+        f[1] = format!("{:.6}", x + dx(row));
+    })
 }
 
 #[test]
