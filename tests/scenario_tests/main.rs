@@ -19,4 +19,5 @@ mod imu_fidelity;
 mod recorded_imu;
 mod reliability;
 mod rendered;
+mod ros2_bag;
 mod zero_velocity;

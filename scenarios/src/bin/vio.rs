@@ -12,6 +12,8 @@ use scenarios::spec::Scenario;
 
 #[path = "vio/attended.rs"]
 mod attended;
+#[path = "vio/bag.rs"]
+mod bag;
 #[path = "vio/euroc.rs"]
 mod euroc;
 #[path = "vio/eval.rs"]
@@ -26,7 +28,8 @@ mod interrupt;
 mod studies;
 
 use attended::{finish_attended, run_attended};
-use euroc::{EurocArgs, euroc_command};
+use bag::{BagArgs, bag_command};
+use euroc::{EurocArgs, euroc_command, parse_suite};
 use eval::{EvalArgs, eval};
 use image_stats::{ImageStatsArgs, image_stats_command};
 use imu_model::{ImuModelArgs, imu_model_command};
@@ -87,6 +90,10 @@ enum Command {
     /// optional) and write what `vio run` writes (evaluated when the folder has
     /// `state_groundtruth_estimate0`).
     Euroc(EurocArgs),
+    /// Run the image front end and the estimator on a recorded ROS 2 bag (one `.mcap` file:
+    /// IMU and image topics, the rig as Kalibr files given or attached, ground truth optional)
+    /// and write what `vio run` writes.
+    Bag(BagArgs),
     /// List the built-in scenarios.
     List,
     /// Print the scenario's effective estimator and front-end settings as the TOML tables
@@ -97,15 +104,20 @@ enum Command {
         /// scenario.
         scenario: Option<String>,
     },
-    /// Write a scenario's simulated measurements and ground truth in the EuRoC ASL layout
-    /// (`OUT/mav0/…`) and its feature tracks as `OUT/features.csv`.
+    /// Write a scenario's simulated measurements and ground truth: in the EuRoC ASL layout
+    /// (`OUT/mav0/…`, the feature tracks as `OUT/features.csv`, the rig as Kalibr files
+    /// `OUT/camchain-imucam.yaml` and `OUT/imu.yaml`), or as a ROS 2 bag (`--format mcap`).
     Export {
         /// A catalog scenario name or a path to a scenario .toml file; default: the default
         /// scenario.
         scenario: Option<String>,
-        /// Output folder.
+        /// Output folder (`asl`) or file (`mcap`, e.g. `run.mcap`).
         #[arg(long)]
         out: PathBuf,
+        /// `asl` (EuRoC folder) or `mcap` (a ROS 2 bag: IMU, images, camera infos, feature
+        /// tracks, ground truth, /tf, the Kalibr rig attached; the topics are listed in the book).
+        #[arg(long, default_value = "asl")]
+        format: String,
         /// Seed instead of the scenario's `world.seed`.
         #[arg(long)]
         seed: Option<u64>,
@@ -259,9 +271,18 @@ fn main() -> ExitCode {
         Command::Export {
             scenario,
             out,
+            format,
             seed,
             duration,
         } => {
+            let bag = match format.as_str() {
+                "asl" => false,
+                "mcap" => true,
+                other => {
+                    eprintln!("error: --format {other}: expected asl or mcap");
+                    return ExitCode::from(BAD_INPUT);
+                }
+            };
             let scenario = match load_scenario(scenario.as_deref()) {
                 Ok(s) => s,
                 Err(code) => return code,
@@ -274,7 +295,12 @@ fn main() -> ExitCode {
                 duration_s: duration,
                 ..Default::default()
             };
-            match scenarios::export::export(&scenario, &options, &out) {
+            let written = if bag {
+                scenarios::export::export_bag(&scenario, &options, &out)
+            } else {
+                scenarios::export::export(&scenario, &options, &out)
+            };
+            match written {
                 Ok(s) => {
                     say(&format!(
                         "exported {}: {} IMU samples, {} frames ({} feature observations), {} ground-truth rows → {}\n",
@@ -321,6 +347,7 @@ fn main() -> ExitCode {
             }
         }
         Command::Euroc(args) => euroc_command(args),
+        Command::Bag(args) => bag_command(args),
         Command::List => {
             for e in catalog::entries() {
                 match Scenario::load(e.name) {

@@ -8,7 +8,11 @@
 //! coordinates, so the rig's `T_b_c` is its inverse. `timeshift_cam_imu` is not used (set
 //! `rig.time_offset_s` / `estimator.td_s` for it).
 
-use nalgebra::{Matrix3, Vector3};
+use estimator::geometry::Pose;
+use estimator::imu::ImuNoise;
+use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
+
+use super::{CameraSensor, ImuSensor};
 
 use super::yaml::{Doc, Entry, list};
 
@@ -60,9 +64,78 @@ fn numbers(v: &str) -> Result<Vec<f64>, String> {
         .collect()
 }
 
+/// The inverse `(Rᵀ, −Rᵀ·t)` of the rigid transform `(R, t)`: `T_b_c` of Kalibr's `T_cam_imu`
+/// (and back). The writer ([`super::kalibr_export`]) chooses the digits it writes so that this
+/// very computation gives back the rig's own values.
+pub(crate) fn invert_rigid(r: &Matrix3<f64>, t: &Vector3<f64>) -> (Matrix3<f64>, Vector3<f64>) {
+    let r_inv = r.transpose();
+    let t_inv = -(r_inv * t);
+    (r_inv, t_inv)
+}
+
 /// `[[rig.cameras]]` tables (TOML text) for the cameras of a Kalibr camchain, each with
 /// `pixel_sigma_px`.
 pub fn cameras_toml(text: &str, file: &str, pixel_sigma_px: f64) -> Result<String, KalibrError> {
+    let f = |v: &[f64]| {
+        v.iter()
+            .map(|x| format!("{x:?}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let mut out = String::new();
+    for c in read_cameras(text, file)? {
+        let r = &c.r_b_c;
+        out.push_str(&format!(
+            "\n[[rig.cameras]]\nname = {}\nmodel = \"{}\"\nresolution = [{}]\nintrinsics = [{}]\ndistortion = [{}]\n",
+            toml::Value::String(c.name.clone()),
+            c.model,
+            c.resolution.join(", "),
+            f(&c.intrinsics),
+            f(&c.distortion)
+        ));
+        if let Some(x) = c.xi {
+            out.push_str(&format!("xi = {x:?}\n"));
+        }
+        if let Some(a) = c.alpha {
+            out.push_str(&format!("alpha = {a:?}\n"));
+        }
+        out.push_str(&format!(
+            "T_b_c = {{ translation_m = [{}], rotation = [[{}], [{}], [{}]] }}\npixel_sigma_px = {pixel_sigma_px:?}\n",
+            f(c.t_b_c.as_slice()),
+            f(&[r[(0, 0)], r[(0, 1)], r[(0, 2)]]),
+            f(&[r[(1, 0)], r[(1, 1)], r[(1, 2)]]),
+            f(&[r[(2, 0)], r[(2, 1)], r[(2, 2)]]),
+        ));
+    }
+    Ok(out)
+}
+
+/// One camera of a camchain as read, in the scenario's terms.
+pub(crate) struct CameraRead {
+    /// The file's key (`cam0`).
+    pub name: String,
+    /// The scenario's model name (`pinhole_radtan`, `kannala_brandt`, `mei`, `double_sphere`).
+    pub model: &'static str,
+    /// `[fu, fv, pu, pv]`.
+    pub intrinsics: Vec<f64>,
+    /// Distortion coefficients.
+    pub distortion: Vec<f64>,
+    /// Mei's / double sphere's ξ.
+    pub xi: Option<f64>,
+    /// Double sphere's α.
+    pub alpha: Option<f64>,
+    /// `[width, height]` as written (whole numbers) or as the numbers they are.
+    pub resolution: Vec<String>,
+    /// `T_b_c = T_cam_imu⁻¹`.
+    pub r_b_c: Matrix3<f64>,
+    /// `T_b_c = T_cam_imu⁻¹`.
+    pub t_b_c: Vector3<f64>,
+    /// The line of its `resolution` key.
+    pub resolution_line: usize,
+}
+
+/// Every camera of a camchain, checked (see [`cameras_toml`]).
+pub(crate) fn read_cameras(text: &str, file: &str) -> Result<Vec<CameraRead>, KalibrError> {
     let err = located(file);
     let doc = Doc::parse(text).map_err(|(l, m)| err("", Some(l), m))?;
     let mut names: Vec<&str> = doc
@@ -75,7 +148,7 @@ pub fn cameras_toml(text: &str, file: &str, pixel_sigma_px: f64) -> Result<Strin
     if names.is_empty() {
         return Err(err("", None, "no `cam0:` … entries".into()));
     }
-    let mut out = String::new();
+    let mut out = Vec::new();
     for cam in names {
         let get = |k: &str| -> Result<&Entry, KalibrError> {
             let key = format!("{cam}.{k}");
@@ -182,35 +255,19 @@ pub fn cameras_toml(text: &str, file: &str, pixel_sigma_px: f64) -> Result<Strin
                 "its rotation is not a rotation matrix (to 1e-6)".into(),
             ));
         }
-        // T_b_c = T_cam_imu⁻¹.
-        let r_b_c = r_c_b.transpose();
-        let t_b_c = -(r_b_c * t_c_b);
-        let f = |v: &[f64]| {
-            v.iter()
-                .map(|x| format!("{x:?}"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
-        out.push_str(&format!(
-            "\n[[rig.cameras]]\nname = {}\nmodel = \"{ours}\"\nresolution = [{}]\nintrinsics = [{}]\ndistortion = [{}]\n",
-            toml::Value::String(cam.to_string()),
-            res.join(", "),
-            f(intrinsics),
-            f(&coeffs)
-        ));
-        if let Some(x) = xi {
-            out.push_str(&format!("xi = {x:?}\n"));
-        }
-        if let Some(a) = alpha {
-            out.push_str(&format!("alpha = {a:?}\n"));
-        }
-        out.push_str(&format!(
-            "T_b_c = {{ translation_m = [{}], rotation = [[{}], [{}], [{}]] }}\npixel_sigma_px = {pixel_sigma_px:?}\n",
-            f(t_b_c.as_slice()),
-            f(&[r_b_c[(0, 0)], r_b_c[(0, 1)], r_b_c[(0, 2)]]),
-            f(&[r_b_c[(1, 0)], r_b_c[(1, 1)], r_b_c[(1, 2)]]),
-            f(&[r_b_c[(2, 0)], r_b_c[(2, 1)], r_b_c[(2, 2)]]),
-        ));
+        let (r_b_c, t_b_c) = invert_rigid(&r_c_b, &t_c_b);
+        out.push(CameraRead {
+            name: cam.to_string(),
+            model: ours,
+            intrinsics: intrinsics.to_vec(),
+            distortion: coeffs,
+            xi,
+            alpha,
+            resolution: res,
+            r_b_c,
+            t_b_c,
+            resolution_line: res_entry.line,
+        });
     }
     Ok(out)
 }
@@ -218,6 +275,17 @@ pub fn cameras_toml(text: &str, file: &str, pixel_sigma_px: f64) -> Result<Strin
 /// The `[rig.imu]` table (TOML text) of a Kalibr `imu.yaml` (keys at the top level or under
 /// `imu0:`).
 pub fn imu_toml(text: &str, file: &str) -> Result<String, KalibrError> {
+    let mut out = String::from("\n[rig.imu]\n");
+    for (ours, v) in read_imu(text, file)? {
+        out.push_str(&format!("{ours} = {v:?}\n"));
+    }
+    Ok(out)
+}
+
+/// The IMU values of an `imu.yaml` under the scenario's names, in the order `rate_hz`,
+/// `gyroscope_noise_density`, `accelerometer_noise_density`, `gyroscope_random_walk`,
+/// `accelerometer_random_walk`.
+fn read_imu(text: &str, file: &str) -> Result<[(&'static str, f64); 5], KalibrError> {
     let err = located(file);
     let doc = Doc::parse(text).map_err(|(l, m)| err("", Some(l), m))?;
     let prefix = if doc.get("imu0").is_some() {
@@ -225,14 +293,14 @@ pub fn imu_toml(text: &str, file: &str) -> Result<String, KalibrError> {
     } else {
         ""
     };
-    let mut out = String::from("\n[rig.imu]\n");
-    for (kalibr, ours) in [
+    let mut out = [("", 0.0); 5];
+    for (slot, (kalibr, ours)) in out.iter_mut().zip([
         ("update_rate", "rate_hz"),
         ("gyroscope_noise_density", "gyroscope_noise_density"),
         ("accelerometer_noise_density", "accelerometer_noise_density"),
         ("gyroscope_random_walk", "gyroscope_random_walk"),
         ("accelerometer_random_walk", "accelerometer_random_walk"),
-    ] {
+    ]) {
         let key = format!("{prefix}{kalibr}");
         let e = doc
             .get(&key)
@@ -244,9 +312,85 @@ pub fn imu_toml(text: &str, file: &str) -> Result<String, KalibrError> {
             .ok()
             .filter(|v: &f64| v.is_finite())
             .ok_or_else(|| err(&key, Some(e.line), format!("`{}` is not a number", e.value)))?;
-        out.push_str(&format!("{ours} = {v:?}\n"));
+        *slot = (ours, v);
     }
     Ok(out)
+}
+
+/// The IMU of an `imu.yaml` as a `sensor.yaml` would give it (body = IMU frame): what a recorded
+/// run needs of it. Densities must be positive.
+pub fn imu_sensor(text: &str, file: &str) -> Result<ImuSensor, KalibrError> {
+    let [rate, gn, an, gw, aw] = read_imu(text, file)?.map(|(_, v)| v);
+    for (key, v) in [
+        ("update_rate", rate),
+        ("gyroscope_noise_density", gn),
+        ("accelerometer_noise_density", an),
+        ("gyroscope_random_walk", gw),
+        ("accelerometer_random_walk", aw),
+    ] {
+        if v <= 0.0 {
+            return Err(located(file)(
+                key,
+                None,
+                format!("{v}: expected a positive value"),
+            ));
+        }
+    }
+    Ok(ImuSensor {
+        comment: format!("Kalibr {file}"),
+        t_bs: Pose::identity(),
+        rate_hz: rate,
+        noise: ImuNoise {
+            gyroscope_noise_density: gn,
+            accelerometer_noise_density: an,
+            gyroscope_random_walk: gw,
+            accelerometer_random_walk: aw,
+        },
+    })
+}
+
+/// The cameras of a camchain as `sensor.yaml` calibrations (pinhole cameras with radial-tangential
+/// or equidistant distortion; `T_BS` = `T_cam_imu⁻¹`, its rotation made a quaternion as a scenario's
+/// rotation rows are): what a recorded run needs of them. `rate_hz` is 0 (Kalibr does not say).
+pub fn camera_sensors(text: &str, file: &str) -> Result<Vec<CameraSensor>, KalibrError> {
+    let err = located(file);
+    read_cameras(text, file)?
+        .into_iter()
+        .map(|c| {
+            let distortion_model = match c.model {
+                "pinhole_radtan" => "radial-tangential",
+                "kannala_brandt" => "equidistant",
+                other => {
+                    return Err(err(
+                        &format!("{}.camera_model", c.name),
+                        None,
+                        format!("a {other} camera: recorded runs take pinhole cameras (radtan or equidistant)"),
+                    ));
+                }
+            };
+            let mut resolution = [0u32; 2];
+            for (slot, v) in resolution.iter_mut().zip(&c.resolution) {
+                *slot = v.parse().ok().filter(|&r| r > 0).ok_or_else(|| {
+                    err(
+                        &format!("{}.resolution", c.name),
+                        Some(c.resolution_line),
+                        format!("`{v}` is not a positive whole number of pixels"),
+                    )
+                })?;
+            }
+            let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&c.r_b_c));
+            Ok(CameraSensor {
+                comment: format!("Kalibr {file} {}", c.name),
+                t_bs: Pose::new(q, c.t_b_c),
+                rate_hz: 0.0,
+                resolution,
+                camera_model: "pinhole".into(),
+                intrinsics: c.intrinsics,
+                distortion_model: distortion_model.into(),
+                distortion_coefficients: c.distortion,
+            })
+        })
+        .collect()
 }
 
 /// Where a rig key the Kalibr files gave comes from: the Kalibr file's key (`cam1.resolution`,

@@ -1,5 +1,5 @@
-//! Dataset I/O: TUM trajectories, the EuRoC ASL folder layout, `sensor.yaml` files and the
-//! `features.csv` export of feature tracks.
+//! Dataset I/O: TUM trajectories, the EuRoC ASL folder layout, `sensor.yaml` files, Kalibr
+//! calibration files and the `features.csv` export of feature tracks.
 //!
 //! Every reader checks each row and reports problems as `file:line: what was wrong`
 //! ([`DatasetError`]); none of them panics on malformed input. Writers produce files that the
@@ -12,6 +12,8 @@ mod euroc_asl;
 mod features;
 mod image_file;
 pub mod kalibr;
+mod kalibr_export;
+pub mod ros2;
 mod sensor_yaml;
 mod tum;
 mod yaml;
@@ -29,6 +31,9 @@ pub use features::{
     read_features_csv, read_features_csv_within, write_features_csv,
 };
 pub use image_file::read_gray_image;
+pub use kalibr_export::{
+    KalibrCamera, KalibrImu, camera_from_imu, format_camchain, format_imu_yaml, yaml_f64,
+};
 pub use sensor_yaml::{
     CameraSensor, ImuSensor, SensorYaml, format_sensor_yaml, parse_sensor_yaml, read_sensor_yaml,
     write_sensor_yaml,

@@ -3,9 +3,11 @@
 
 use std::path::Path;
 
-use super::recorded::replay_euroc;
+use super::euroc_folder::replay_euroc;
+use super::recorded::RecordedRun;
+use super::ros2_bag::replay_bag;
 use super::simulated::simulate;
-use super::{EurocOptions, RunControl, RunError, RunOptions, RunOutput};
+use super::{BagOptions, EurocOptions, RunControl, RunError, RunOptions, RunOutput};
 use crate::report::{self, Evaluation, Report, RunContext};
 use crate::spec::Scenario;
 
@@ -20,6 +22,13 @@ pub enum RunInput<'a> {
         mav0: &'a Path,
         /// The suite, the feature tracks or images, the settings.
         options: &'a EurocOptions,
+    },
+    /// A recorded ROS 2 bag (MCAP): the file and how to run it.
+    Bag {
+        /// The `.mcap` file.
+        path: &'a Path,
+        /// The topics, the rig, the suite, the settings.
+        options: &'a BagOptions,
     },
 }
 
@@ -58,23 +67,32 @@ pub fn run_to_report(
     options: &RunOptions,
     mut control: RunControl,
 ) -> Result<ReportedRun, RunError> {
-    let (context, output, without_truth) = match input {
+    let recorded = |r: RecordedRun, description: String, suite| {
+        let context = RunContext::recorded(description, suite, r.t0_ns, r.ground_truth);
+        (context, r.output, r.without_truth, r.truth_biases)
+    };
+    let (context, output, without_truth, truth_biases) = match input {
         RunInput::Scenario(scenario) => {
             let output = simulate(scenario, options, &mut control)?;
-            (RunContext::with_run(scenario, &output), output, 0)
+            (RunContext::with_run(scenario, &output), output, 0, true)
         }
-        RunInput::Euroc { mav0, options: e } => {
-            let r = replay_euroc(mav0, e, options, &mut control)?;
-            let context = RunContext::recorded(
-                format!("EuRoC dataset {}", mav0.display()),
-                e.suite,
-                r.t0_ns,
-                r.ground_truth,
-            );
-            (context, r.output, r.without_truth)
-        }
+        RunInput::Euroc { mav0, options: e } => recorded(
+            replay_euroc(mav0, e, options, &mut control)?,
+            format!("EuRoC dataset {}", mav0.display()),
+            e.suite,
+        ),
+        RunInput::Bag { path, options: b } => recorded(
+            replay_bag(path, b, options, &mut control)?,
+            format!("ROS 2 bag {}", path.display()),
+            b.suite,
+        ),
     };
-    let evaluation = report::evaluate(&output, context.suite);
+    let mut evaluation = report::evaluate(&output, context.suite);
+    if !truth_biases {
+        // A ground truth of poses: the biases' errors are unknown, not zero.
+        evaluation.gyro_bias_error_rad_s = None;
+        evaluation.accel_bias_error_m_s2 = None;
+    }
     let report = report::build_report(&context, &output, &evaluation);
     Ok(ReportedRun {
         context,

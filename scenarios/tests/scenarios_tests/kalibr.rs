@@ -125,3 +125,132 @@ fn malformed_kalibr_files_name_file_key_and_line() {
         assert!(e.contains("camchain.yaml"), "{e}");
     }
 }
+
+/// The `[[rig.cameras]]` and `[rig.imu]` tables the Kalibr reader makes of `vio export`'s files.
+fn read_back(camchain: &str, imu: &str) -> (Vec<scenarios::spec::CameraSpec>, toml::Table) {
+    let cams =
+        scenarios::dataset::kalibr::cameras_toml(camchain, "camchain-imucam.yaml", 1.0).unwrap();
+    let cams: toml::Table = toml::from_str(&cams).unwrap();
+    let cams = cams["rig"]["cameras"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c.clone().try_into().unwrap())
+        .collect();
+    let imu: toml::Table =
+        toml::from_str(&scenarios::dataset::kalibr::imu_toml(imu, "imu.yaml").unwrap()).unwrap();
+    (cams, imu["rig"]["imu"].as_table().unwrap().clone())
+}
+
+#[test]
+fn exported_kalibr_files_give_back_every_catalog_rig_exactly() {
+    let mut cameras = 0;
+    for name in scenarios::catalog::names() {
+        let s = Scenario::load(name).unwrap();
+        let (camchain, imu) = scenarios::export::kalibr_files(&s).unwrap();
+        let (cams, imu) = read_back(&camchain, &imu);
+        let rig = &s.spec.rig;
+        // The cameras the estimator uses (a mono suite: the first).
+        let est = s.estimator_config().unwrap();
+        assert_eq!(cams.len(), est.cameras.len(), "{name}");
+        for (i, (got, want)) in cams.iter().zip(&rig.cameras).enumerate() {
+            let at = format!("{name} cam{i}");
+            assert_eq!(got.model, want.model, "{at}");
+            assert_eq!(got.resolution, want.resolution, "{at}");
+            assert_eq!(got.intrinsics, want.intrinsics, "{at}");
+            assert_eq!(got.distortion, want.distortion, "{at}");
+            assert_eq!((got.xi, got.alpha), (want.xi, want.alpha), "{at}");
+            // The extrinsic the estimator starts from (a calibration error included), the
+            // rotation as the scenario wrote it.
+            let t = est.cameras[i].T_b_c.p;
+            assert_eq!(got.T_b_c.translation_m, [t.x, t.y, t.z], "{at}");
+            match (want.T_b_c.rotation, &want.calibration_error) {
+                (Some(rows), None) => assert_eq!(got.T_b_c.rotation, Some(rows), "{at}"),
+                _ => {
+                    let r = nalgebra::Rotation3::from(est.cameras[i].T_b_c.q);
+                    let g = got.T_b_c.rotation.unwrap();
+                    let g = nalgebra::Matrix3::from_fn(|a, b| g[a][b]);
+                    assert!((g - r.matrix()).amax() < 1e-15, "{at}");
+                }
+            }
+            cameras += 1;
+        }
+        let f = |k: &str| imu[k].as_float().unwrap();
+        assert_eq!(f("rate_hz"), rig.imu.rate_hz, "{name}");
+        assert_eq!(
+            f("gyroscope_noise_density"),
+            rig.imu.gyroscope_noise_density
+        );
+        assert_eq!(
+            f("accelerometer_noise_density"),
+            rig.imu.accelerometer_noise_density
+        );
+        assert_eq!(f("gyroscope_random_walk"), rig.imu.gyroscope_random_walk);
+        assert_eq!(
+            f("accelerometer_random_walk"),
+            rig.imu.accelerometer_random_walk
+        );
+    }
+    assert!(cameras >= 60, "{cameras} cameras checked");
+}
+
+#[test]
+fn a_kalibr_rig_written_back_reads_as_the_same_rig() {
+    // EuRoC's calibration (generic rotations, translations not round in any frame): Kalibr →
+    // scenario → Kalibr → scenario gives the same [[rig.cameras]] text, digit for digit.
+    let k = scenario_with("back", &camchain(), IMU).unwrap();
+    let first = scenarios::dataset::kalibr::cameras_toml(&camchain(), "c", 1.0).unwrap();
+    let (written, imu) = scenarios::export::kalibr_files(&k).unwrap();
+    let second = scenarios::dataset::kalibr::cameras_toml(&written, "c", 1.0).unwrap();
+    assert_eq!(first, second);
+    let fixture_imu = std::fs::read_to_string(fixtures().join("euroc-imu.yaml")).unwrap();
+    assert_eq!(
+        scenarios::dataset::kalibr::imu_toml(&fixture_imu, "i").unwrap(),
+        scenarios::dataset::kalibr::imu_toml(&imu, "i").unwrap()
+    );
+}
+
+#[test]
+fn a_run_on_the_exported_kalibr_rig_gives_the_same_estimate() {
+    // The figure-eight with its [[rig.cameras]] replaced by `rig.kalibr` pointing at the
+    // camchain `vio export` writes: byte-identical estimates.
+    let original = Scenario::load("room_figure8_stereo_imu").unwrap();
+    let (camchain, _) = scenarios::export::kalibr_files(&original).unwrap();
+    let dir = common::scratch("kalibr-run").keep();
+    std::fs::write(dir.join("camchain-imucam.yaml"), &camchain).unwrap();
+    let text = scenarios::catalog::get("room_figure8_stereo_imu")
+        .unwrap()
+        .text;
+    let mut table: toml::Table = toml::from_str(text).unwrap();
+    let rig = table["rig"].as_table_mut().unwrap();
+    rig.remove("cameras");
+    rig.insert(
+        "kalibr".into(),
+        toml::Value::Table(toml::Table::from_iter([
+            (
+                "camchain".to_string(),
+                toml::Value::String("camchain-imucam.yaml".into()),
+            ),
+            ("pixel_sigma_px".to_string(), toml::Value::Float(1.0)),
+        ])),
+    );
+    let file = dir.join("kalibr_rig.toml");
+    std::fs::write(&file, toml::to_string(&table).unwrap()).unwrap();
+    let from_kalibr = Scenario::load(file.to_str().unwrap()).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    let options = scenarios::run::RunOptions {
+        duration_s: Some(4.0),
+        ..Default::default()
+    };
+    let a = scenarios::run::run_scenario(&original, &options).unwrap();
+    let b = scenarios::run::run_scenario(&from_kalibr, &options).unwrap();
+    assert!(a.output.frames.len() > 50);
+    let poses = |d: &scenarios::run::ReportedRun| {
+        d.output
+            .frames
+            .iter()
+            .map(|f| (f.estimate.T_w_b.p, f.estimate.T_w_b.q))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(poses(&a), poses(&b));
+}

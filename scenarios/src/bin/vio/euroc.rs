@@ -40,14 +40,8 @@ pub struct EurocArgs {
 /// Runs `vio euroc`: exit 0 (ran; with ground truth every default expectation holds), 1 (an
 /// expectation failed), 2 (bad input).
 pub fn euroc_command(args: EurocArgs) -> ExitCode {
-    let suite = match args.suite.as_str() {
-        "stereo_imu" => SuiteSpec::StereoImu,
-        "stereo" => SuiteSpec::Stereo,
-        "mono_imu" => SuiteSpec::MonoImu,
-        other => {
-            eprintln!("error: --suite {other}: expected stereo_imu, stereo or mono_imu");
-            return ExitCode::from(BAD_INPUT);
-        }
+    let Some(suite) = parse_suite(&args.suite) else {
+        return ExitCode::from(BAD_INPUT);
     };
     if !(args.pixel_sigma.is_finite() && args.pixel_sigma > 0.0 && args.pixel_sigma <= 100.0) {
         eprintln!(
@@ -122,4 +116,18 @@ pub fn euroc_command(args: EurocArgs) -> ExitCode {
         }
     );
     finish_attended(&out_dir, &run, &preface)
+}
+
+/// A recording's `--suite`: `stereo_imu`, `stereo` or `mono_imu`; `None` (said on stderr) for
+/// anything else.
+pub fn parse_suite(s: &str) -> Option<SuiteSpec> {
+    match s {
+        "stereo_imu" => Some(SuiteSpec::StereoImu),
+        "stereo" => Some(SuiteSpec::Stereo),
+        "mono_imu" => Some(SuiteSpec::MonoImu),
+        other => {
+            eprintln!("error: --suite {other}: expected stereo_imu, stereo or mono_imu");
+            None
+        }
+    }
 }

@@ -1,0 +1,20 @@
+//! ROS 2 bags in MCAP (rosbag2's default storage): the message types they hold, their CDR
+//! encoding, and a writer and a reader of bags.
+
+mod bag_reader;
+mod bag_writer;
+mod cdr;
+mod definitions;
+mod image_message;
+mod messages;
+
+pub use bag_reader::{BagContents, BagFile, Topic};
+pub use bag_writer::BagWriter;
+pub use cdr::{decode, decode_header, encode};
+pub use definitions::complete as complete_definition;
+pub use image_message::gray_image;
+pub use messages::{
+    CameraInfo, Header, Image, Imu, NavSatFix, NavSatStatus, Point, PointCloud2, PointField, Pose,
+    PoseStamped, Quaternion, RegionOfInterest, RosMessage, TfMessage, Time, Transform,
+    TransformStamped, Twist, TwistStamped, Vector3,
+};

@@ -1,0 +1,24 @@
+//! `vio export`: a scenario's simulated measurements written in the community's formats, so
+//! other estimators can consume exactly what ours does: an EuRoC ASL folder ([`asl_folder`]) or
+//! a ROS 2 bag in MCAP ([`ros2_bag`]), each with the rig as Kalibr files.
+//!
+//! The ASL folder: `OUT/mav0/` (`imu0/data.csv` + `sensor.yaml` with the Kalibr noise values,
+//! `state_groundtruth_estimate0/data.csv` at every IMU sample with the true biases,
+//! `cam<i>/data.csv` + `sensor.yaml` with each camera's calibration), `OUT/features.csv`
+//! (`t_ns,cam_id,feature_id,u,v`, distorted pixels), `OUT/camchain-imucam.yaml` and
+//! `OUT/imu.yaml`. Rendered scenarios (`camera.mode = "rendered"`) also write every image as
+//! `mav0/cam<i>/data/<t_ns>.png` (depth images are not exported; `vio render` writes them), and
+//! each camera's `data.csv` lists exactly the images written; feature-level scenarios have no
+//! images, so their `data.csv` holds the header only and `features.csv` holds what the cameras
+//! measured and when. Feature ids are renumbered densely from 0 keeping their order (they fit
+//! in 31 bits): one id is one track (`rig.track_ids = "realistic"`, the default: a re-acquired
+//! landmark is a new track) or one landmark (`"landmark"`), shared by the cameras that see it.
+
+pub mod asl_folder;
+pub mod rig;
+pub mod ros2_bag;
+mod write;
+
+pub use rig::kalibr_files;
+pub use ros2_bag::GNSS_ORIGIN;
+pub use write::{ExportError, ExportSummary, export, export_bag};
