@@ -6,6 +6,7 @@ use estimator::frontend::TrackSummary;
 use estimator::geometry::Pose;
 use estimator::problem::SolverSummary;
 use estimator::{Estimate, Status};
+use nalgebra::Vector3;
 use sim::stream::GroundTruth;
 
 use crate::frontend::FrontendStats;
@@ -46,6 +47,18 @@ pub struct FrameRecord {
     pub truth: GroundTruth,
     /// Timing.
     pub timing: FrameTiming,
+    /// The window as the estimate left it, when the run recorded it
+    /// ([`RunOptions::scene`](crate::run::RunOptions::scene)).
+    pub scene: Option<WindowScene>,
+}
+
+/// The estimator's window after an estimate: what a viewer draws.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WindowScene {
+    /// The window's frame poses (world), oldest first.
+    pub poses: Vec<Pose>,
+    /// Its persistent points (world).
+    pub points: Vec<Vector3<f64>>,
 }
 
 /// What happened during a run.

@@ -1,14 +1,17 @@
 //! ROS 2 bags (MCAP) round trip: a scenario exported with `vio export --format mcap` and run
 //! through `vio bag`'s pipeline gives the estimate `vio run` gives, from the rendered images
 //! (image front end) and from the bag's feature tracks; GNSS fixes and wheel readings land on
-//! their topics; bad bags name the file and the topic.
+//! their topics; bad bags name the file and the topic; `run.mcap` holds the run for viewers.
 //!
 //! The rendered case needs Mesa's llvmpipe (`bash .ci/install-deps`).
 
 use std::path::{Path, PathBuf};
 
 use crate::common;
-use scenarios::dataset::ros2::{BagFile, NavSatFix, TwistStamped};
+use scenarios::dataset::ros2::{
+    BagFile, NavSatFix, PointCloud2, PoseArray, PoseStamped, PoseWithCovarianceStamped, TfMessage,
+    TwistStamped, Vector3Stamped,
+};
 use scenarios::export::{GNSS_ORIGIN, export_bag};
 use scenarios::run::{
     BagOptions, EurocOptions, ReportedRun, RunControl, RunError, RunInput, RunOptions,
@@ -227,4 +230,80 @@ fn bad_bags_name_the_file_and_the_topic() {
         &path,
     );
     assert!(e.contains("missing.yaml"), "{e}");
+}
+
+#[test]
+fn run_mcap_holds_the_run_for_viewers_and_changes_nothing_else() {
+    let scenario = Scenario::load("room_figure8_stereo_imu").unwrap();
+    let plain = common::run_scenario(scenario.clone(), Some(SECONDS));
+    let options = RunOptions {
+        duration_s: Some(SECONDS),
+        covariance: true,
+        scene: true,
+        ..Default::default()
+    };
+    let viewed = common::run_with(scenario, &options);
+    let dir = common::scratch();
+    let (a, b) = (dir.path().join("plain"), dir.path().join("viewed"));
+    plain.run.write_outputs(&a).unwrap();
+    viewed.run.write_outputs(&b).unwrap();
+    // The same estimate; run.mcap only where asked.
+    assert_eq!(
+        std::fs::read(a.join("estimate.tum")).unwrap(),
+        std::fs::read(b.join("estimate.tum")).unwrap()
+    );
+    assert!(!a.join("run.mcap").exists());
+
+    let file = BagFile::open(&b.join("run.mcap")).unwrap();
+    let bag = file.contents().unwrap();
+    let frames = viewed.run.output.frames.len();
+    let poses = bag.decode_all::<PoseStamped>("/estimate/pose").unwrap();
+    assert_eq!(poses.len(), frames);
+    assert_eq!(
+        bag.decode_all::<PoseStamped>("/groundtruth/pose")
+            .unwrap()
+            .len(),
+        frames
+    );
+    let tf = bag.decode_all::<TfMessage>("/tf").unwrap();
+    assert_eq!(tf.len(), frames);
+    assert_eq!(tf[0].1.transforms[0].child_frame_id, "body");
+    // The window: frames and persistent points once it tracks.
+    let points = bag.decode_all::<PointCloud2>("/window/points").unwrap();
+    assert!(points.iter().any(|(_, p)| p.width >= 10), "no points");
+    let window = bag.decode_all::<PoseArray>("/window/poses").unwrap();
+    assert!(window.iter().any(|(_, w)| w.poses.len() >= 5));
+    // Covariances: symmetric, positive on the diagonal.
+    let cov = bag
+        .decode_all::<PoseWithCovarianceStamped>("/estimate/pose_with_covariance")
+        .unwrap();
+    assert!(cov.len() + 2 >= frames);
+    for (_, c) in &cov {
+        let m = c.pose.covariance;
+        for i in 0..6 {
+            assert!(m[i][i] > 0.0);
+            for k in 0..6 {
+                assert!((m[i][k] - m[k][i]).abs() <= 1e-9 * (m[i][i] * m[k][k]).sqrt());
+            }
+        }
+    }
+    // The position error is the aligned estimate less the truth: its RMS is the ATE.
+    let errors = bag
+        .decode_all::<Vector3Stamped>("/estimate/position_error")
+        .unwrap();
+    let ate = viewed.run.report.ate_rmse_m.unwrap();
+    let evaluated = &viewed.run.evaluation.evaluated;
+    let rms = (evaluated
+        .iter()
+        .map(|&i| {
+            let v = errors[i].1.vector;
+            v.x * v.x + v.y * v.y + v.z * v.z
+        })
+        .sum::<f64>()
+        / evaluated.len() as f64)
+        .sqrt();
+    assert!(
+        (rms - ate).abs() < 1e-9 * ate.max(1.0),
+        "{rms} vs ATE {ate}"
+    );
 }

@@ -322,6 +322,17 @@ impl Estimator {
         self.points_relinearized
     }
 
+    /// The poses of the frames in the window, oldest first (world frame), as the last solve left
+    /// them: what a viewer draws as the window.
+    pub fn window_poses(&self) -> Vec<Pose> {
+        self.window.frames.iter().map(|f| f.pose).collect()
+    }
+
+    /// The window's persistent points (world frame), in id order.
+    pub fn window_points(&self) -> Vec<Vector3<f64>> {
+        self.window.points.values().copied().collect()
+    }
+
     /// The sensors in use.
     pub fn live_suite(&self) -> LiveSuite {
         LiveSuite::from_live(self.live_cameras, self.live_imu)

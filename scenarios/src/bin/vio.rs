@@ -63,6 +63,10 @@ enum Command {
         /// window's and the causal ATE against it (`batch_reference` in report.json).
         #[arg(long)]
         batch_reference: bool,
+        /// Also write `run.mcap` for viewers (Foxglove, Rerun): poses, paths, the window's
+        /// frames and points, the pose covariance, errors and state over time, events.
+        #[arg(long)]
+        mcap: bool,
     },
     /// Monte-Carlo consistency: run the scenario with seeds 1..=N and write the NEES of the
     /// observable states (body velocity, biases, roll/pitch, relative pose over 0.5 s) averaged over the runs, with their
@@ -258,6 +262,7 @@ fn main() -> ExitCode {
             seed,
             duration,
             batch_reference,
+            mcap,
         } => run_command(
             scenario,
             out,
@@ -265,7 +270,8 @@ fn main() -> ExitCode {
                 seed,
                 duration_s: duration,
                 batch_reference,
-                ..Default::default()
+                covariance: mcap,
+                scene: mcap,
             },
         ),
         Command::Export {

@@ -48,6 +48,7 @@ pub mod recovery;
 pub mod replay;
 mod report_json;
 mod rest;
+mod run_bag;
 mod static_trajectory;
 mod summary;
 pub mod window_vs_batch;
@@ -63,6 +64,7 @@ pub use report_json::{
     EventReport, ExpectationResult, FaultReport, Report, Stats, TimingReport, build_report,
 };
 pub use rest::{RestInterval, RestReport, RestSpeeds, rest_report};
+pub use run_bag::write_run_bag;
 pub use static_trajectory::StaticTrajectoryReport;
 pub use summary::summary;
 pub use window_vs_batch::BatchReport;

@@ -66,7 +66,7 @@ pub fn plot_data(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> PlotDa
 /// Every file a run may write into its output folder. Each run first removes those of them a
 /// previous run left there (and nothing else), so a folder never mixes two runs' outputs: a
 /// plain run after a `--batch-reference` one no longer leaves the old `batch.tum` beside it.
-pub const RUN_OUTPUT_FILES: [&str; 9] = [
+pub const RUN_OUTPUT_FILES: [&str; 10] = [
     "estimate.tum",
     "estimate_source_time.tum",
     "groundtruth.tum",
@@ -76,13 +76,15 @@ pub const RUN_OUTPUT_FILES: [&str; 9] = [
     "trajectory.png",
     "calibration.png",
     "gnss.png",
+    "run.mcap",
 ];
 
 /// Writes `estimate.tum`, `groundtruth.tum`, `report.json` and `trajectory.png` of a run
 /// described by `ctx` into `dir` (created if needed), after removing what an earlier run left
 /// there ([`RUN_OUTPUT_FILES`]); without ground truth
 /// ([`RunContext::ground_truth`] false) only `estimate.tum`, `estimate_source_time.tum` and
-/// `report.json`.
+/// `report.json`; and `run.mcap` ([`super::write_run_bag`]) when the run recorded its window
+/// ([`crate::run::RunOptions::scene`], `--mcap`).
 pub fn write_outputs(
     dir: &Path,
     ctx: &RunContext,
@@ -162,6 +164,9 @@ pub fn write_outputs(
         let png = gnss::gnss_png(&report.scenario, g)?;
         let p = dir.join("gnss.png");
         std::fs::write(&p, png).map_err(|e| io(&p.display().to_string(), e))?;
+    }
+    if run.frames.iter().any(|f| f.scene.is_some()) {
+        super::write_run_bag(&dir.join("run.mcap"), ctx, run, eval, report)?;
     }
     Ok(())
 }

@@ -69,6 +69,7 @@ pub(crate) fn drive(
     control: &mut RunControl,
 ) -> Result<(RunOutput, usize), RunError> {
     let end_ns = source.end_ns();
+    recorder.scene = options.scene;
     let mut last_progress = -1.0;
     let mut finished = false;
     let mut now_ns: i64 = 0;

@@ -12,7 +12,7 @@ mod ros2_bag;
 mod simulated;
 
 pub use crate::run_output::{
-    BatchReference, Event, EventKind, FrameRecord, FrameTiming, RunOutput,
+    BatchReference, Event, EventKind, FrameRecord, FrameTiming, RunOutput, WindowScene,
 };
 pub use error::RunError;
 pub use euroc_folder::EurocOptions;

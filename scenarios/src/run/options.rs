@@ -16,6 +16,9 @@ pub struct RunOptions {
     pub batch_reference: bool,
     /// Compute the newest state's covariance with every estimate (`vio nees`).
     pub covariance: bool,
+    /// Record the window (frame poses, persistent points) with every estimate, for the run's
+    /// MCAP file (`--mcap`).
+    pub scene: bool,
 }
 
 /// What the caller sees of a run while it goes: its progress, and a flag that stops it.

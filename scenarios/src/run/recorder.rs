@@ -5,7 +5,7 @@ use std::collections::VecDeque;
 use estimator::{Estimate, Estimator, EstimatorError, EventKind as EstimatorEventKind, Status};
 use sim::stream::GroundTruth;
 
-use super::{Event, EventKind, FrameRecord, FrameTiming, RunError, RunOutput};
+use super::{Event, EventKind, FrameRecord, FrameTiming, RunError, RunOutput, WindowScene};
 
 /// Collects a run's output from the estimator's calls: estimates with their ground truth and
 /// timing, status changes and the estimator's events.
@@ -18,6 +18,8 @@ pub(crate) struct Recorder {
     pub skip_without_truth: bool,
     /// Estimates left out for want of ground truth.
     pub without_truth: usize,
+    /// Record the window with every estimate ([`super::RunOptions::scene`]).
+    pub scene: bool,
     status: Status,
     /// (camera stamp, front-end s, render s) of frames pushed and not yet estimated.
     pending: VecDeque<(i64, f64, f64)>,
@@ -30,6 +32,7 @@ impl Recorder {
             out,
             skip_without_truth: false,
             without_truth: 0,
+            scene: false,
             status,
             pending: VecDeque::new(),
         }
@@ -122,10 +125,15 @@ impl Recorder {
                 total_s: frame_frontend_s + call_s / n,
                 render_s: frame_render_s,
             };
+            let scene = self.scene.then(|| WindowScene {
+                poses: estimator.window_poses(),
+                points: estimator.window_points(),
+            });
             out.frames.push(FrameRecord {
                 estimate: e,
                 truth,
                 timing,
+                scene,
             });
         }
         Ok(())

@@ -51,6 +51,9 @@ pub struct BagArgs {
     /// Only the first seconds of the bag.
     #[arg(long)]
     pub duration: Option<f64>,
+    /// Also write `run.mcap` for viewers (Foxglove, Rerun; see `vio run --mcap`).
+    #[arg(long)]
+    pub mcap: bool,
     /// Output folder [default: ./vio-out/bag-NAME, NAME the bag's file stem].
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -97,6 +100,8 @@ pub fn bag_command(args: BagArgs) -> ExitCode {
     let run_options = RunOptions {
         seed: Some(args.seed),
         duration_s: args.duration,
+        covariance: args.mcap,
+        scene: args.mcap,
         ..Default::default()
     };
     let input = RunInput::Bag {

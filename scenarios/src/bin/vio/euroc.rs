@@ -32,6 +32,9 @@ pub struct EurocArgs {
     /// Only the first seconds of the dataset.
     #[arg(long)]
     pub duration: Option<f64>,
+    /// Also write `run.mcap` for viewers (Foxglove, Rerun; see `vio run --mcap`).
+    #[arg(long)]
+    pub mcap: bool,
     /// Output folder [default: ./vio-out/euroc-NAME, NAME the dataset folder's name].
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -80,6 +83,8 @@ pub fn euroc_command(args: EurocArgs) -> ExitCode {
     let run_options = RunOptions {
         seed: Some(args.seed),
         duration_s: args.duration,
+        covariance: args.mcap,
+        scene: args.mcap,
         ..Default::default()
     };
     let input = RunInput::Euroc {

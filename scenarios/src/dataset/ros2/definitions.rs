@@ -1,7 +1,8 @@
 //! The `.msg` definitions of the message types in [`super::messages`], and their complete
 //! `ros2msg` form as rosbag2 stores it in a bag's schema: the type's own text first, then each
-//! type it uses (recursively, each once) after a line of 80 `=` and a `MSG: package/msg/Name`
-//! line. Readers that know no ROS (Foxglove, the Python `mcap-ros2-support`) decode the bag with
+//! type it uses (recursively, each once) after a line of 80 `=` and a `MSG: package/Name` line
+//! (the name as fields spell it, as rosbag2 writes it; readers that look the name up as written,
+//! Rerun's among them, need that spelling). Readers that know no ROS (Foxglove, the Python `mcap-ros2-support`) decode the bag with
 //! these texts alone. Field lines only: the comments of the ROS sources are not repeated.
 
 /// A type's name (`package/msg/Name`) and its `.msg` text.
@@ -146,6 +147,42 @@ pub const ALL: &[Definition] = &[
          uint8[] data\n\
          bool is_dense\n",
     ),
+    (
+        "geometry_msgs/msg/PoseArray",
+        "std_msgs/Header header\nPose[] poses\n",
+    ),
+    (
+        "nav_msgs/msg/Path",
+        "std_msgs/Header header\ngeometry_msgs/PoseStamped[] poses\n",
+    ),
+    (
+        "geometry_msgs/msg/PoseWithCovariance",
+        "Pose pose\nfloat64[36] covariance\n",
+    ),
+    (
+        "geometry_msgs/msg/PoseWithCovarianceStamped",
+        "std_msgs/Header header\nPoseWithCovariance pose\n",
+    ),
+    (
+        "geometry_msgs/msg/Vector3Stamped",
+        "std_msgs/Header header\nVector3 vector\n",
+    ),
+    ("std_msgs/msg/Float64", "float64 data\n"),
+    (
+        "rcl_interfaces/msg/Log",
+        "byte DEBUG=10\n\
+         byte INFO=20\n\
+         byte WARN=30\n\
+         byte ERROR=40\n\
+         byte FATAL=50\n\
+         builtin_interfaces/Time stamp\n\
+         uint8 level\n\
+         string name\n\
+         string msg\n\
+         string file\n\
+         string function\n\
+         uint32 line\n",
+    ),
 ];
 
 const PRIMITIVES: &[&str] = &[
@@ -202,7 +239,7 @@ pub fn complete(name: &str) -> String {
     let mut out = text_of(name).to_string();
     for t in order {
         out.push_str(&"=".repeat(80));
-        out.push_str(&format!("\nMSG: {t}\n"));
+        out.push_str(&format!("\nMSG: {}\n", t.replacen("/msg/", "/", 1)));
         out.push_str(text_of(&t));
     }
     out
@@ -217,16 +254,16 @@ mod tests {
         for (name, _) in ALL {
             let text = complete(name);
             for (t, _) in ALL {
-                let header = format!("MSG: {t}\n");
+                let header = format!("MSG: {}\n", t.replacen("/msg/", "/", 1));
                 assert!(text.matches(&header).count() <= 1, "{name}: {t} twice");
             }
         }
         let imu = complete("sensor_msgs/msg/Imu");
         for t in [
-            "std_msgs/msg/Header",
-            "builtin_interfaces/msg/Time",
-            "geometry_msgs/msg/Quaternion",
-            "geometry_msgs/msg/Vector3",
+            "std_msgs/Header",
+            "builtin_interfaces/Time",
+            "geometry_msgs/Quaternion",
+            "geometry_msgs/Vector3",
         ] {
             assert!(imu.contains(&format!("MSG: {t}\n")), "{t}");
         }

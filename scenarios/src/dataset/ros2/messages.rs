@@ -323,3 +323,93 @@ pub struct PointCloud2 {
     pub is_dense: bool,
 }
 message!(PointCloud2, "sensor_msgs/msg/PointCloud2");
+
+/// `geometry_msgs/msg/PoseArray`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct PoseArray {
+    /// Stamp and frame.
+    pub header: Header,
+    /// The poses.
+    pub poses: Vec<Pose>,
+}
+message!(PoseArray, "geometry_msgs/msg/PoseArray");
+
+/// `nav_msgs/msg/Path`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Path {
+    /// Stamp and frame.
+    pub header: Header,
+    /// The poses, oldest first.
+    pub poses: Vec<PoseStamped>,
+}
+message!(Path, "nav_msgs/msg/Path");
+
+/// `geometry_msgs/msg/PoseWithCovariance`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PoseWithCovariance {
+    /// The pose.
+    pub pose: Pose,
+    /// Row-major 6×6 over `(x, y, z, rotation about x, y, z)`, all in the header's frame (rows
+    /// of six: the same 36 numbers on the wire as `float64[36]`).
+    pub covariance: [[f64; 6]; 6],
+}
+
+/// `geometry_msgs/msg/PoseWithCovarianceStamped`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PoseWithCovarianceStamped {
+    /// Stamp and frame.
+    pub header: Header,
+    /// The pose and its covariance.
+    pub pose: PoseWithCovariance,
+}
+message!(
+    PoseWithCovarianceStamped,
+    "geometry_msgs/msg/PoseWithCovarianceStamped"
+);
+
+/// `geometry_msgs/msg/Vector3Stamped`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Vector3Stamped {
+    /// Stamp and frame.
+    pub header: Header,
+    /// The vector.
+    pub vector: Vector3,
+}
+message!(Vector3Stamped, "geometry_msgs/msg/Vector3Stamped");
+
+/// `std_msgs/msg/Float64`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Float64 {
+    /// The value.
+    pub data: f64,
+}
+message!(Float64, "std_msgs/msg/Float64");
+
+/// `rcl_interfaces/msg/Log` (`/rosout`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Log {
+    /// When.
+    pub stamp: Time,
+    /// [`Log::INFO`], [`Log::WARN`], [`Log::ERROR`], ….
+    pub level: u8,
+    /// The logger's name.
+    pub name: String,
+    /// The message.
+    pub msg: String,
+    /// Source file.
+    pub file: String,
+    /// Function.
+    pub function: String,
+    /// Line.
+    pub line: u32,
+}
+message!(Log, "rcl_interfaces/msg/Log");
+
+impl Log {
+    /// Information.
+    pub const INFO: u8 = 20;
+    /// A warning.
+    pub const WARN: u8 = 30;
+    /// An error.
+    pub const ERROR: u8 = 40;
+}
