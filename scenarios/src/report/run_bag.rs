@@ -146,7 +146,7 @@ pub fn write_run_bag(
     let align = eval
         .ate
         .as_ref()
-        .map_or_else(|_| Sim3::identity(), |a| a.alignment.clone());
+        .map_or_else(|_| Sim3::identity(), |a| a.alignment);
     let mut bag = BagWriter::create(path)?;
     if let Some(first) = run.frames.first() {
         let transforms = first
