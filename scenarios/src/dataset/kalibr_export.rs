@@ -83,7 +83,7 @@ fn yaml_list(v: &[f64]) -> String {
 /// The values within [`STEPS`] representable steps of `x` (and `-x` when `x` is a zero), with
 /// their distance in steps, nearest first.
 /// How far [`camera_from_imu`] looks on each axis (representable steps).
-const STEPS: u32 = 8;
+const STEPS: u32 = 8; // the documentation of `camera_from_imu` says 8
 
 fn neighbours(x: f64) -> Vec<(f64, u32)> {
     let mut out = vec![(x, 0)];
@@ -101,9 +101,9 @@ fn neighbours(x: f64) -> Vec<(f64, u32)> {
 }
 
 /// Kalibr's `T_cam_imu` for a camera at `(r_b_c, t_b_c)`: the rotation transposed, and of the
-/// translations within [`STEPS`] units in the last place of `−R⁻¹·t` per axis, the nearest from which
-/// [`invert_rigid`] gives back `t_b_c` exactly (a zero's sign aside); `−Rᵀ·t` itself when
-/// none does (the inversion is then off by rounding only).
+/// translations within 8 units in the last place of `−R⁻¹·t` per axis, the nearest from which
+/// the Kalibr reader's inversion `−R·t` gives back `t_b_c` exactly (a zero's sign aside);
+/// `−R⁻¹·t` itself when none does (the inversion is then off by rounding only).
 pub fn camera_from_imu(r_b_c: &Matrix3<f64>, t_b_c: &Vector3<f64>) -> (Matrix3<f64>, Vector3<f64>) {
     let r_c_b = r_b_c.transpose();
     // The reader computes t_b_c = −R_b_c·t_c_b with the written rotation, which a file's rounded

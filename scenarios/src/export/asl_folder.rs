@@ -9,7 +9,7 @@ use estimator::imu::ImuSample;
 use sim::render::ImageFrame;
 
 use super::rig::ExportRig;
-use super::write::{ExportError, ExportSink};
+use super::sink::{ExportError, ExportSink};
 use crate::dataset::{
     CameraFrame, EurocCamera, EurocDataset, GroundTruthState, write_euroc, write_features_csv,
 };

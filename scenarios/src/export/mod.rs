@@ -17,8 +17,10 @@
 pub mod asl_folder;
 pub mod rig;
 pub mod ros2_bag;
+mod sink;
 mod write;
 
 pub use rig::kalibr_files;
 pub use ros2_bag::GNSS_ORIGIN;
-pub use write::{ExportError, ExportSummary, export, export_bag};
+pub use sink::{ExportError, ExportSummary};
+pub use write::{export, export_bag};

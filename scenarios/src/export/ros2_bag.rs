@@ -27,7 +27,7 @@ use estimator::{GnssSample, WheelSample};
 use sim::render::ImageFrame;
 
 use super::rig::{ExportRig, IMU_TOPIC, image_topic};
-use super::write::{ExportError, ExportSink};
+use super::sink::{ExportError, ExportSink};
 use crate::dataset::ros2::{
     BagWriter, CameraInfo, Header, Image, Imu, NavSatFix, NavSatStatus, PointCloud2, PointField,
     PoseStamped, Quaternion, RegionOfInterest, TfMessage, Time, Transform, TransformStamped,

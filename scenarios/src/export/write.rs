@@ -4,68 +4,16 @@
 use std::path::Path;
 
 use estimator::frontend::FeatureFrame;
-use estimator::imu::ImuSample;
-use estimator::{GnssSample, WheelSample};
 use sim::World;
-use sim::render::ImageFrame;
 use sim::stream::Measurement;
 
 use super::asl_folder::AslFolder;
 use super::rig::export_rig;
 use super::ros2_bag::Ros2Bag;
-use crate::dataset::{DatasetError, GroundTruthState};
+use super::sink::{ExportError, ExportSink, ExportSummary};
+use crate::dataset::GroundTruthState;
 use crate::run::{RunError, RunOptions, measurement_stream, stream_result};
 use crate::spec::Scenario;
-
-/// What an export wrote.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ExportSummary {
-    /// IMU samples written.
-    pub imu_samples: usize,
-    /// Camera frames written.
-    pub frames: usize,
-    /// Feature observations written.
-    pub observations: usize,
-    /// Ground-truth rows written.
-    pub groundtruth: usize,
-    /// Rendered images written (rendered scenarios).
-    pub images: usize,
-}
-
-/// Errors from [`export`] and [`export_bag`].
-#[derive(Debug, thiserror::Error)]
-pub enum ExportError {
-    /// The scenario could not be simulated.
-    #[error(transparent)]
-    Run(#[from] RunError),
-    /// A dataset file could not be written.
-    #[error(transparent)]
-    Dataset(#[from] DatasetError),
-    /// An image could not be written.
-    #[error("{0}")]
-    Image(String),
-    /// Another file (a calibration, the bag) could not be written.
-    #[error("{0}")]
-    Write(String),
-}
-
-/// Where the measurements go, in stream order; the feature tracks come last, renumbered.
-pub(super) trait ExportSink {
-    /// An IMU sample and the ground truth at its time.
-    fn imu(&mut self, s: &ImuSample, truth: Option<&GroundTruthState>) -> Result<(), ExportError>;
-    /// A rendered capture.
-    fn images(&mut self, frame: &ImageFrame) -> Result<(), ExportError>;
-    /// A GNSS fix (formats without a place for it drop it).
-    fn gnss(&mut self, _fix: &GnssSample) -> Result<(), ExportError> {
-        Ok(())
-    }
-    /// A wheel-odometry reading (formats without a place for it drop it).
-    fn wheel(&mut self, _reading: &WheelSample) -> Result<(), ExportError> {
-        Ok(())
-    }
-    /// The feature tracks of the whole run, then whatever closes the output.
-    fn finish(self: Box<Self>, frames: &[FeatureFrame]) -> Result<(), ExportError>;
-}
 
 /// Renumbers feature ids densely from 0, keeping their order (an id's new value is its rank
 /// among all ids of the export), so they fit in 31 bits: many tools read them as `int`, and the

@@ -222,7 +222,7 @@ fn uses(name: &str) -> Vec<String> {
 }
 
 /// `name`'s complete `ros2msg` definition (see the module documentation). Panics for a type not
-/// in [`ALL`]: the table is this crate's own.
+/// in the table of this module: the table is this crate's own.
 pub fn complete(name: &str) -> String {
     let mut order: Vec<String> = Vec::new();
     let mut stack = uses(name);
