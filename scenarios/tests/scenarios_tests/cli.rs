@@ -6,7 +6,7 @@ use crate::common;
 
 use std::path::{Path, PathBuf};
 
-use common::{assert_bad, default_text, scratch, vio, write};
+use common::{assert_bad, default_text, scratch, vio, vio_ok, write};
 
 /// `vio run FILE --out OUT` with `extra` arguments after them.
 fn run_file(file: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
@@ -696,4 +696,51 @@ fn ctrl_c_stops_regress_nees_and_bench_with_130_saying_what_finished() {
     assert!(err.contains("vio bench: interrupted after"), "{err}");
     let json = std::fs::read_to_string(out.join("bench.json")).unwrap();
     assert!(json.contains("\"rows\""), "{json}");
+}
+
+#[test]
+fn eval_common_with_scores_both_estimates_on_the_frames_both_produced() {
+    let dir = evo_dir("mh01");
+    let (gt, est) = (dir.join("gt.tum"), dir.join("est.tum"));
+    let scratch = common::scratch("eval-common");
+    // An estimator that starts later: the same poses without the first third.
+    let text = std::fs::read_to_string(&est).unwrap();
+    let poses: Vec<&str> = text.lines().filter(|l| !l.starts_with('#')).collect();
+    let late = scratch.path().join("late.tum");
+    std::fs::write(&late, poses[poses.len() / 3..].join("\n") + "\n").unwrap();
+    let arg = |p: &Path| p.to_str().unwrap().to_string();
+    let (gt, est, late) = (arg(&gt), arg(&est), arg(&late));
+    let out = vio_ok(&["eval", "--gt", &gt, "--est", &est, "--common-with", &late]);
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    let n_late = poses.len() - poses.len() / 3;
+    assert!(
+        stdout.starts_with(&format!("common frames: {n_late} of {} ", poses.len())),
+        "{stdout}"
+    );
+    // Both tables on the same frames: equal here (the same poses), and equal to the late
+    // estimate scored alone; the whole estimate scored alone differs.
+    let tables: Vec<&str> = stdout.split("ground truth ").skip(1).collect();
+    assert_eq!(tables.len(), 2, "{stdout}");
+    let ate = |t: &str| printed_rmse(t, "ATE trans (m)");
+    assert_eq!(ate(tables[0]), ate(tables[1]));
+    let alone = |e: &str| {
+        let out = vio_ok(&["eval", "--gt", &gt, "--est", e]);
+        ate(&String::from_utf8(out.stdout).unwrap())
+    };
+    assert_eq!(ate(tables[0]), alone(&late));
+    assert_ne!(ate(tables[0]), alone(&est));
+    // No common frames: exit 2 saying so.
+    let far = scratch.path().join("far.tum");
+    std::fs::write(&far, "1e6 0 0 0 0 0 0 1\n1000001 0 0 0 0 0 0 1\n").unwrap();
+    let out = vio(&[
+        "eval",
+        "--gt",
+        &gt,
+        "--est",
+        &est,
+        "--common-with",
+        &arg(&far),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no common frames"));
 }

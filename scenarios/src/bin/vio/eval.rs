@@ -3,8 +3,10 @@
 use std::path::PathBuf;
 
 use clap::ValueEnum;
-use scenarios::dataset::read_tum;
-use scenarios::metrics::{Alignment, EvalOptions, PairsFrom, RpeDelta, RpeOptions, evaluate};
+use scenarios::dataset::{StampedPose, read_tum};
+use scenarios::metrics::{
+    Alignment, EvalOptions, PairsFrom, RpeDelta, RpeOptions, associate_trajectories, evaluate,
+};
 
 #[derive(Clone, Copy, ValueEnum)]
 enum AlignArg {
@@ -57,6 +59,11 @@ pub(super) struct EvalArgs {
     /// Which trajectory's path selects distance-based RPE pairs.
     #[arg(long, value_enum, default_value = "gt")]
     rpe_pairs_from: PairsArg,
+    /// Another estimate (TUM) to compare with on common frames: both are scored on the frames
+    /// both produced (associated within `--t-max-diff`), so an estimator that starts later is
+    /// not credited with skipping the start-up; the other's table follows.
+    #[arg(long)]
+    common_with: Option<PathBuf>,
 }
 
 pub(super) fn eval(args: &EvalArgs) -> Result<String, String> {
@@ -103,19 +110,72 @@ pub(super) fn eval(args: &EvalArgs) -> Result<String, String> {
         max_diff_ns: (args.t_max_diff * 1e9).round() as i64,
         rpe,
     };
-    let ev = evaluate(&gt, &est, &opts)
-        .map_err(|e| format!("{} vs {}: {e}", args.gt.display(), args.est.display()))?;
+    let max_diff_ns = opts.max_diff_ns;
+    let Some(other_path) = &args.common_with else {
+        return table(&gt, &est, &args.gt, &args.est, args.t_max_diff, &opts);
+    };
+    let other = read_tum(other_path).map_err(|e| e.to_string())?;
+    let common = associate_trajectories(&est, &other, max_diff_ns).map_err(|e| {
+        format!(
+            "{} and {} have no common frames: {e}",
+            args.est.display(),
+            other_path.display()
+        )
+    })?;
+    let first = |v: &[StampedPose]| v.first().map_or(f64::NAN, |s| s.t_ns as f64 * 1e-9);
+    let mut out = format!(
+        "common frames: {} of {} ({}) and {} ({}), from {:.3} s (they start at {:.3} s and {:.3} s)\n\n",
+        common.pairs.len(),
+        est.len(),
+        args.est.display(),
+        other.len(),
+        other_path.display(),
+        first(&common.gt),
+        first(&est),
+        first(&other)
+    );
+    out.push_str(&table(
+        &gt,
+        &common.gt,
+        &args.gt,
+        &args.est,
+        args.t_max_diff,
+        &opts,
+    )?);
+    out.push('\n');
+    out.push_str(&table(
+        &gt,
+        &common.est,
+        &args.gt,
+        other_path,
+        args.t_max_diff,
+        &opts,
+    )?);
+    Ok(out)
+}
 
+/// The metrics table of `est` against `gt`.
+fn table(
+    gt: &[StampedPose],
+    est: &[StampedPose],
+    gt_path: &std::path::Path,
+    est_path: &std::path::Path,
+    t_max_diff: f64,
+    opts: &EvalOptions,
+) -> Result<String, String> {
+    let alignment = opts.alignment;
+    let ev = evaluate(gt, est, opts)
+        .map_err(|e| format!("{} vs {}: {e}", gt_path.display(), est_path.display()))?;
     let mut out = String::new();
     let a = &ev.ate.alignment;
     out.push_str(&format!(
         "ground truth {} ({} poses), estimate {} ({} poses): {} matched (max Δt {} s)\n",
-        args.gt.display(),
+        gt_path.display(),
         gt.len(),
-        args.est.display(),
+        est_path.display(),
         est.len(),
         ev.matched.pairs.len(),
-        args.t_max_diff
+        t_max_diff
     ));
     match &ev.static_trajectory {
         Some(st) => out.push_str(&format!(
