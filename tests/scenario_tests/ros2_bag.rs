@@ -100,6 +100,13 @@ fn a_bags_feature_tracks_give_the_run_of_vio_run() {
     };
     let got = bag_run(&path, &opts, scenario.spec.world.seed).unwrap();
     assert_same_run(&expected.run, &got);
+    // The rig from the bag's own camera infos and /tf_static: the same estimates.
+    let from_info = BagOptions {
+        camera_info: true,
+        ..opts.clone()
+    };
+    let info = bag_run(&path, &from_info, scenario.spec.world.seed).unwrap();
+    assert_same_run(&expected.run, &info);
 
     // The ASL export of the same run through `vio euroc`: the same ground-truth samples, the
     // same ATE to 1e-9 m.

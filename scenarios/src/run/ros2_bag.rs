@@ -6,7 +6,8 @@
 //! writes them (fields `cam_id`, `feature_id`, `u`, `v`). Stamps are the messages' header
 //! stamps (the sensors' clock), not the times the recorder logged them. The rig comes from
 //! Kalibr files: `--camchain` / `--imu-yaml`, else the bag's attachments of those names (as
-//! `vio export` attaches them). Ground truth, when the bag has it: a
+//! `vio export` attaches them), or with `--camera-info` the bag's own `CameraInfo` messages and
+//! `/tf_static` (the noise densities still from `imu.yaml`). Ground truth, when the bag has it: a
 //! `geometry_msgs/msg/PoseStamped` or `TransformStamped` topic (default `/groundtruth/pose`);
 //! its velocity is the central difference of its positions and its biases are unknown, so the
 //! report leaves the bias errors out. The run itself is [`super::recorded`]'s.
@@ -24,7 +25,7 @@ use crate::dataset::GroundTruthState;
 use crate::dataset::kalibr::{camera_sensors, imu_sensor};
 use crate::dataset::ros2::{
     BagContents, BagFile, Header, Imu, PointCloud2, PointField, PoseStamped, TransformStamped,
-    decode_header,
+    camera_info_rig, decode_header,
 };
 use crate::spec::SuiteSpec;
 
@@ -41,8 +42,12 @@ pub struct BagOptions {
     pub features_topic: Option<String>,
     /// The ground-truth topic (`None`: `/groundtruth/pose` when the bag has it).
     pub groundtruth_topic: Option<String>,
-    /// Kalibr `camchain-imucam.yaml` (`None`: the bag's attachment).
+    /// Kalibr `camchain-imucam.yaml` (`None`: the bag's attachment, or its camera infos with
+    /// `camera_info`).
     pub camchain: Option<PathBuf>,
+    /// The cameras from the bag's own `CameraInfo` messages and `/tf_static` instead of Kalibr
+    /// files ([`crate::dataset::ros2::camera_info_rig`]).
+    pub camera_info: bool,
     /// Kalibr `imu.yaml` (`None`: the bag's attachment).
     pub imu_yaml: Option<PathBuf>,
     /// A TOML file whose `[estimator]` and `[camera.tracker]` tables are laid over the defaults.
@@ -65,6 +70,7 @@ impl BagOptions {
             features_topic: None,
             groundtruth_topic: None,
             camchain: None,
+            camera_info: false,
             imu_yaml: None,
             settings: None,
             pixel_sigma_px: 1.0,
@@ -304,17 +310,29 @@ pub(crate) fn replay_bag(
     let file = BagFile::open(path).map_err(|e| RunError::input(path, e))?;
     let bag = file.contents().map_err(|e| RunError::input(path, e))?;
     let bad = |e: String| RunError::input(path, e);
-    let (camchain, camchain_name) = kalibr_text(
-        options.camchain.as_deref(),
-        &bag,
-        "camchain-imucam.yaml",
-        "--camchain",
-    )?;
     let (imu_text, imu_name) =
         kalibr_text(options.imu_yaml.as_deref(), &bag, "imu.yaml", "--imu-yaml")?;
-    let sensors = camera_sensors(&camchain, &camchain_name)
-        .map_err(|e| RunError::input(path, e.to_string()))?;
     let imu = imu_sensor(&imu_text, &imu_name).map_err(|e| RunError::input(path, e.to_string()))?;
+    let (sensors, camchain_name) = if options.camera_info {
+        let topics = options.image_topics.get(..n_cams).ok_or_else(|| {
+            bad(format!(
+                "the {} suite needs {n_cams} image topic(s) (their camera_info topics give the rig)",
+                options.suite.as_str()
+            ))
+        })?;
+        let sensors = camera_info_rig(&bag, topics, &options.imu_topic).map_err(bad)?;
+        (sensors, "the bag's camera infos".to_string())
+    } else {
+        let (camchain, camchain_name) = kalibr_text(
+            options.camchain.as_deref(),
+            &bag,
+            "camchain-imucam.yaml",
+            "--camchain",
+        )?;
+        let sensors = camera_sensors(&camchain, &camchain_name)
+            .map_err(|e| RunError::input(path, e.to_string()))?;
+        (sensors, camchain_name)
+    };
     if sensors.len() < n_cams {
         return Err(bad(format!(
             "the {} suite needs {n_cams} camera(s); {camchain_name} has {}",

@@ -35,6 +35,10 @@ pub struct BagArgs {
     /// Kalibr `camchain-imucam.yaml` of the rig [default: the bag's attachment of that name].
     #[arg(long)]
     pub camchain: Option<PathBuf>,
+    /// The cameras from the bag's own `sensor_msgs/msg/CameraInfo` (beside each image topic)
+    /// and `/tf_static` instead of a camchain (plumb_bob or equidistant).
+    #[arg(long, conflicts_with = "camchain")]
+    pub camera_info: bool,
     /// Kalibr `imu.yaml` (noise densities) [default: the bag's attachment of that name].
     #[arg(long)]
     pub imu_yaml: Option<PathBuf>,
@@ -93,6 +97,7 @@ pub fn bag_command(args: BagArgs) -> ExitCode {
         features_topic: args.features,
         groundtruth_topic: args.groundtruth,
         camchain: args.camchain,
+        camera_info: args.camera_info,
         imu_yaml: args.imu_yaml,
         settings: args.settings,
         pixel_sigma_px: args.pixel_sigma,

@@ -3,6 +3,7 @@
 
 mod bag_reader;
 mod bag_writer;
+mod camera_info_rig;
 mod cdr;
 mod definitions;
 mod image_message;
@@ -10,6 +11,7 @@ mod messages;
 
 pub use bag_reader::{BagContents, BagFile, Topic};
 pub use bag_writer::BagWriter;
+pub use camera_info_rig::{camera_info_rig, camera_info_topic};
 pub use cdr::{decode, decode_header, encode};
 pub use definitions::complete as complete_definition;
 pub use image_message::gray_image;
