@@ -34,4 +34,5 @@ pub mod run_output;
 pub mod selfcheck;
 pub mod spec;
 pub mod studies;
+mod track_drawing;
 pub mod tracks_image;
