@@ -6,7 +6,7 @@ use estimator::frontend::TrackSummary;
 use estimator::geometry::Pose;
 use estimator::problem::SolverSummary;
 use estimator::{Estimate, Status};
-use nalgebra::Vector3;
+use nalgebra::{Vector2, Vector3};
 use sim::stream::GroundTruth;
 
 use crate::frontend::FrontendStats;
@@ -59,6 +59,10 @@ pub struct WindowScene {
     pub poses: Vec<Pose>,
     /// Its persistent points (world).
     pub points: Vec<Vector3<f64>>,
+    /// The estimate's frame as the estimator received it: `(camera, feature id, pixel)`.
+    pub features: Vec<(usize, u64, Vector2<f64>)>,
+    /// Each camera's image size `[width, height]` (px).
+    pub image_sizes: Vec<[u32; 2]>,
 }
 
 /// What happened during a run.

@@ -9,8 +9,8 @@ use std::path::{Path, PathBuf};
 
 use crate::common;
 use scenarios::dataset::ros2::{
-    BagFile, NavSatFix, PointCloud2, PoseArray, PoseStamped, PoseWithCovarianceStamped, TfMessage,
-    TwistStamped, Vector3Stamped,
+    BagFile, CompressedImage, NavSatFix, PointCloud2, PoseArray, PoseStamped,
+    PoseWithCovarianceStamped, TfMessage, TwistStamped, Vector3Stamped,
 };
 use scenarios::export::{GNSS_ORIGIN, export_bag};
 use scenarios::run::{
@@ -280,6 +280,13 @@ fn run_mcap_holds_the_run_for_viewers_and_changes_nothing_else() {
     assert!(points.iter().any(|(_, p)| p.width >= 10), "no points");
     let window = bag.decode_all::<PoseArray>("/window/poses").unwrap();
     assert!(window.iter().any(|(_, w)| w.poses.len() >= 5));
+    // The tracks picture: one PNG per estimate, of the first camera's size.
+    let tracks = bag.decode_all::<CompressedImage>("/cam0/tracks").unwrap();
+    assert_eq!(tracks.len(), frames);
+    let (_, last) = tracks.last().unwrap();
+    assert_eq!(last.format, "png");
+    let png = image::load_from_memory(&last.data).unwrap();
+    assert_eq!((png.width(), png.height()), (752, 480));
     // Covariances: symmetric, positive on the diagonal.
     let cov = bag
         .decode_all::<PoseWithCovarianceStamped>("/estimate/pose_with_covariance")

@@ -14,21 +14,26 @@
 //! | `/estimate/position_error` | `geometry_msgs/msg/Vector3Stamped` | aligned estimate − truth (m) (Plot) |
 //! | `/estimate/velocity`, `/estimate/gyro_bias`, `/estimate/accel_bias` | `geometry_msgs/msg/Vector3Stamped` | the state (Plot) |
 //! | `/estimate/time_offset_ms`, `/estimate/landmarks`, `/timing/backend_ms` | `std_msgs/msg/Float64` | (Plot) |
+//! | `/cam0/tracks` | `sensor_msgs/msg/CompressedImage` | PNG: the first camera's features as the estimator received them, each track's trail over its last 20 frames in a colour by age (red new → azure old), on a dark image of the camera's size (Image) |
 //! | `/rosout` | `rcl_interfaces/msg/Log` | the report's events (status changes, suite switches, resets, …) and the scenario's faults (Log) |
 
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::path::Path;
+
+use image::{Rgb, RgbImage};
 
 use estimator::geometry::Pose;
 use nalgebra::{Matrix3, Matrix6, Vector3};
 
 use super::{Evaluation, Report, RunContext};
 use crate::dataset::ros2::{
-    BagWriter, Float64, Header, Log, Path as RosPath, PointCloud2, PointField, PoseArray,
-    PoseStamped, PoseWithCovariance, PoseWithCovarianceStamped, Quaternion, TfMessage, Time,
-    Transform, TransformStamped, Vector3 as RosVector3, Vector3Stamped,
+    BagWriter, CompressedImage, Float64, Header, Log, Path as RosPath, PointCloud2, PointField,
+    PoseArray, PoseStamped, PoseWithCovariance, PoseWithCovarianceStamped, Quaternion, TfMessage,
+    Time, Transform, TransformStamped, Vector3 as RosVector3, Vector3Stamped,
 };
 use crate::metrics::Sim3;
 use crate::run::RunOutput;
+use crate::track_drawing::{CIRCLE_PX, age_colour, circle, line};
 
 /// How often the paths are published (ns of run time).
 const PATH_PERIOD_NS: i64 = 1_000_000_000;
@@ -278,5 +283,68 @@ pub fn write_run_bag(
     for (t, l) in logs {
         bag.write("/rosout", t.max(0), &l)?;
     }
+    write_tracks(&mut bag, run)?;
     bag.finish()
+}
+
+/// Positions kept per trail (the newest included).
+const TRAIL_FRAMES: usize = 20;
+
+/// A live track: frames seen and its last [`TRAIL_FRAMES`] pixels.
+type Trail = (u32, VecDeque<(i64, i64)>);
+
+/// `/cam0/tracks`: each recorded frame's first-camera features with their trails (see the
+/// module documentation).
+fn write_tracks(bag: &mut BagWriter, run: &RunOutput) -> Result<(), String> {
+    let mut trails: BTreeMap<u64, Trail> = BTreeMap::new();
+    for f in &run.frames {
+        let Some(scene) = &f.scene else {
+            continue;
+        };
+        let Some(&[w, h]) = scene.image_sizes.first() else {
+            continue;
+        };
+        let t = f.estimate.t_ns;
+        let seen: Vec<(u64, (i64, i64))> = scene
+            .features
+            .iter()
+            .filter(|(cam, _, _)| *cam == 0)
+            .map(|(_, id, uv)| (*id, (uv.x.round() as i64, uv.y.round() as i64)))
+            .collect();
+        let live: BTreeSet<u64> = seen.iter().map(|(id, _)| *id).collect();
+        trails.retain(|id, _| live.contains(id));
+        for (id, p) in &seen {
+            let (age, trail) = trails.entry(*id).or_default();
+            *age += 1;
+            trail.push_back(*p);
+            if trail.len() > TRAIL_FRAMES {
+                trail.pop_front();
+            }
+        }
+        let mut img = RgbImage::from_pixel(w, h, Rgb([24, 24, 24]));
+        // Oldest last, so that the long trails stay on top.
+        let mut order: Vec<(&u64, &Trail)> = trails.iter().collect();
+        order.sort_by_key(|(id, (age, _))| (*age, **id));
+        for (_, (age, trail)) in order {
+            let colour = age_colour(*age);
+            let points: Vec<(i64, i64)> = trail.iter().copied().collect();
+            for pair in points.windows(2) {
+                line(&mut img, pair[0], pair[1], colour, 1.0);
+            }
+            if let Some(&p) = points.last() {
+                circle(&mut img, p, CIRCLE_PX, colour);
+            }
+        }
+        let mut png = Vec::new();
+        image::DynamicImage::ImageRgb8(img)
+            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .map_err(|e| format!("tracks image: {e}"))?;
+        let msg = CompressedImage {
+            header: header(t, "cam0"),
+            format: "png".into(),
+            data: png,
+        };
+        bag.write("/cam0/tracks", t, &msg)?;
+    }
+    Ok(())
 }

@@ -98,7 +98,7 @@ pub(crate) fn drive(
                 estimator.push_imu(s)
             }
             Some(Input::Frame { frame, frontend_s }) => {
-                recorder.frame_pushed(frame.t_ns, frontend_s, source.render_s());
+                recorder.frame_pushed(&frame, frontend_s, source.render_s());
                 estimator.push_frame(frame)
             }
             Some(Input::Gnss(fix)) => estimator.push_gnss(fix),

@@ -2,10 +2,16 @@
 
 use std::collections::VecDeque;
 
+use estimator::frontend::FeatureFrame;
 use estimator::{Estimate, Estimator, EstimatorError, EventKind as EstimatorEventKind, Status};
+use nalgebra::Vector2;
 use sim::stream::GroundTruth;
 
 use super::{Event, EventKind, FrameRecord, FrameTiming, RunError, RunOutput, WindowScene};
+
+/// A frame pushed and not yet estimated: camera stamp, front-end s, render s, and its
+/// features when the run records its window.
+type Pending = (i64, f64, f64, Vec<(usize, u64, Vector2<f64>)>);
 
 /// Collects a run's output from the estimator's calls: estimates with their ground truth and
 /// timing, status changes and the estimator's events.
@@ -21,8 +27,9 @@ pub(crate) struct Recorder {
     /// Record the window with every estimate ([`super::RunOptions::scene`]).
     pub scene: bool,
     status: Status,
-    /// (camera stamp, front-end s, render s) of frames pushed and not yet estimated.
-    pending: VecDeque<(i64, f64, f64)>,
+    /// (camera stamp, front-end s, render s, features when [`Recorder::scene`]) of frames
+    /// pushed and not yet estimated.
+    pending: VecDeque<Pending>,
 }
 
 impl Recorder {
@@ -40,9 +47,19 @@ impl Recorder {
 
     /// A frame stamped `t_ns` (camera clock) went to the estimator after `frontend_s` of
     /// front-end and `render_s` of rendering time.
-    pub fn frame_pushed(&mut self, t_ns: i64, frontend_s: f64, render_s: f64) {
+    pub fn frame_pushed(&mut self, frame: &FeatureFrame, frontend_s: f64, render_s: f64) {
         self.out.frames_in += 1;
-        self.pending.push_back((t_ns, frontend_s, render_s));
+        let features = if self.scene {
+            frame
+                .cameras
+                .iter()
+                .flat_map(|c| c.features.iter().map(|o| (c.cam_id, o.feature_id, o.uv)))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        self.pending
+            .push_back((frame.t_ns, frontend_s, render_s, features));
     }
 
     /// Records one estimator call made at `t_ns` that took `call_s`: its events, and its
@@ -112,12 +129,11 @@ impl Recorder {
             // those recorded when its frame was pushed.
             let camera_t = e.stamp_ns;
             let (mut frame_frontend_s, mut frame_render_s) = (0.0, render_s);
-            while let Some(&(t, f, r)) = self.pending.front() {
-                if t > camera_t {
-                    break;
+            let mut features = Vec::new();
+            while self.pending.front().is_some_and(|p| p.0 <= camera_t) {
+                if let Some((_, f, r, obs)) = self.pending.pop_front() {
+                    (frame_frontend_s, frame_render_s, features) = (f, r, obs);
                 }
-                self.pending.pop_front();
-                (frame_frontend_s, frame_render_s) = (f, r);
             }
             let timing = FrameTiming {
                 frontend_s: frame_frontend_s,
@@ -128,6 +144,13 @@ impl Recorder {
             let scene = self.scene.then(|| WindowScene {
                 poses: estimator.window_poses(),
                 points: estimator.window_points(),
+                features,
+                image_sizes: estimator
+                    .config()
+                    .cameras
+                    .iter()
+                    .map(|c| [c.model.width(), c.model.height()])
+                    .collect(),
             });
             out.frames.push(FrameRecord {
                 estimate: e,

@@ -169,6 +169,10 @@ pub const ALL: &[Definition] = &[
     ),
     ("std_msgs/msg/Float64", "float64 data\n"),
     (
+        "sensor_msgs/msg/CompressedImage",
+        "std_msgs/Header header\nstring format\nuint8[] data\n",
+    ),
+    (
         "rcl_interfaces/msg/Log",
         "byte DEBUG=10\n\
          byte INFO=20\n\

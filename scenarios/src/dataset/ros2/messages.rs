@@ -413,3 +413,16 @@ impl Log {
     /// An error.
     pub const ERROR: u8 = 40;
 }
+
+/// `sensor_msgs/msg/CompressedImage`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CompressedImage {
+    /// Stamp and frame.
+    pub header: Header,
+    /// `png` or `jpeg`.
+    pub format: String,
+    /// The encoded image.
+    #[serde(with = "serde_bytes")]
+    pub data: Vec<u8>,
+}
+message!(CompressedImage, "sensor_msgs/msg/CompressedImage");

@@ -16,8 +16,8 @@ pub use cdr::{decode, decode_header, encode};
 pub use definitions::complete as complete_definition;
 pub use image_message::gray_image;
 pub use messages::{
-    CameraInfo, Float64, Header, Image, Imu, Log, NavSatFix, NavSatStatus, Path, Point,
-    PointCloud2, PointField, Pose, PoseArray, PoseStamped, PoseWithCovariance,
+    CameraInfo, CompressedImage, Float64, Header, Image, Imu, Log, NavSatFix, NavSatStatus, Path,
+    Point, PointCloud2, PointField, Pose, PoseArray, PoseStamped, PoseWithCovariance,
     PoseWithCovarianceStamped, Quaternion, RegionOfInterest, RosMessage, TfMessage, Time,
     Transform, TransformStamped, Twist, TwistStamped, Vector3, Vector3Stamped,
 };
