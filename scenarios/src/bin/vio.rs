@@ -24,12 +24,14 @@ mod image_stats;
 mod imu_model;
 #[path = "vio/interrupt.rs"]
 mod interrupt;
+#[path = "vio/recording.rs"]
+mod recording;
 #[path = "vio/studies.rs"]
 mod studies;
 
 use attended::{finish_attended, run_attended};
 use bag::{BagArgs, bag_command};
-use euroc::{EurocArgs, euroc_command, parse_suite};
+use euroc::{EurocArgs, euroc_command};
 use eval::{EvalArgs, eval};
 use image_stats::{ImageStatsArgs, image_stats_command};
 use imu_model::{ImuModelArgs, imu_model_command};

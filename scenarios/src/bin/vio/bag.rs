@@ -3,9 +3,9 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use scenarios::run::{BagOptions, RunInput, RunOptions};
+use scenarios::run::{BagOptions, RunInput};
 
-use super::{BAD_INPUT, check_duration, check_out_dir, finish_attended, parse_suite, run_attended};
+use super::recording::{check_recording_args, recording_options, run_recording};
 
 /// `vio bag` arguments.
 #[derive(clap::Args)]
@@ -66,19 +66,10 @@ pub struct BagArgs {
 /// Runs `vio bag`: exit 0 (ran; with ground truth every default expectation holds), 1 (an
 /// expectation failed), 2 (bad input).
 pub fn bag_command(args: BagArgs) -> ExitCode {
-    let Some(suite) = parse_suite(&args.suite) else {
-        return ExitCode::from(BAD_INPUT);
+    let suite = match check_recording_args(&args.suite, args.pixel_sigma, args.duration) {
+        Ok(s) => s,
+        Err(code) => return code,
     };
-    if !(args.pixel_sigma.is_finite() && args.pixel_sigma > 0.0 && args.pixel_sigma <= 100.0) {
-        eprintln!(
-            "error: --pixel-sigma {}: expected a number in (0, 100] px",
-            args.pixel_sigma
-        );
-        return ExitCode::from(BAD_INPUT);
-    }
-    if let Err(code) = check_duration(args.duration) {
-        return code;
-    }
     let name = args
         .bag
         .file_stem()
@@ -86,10 +77,7 @@ pub fn bag_command(args: BagArgs) -> ExitCode {
     let out_dir = args
         .out
         .unwrap_or_else(|| PathBuf::from("vio-out").join(format!("bag-{name}")));
-    let created = !out_dir.exists();
-    if let Err(code) = check_out_dir(&out_dir) {
-        return code;
-    }
+    let features = args.features.is_some();
     let options = BagOptions {
         suite,
         imu_topic: args.imu,
@@ -102,45 +90,16 @@ pub fn bag_command(args: BagArgs) -> ExitCode {
         settings: args.settings,
         pixel_sigma_px: args.pixel_sigma,
     };
-    let run_options = RunOptions {
-        seed: Some(args.seed),
-        duration_s: args.duration,
-        covariance: args.mcap,
-        scene: args.mcap,
-        ..Default::default()
-    };
     let input = RunInput::Bag {
         path: &args.bag,
         options: &options,
     };
-    let run = match run_attended(&format!("bag-{name}"), input, &run_options) {
-        Ok(r) => r,
-        Err(e) => {
-            eprintln!("error: {e}");
-            if created {
-                let _ = std::fs::remove_dir_all(&out_dir);
-            }
-            return ExitCode::from(BAD_INPUT);
-        }
-    };
-    let source = if options.features_topic.is_some() {
-        "feature tracks"
-    } else {
-        "images"
-    };
-    let preface = format!(
-        "bag {}: {} IMU samples, {} frames from {source}{}\n",
-        args.bag.display(),
-        run.output.imu_samples,
-        run.output.frames_in,
-        if run.context.ground_truth {
-            format!(
-                "; {} estimates outside the ground truth's span left out",
-                run.without_truth
-            )
-        } else {
-            "; no ground truth: not evaluated".into()
-        }
-    );
-    finish_attended(&out_dir, &run, &preface)
+    run_recording(
+        &format!("bag-{name}"),
+        &out_dir,
+        input,
+        &recording_options(args.seed, args.duration, args.mcap),
+        &format!("bag {}", args.bag.display()),
+        features,
+    )
 }

@@ -3,10 +3,9 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use scenarios::run::{EurocOptions, RunInput, RunOptions};
-use scenarios::spec::SuiteSpec;
+use scenarios::run::{EurocOptions, RunInput};
 
-use super::{BAD_INPUT, check_duration, check_out_dir, finish_attended, run_attended};
+use super::recording::{check_recording_args, recording_options, run_recording};
 
 /// `vio euroc` arguments.
 #[derive(clap::Args)]
@@ -43,19 +42,10 @@ pub struct EurocArgs {
 /// Runs `vio euroc`: exit 0 (ran; with ground truth every default expectation holds), 1 (an
 /// expectation failed), 2 (bad input).
 pub fn euroc_command(args: EurocArgs) -> ExitCode {
-    let Some(suite) = parse_suite(&args.suite) else {
-        return ExitCode::from(BAD_INPUT);
+    let suite = match check_recording_args(&args.suite, args.pixel_sigma, args.duration) {
+        Ok(s) => s,
+        Err(code) => return code,
     };
-    if !(args.pixel_sigma.is_finite() && args.pixel_sigma > 0.0 && args.pixel_sigma <= 100.0) {
-        eprintln!(
-            "error: --pixel-sigma {}: expected a number in (0, 100] px",
-            args.pixel_sigma
-        );
-        return ExitCode::from(BAD_INPUT);
-    }
-    if let Err(code) = check_duration(args.duration) {
-        return code;
-    }
     // Either the `mav0` folder or its parent.
     let mav0 = if args.mav0.join("mav0").is_dir() {
         args.mav0.join("mav0")
@@ -70,69 +60,23 @@ pub fn euroc_command(args: EurocArgs) -> ExitCode {
     let out_dir = args
         .out
         .unwrap_or_else(|| PathBuf::from("vio-out").join(format!("euroc-{name}")));
-    let created = !out_dir.exists();
-    if let Err(code) = check_out_dir(&out_dir) {
-        return code;
-    }
+    let features = args.features.is_some();
     let options = EurocOptions {
         suite,
         features: args.features,
         settings: args.settings,
         pixel_sigma_px: args.pixel_sigma,
     };
-    let run_options = RunOptions {
-        seed: Some(args.seed),
-        duration_s: args.duration,
-        covariance: args.mcap,
-        scene: args.mcap,
-        ..Default::default()
-    };
     let input = RunInput::Euroc {
         mav0: &mav0,
         options: &options,
     };
-    let run = match run_attended(&format!("euroc-{name}"), input, &run_options) {
-        Ok(r) => r,
-        Err(e) => {
-            eprintln!("error: {e}");
-            if created {
-                let _ = std::fs::remove_dir_all(&out_dir);
-            }
-            return ExitCode::from(BAD_INPUT);
-        }
-    };
-    let source = if options.features.is_some() {
-        "feature tracks"
-    } else {
-        "images"
-    };
-    let preface = format!(
-        "euroc {}: {} IMU samples, {} frames from {source}{}\n",
-        mav0.display(),
-        run.output.imu_samples,
-        run.output.frames_in,
-        if run.context.ground_truth {
-            format!(
-                "; {} estimates outside the ground truth's span left out",
-                run.without_truth
-            )
-        } else {
-            "; no ground truth: not evaluated".into()
-        }
-    );
-    finish_attended(&out_dir, &run, &preface)
-}
-
-/// A recording's `--suite`: `stereo_imu`, `stereo` or `mono_imu`; `None` (said on stderr) for
-/// anything else.
-pub fn parse_suite(s: &str) -> Option<SuiteSpec> {
-    match s {
-        "stereo_imu" => Some(SuiteSpec::StereoImu),
-        "stereo" => Some(SuiteSpec::Stereo),
-        "mono_imu" => Some(SuiteSpec::MonoImu),
-        other => {
-            eprintln!("error: --suite {other}: expected stereo_imu, stereo or mono_imu");
-            None
-        }
-    }
+    run_recording(
+        &format!("euroc-{name}"),
+        &out_dir,
+        input,
+        &recording_options(args.seed, args.duration, args.mcap),
+        &format!("euroc {}", mav0.display()),
+        features,
+    )
 }
