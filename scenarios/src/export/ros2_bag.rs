@@ -21,7 +21,6 @@
 use std::path::Path;
 
 use estimator::frontend::FeatureFrame;
-use estimator::geometry::Pose;
 use estimator::imu::ImuSample;
 use estimator::{GnssSample, WheelSample};
 use sim::render::ImageFrame;
@@ -30,8 +29,7 @@ use super::rig::{ExportRig, IMU_TOPIC, image_topic};
 use super::sink::{ExportError, ExportSink};
 use crate::dataset::ros2::{
     BagWriter, CameraInfo, Header, Image, Imu, NavSatFix, NavSatStatus, PointCloud2, PointField,
-    PoseStamped, Quaternion, RegionOfInterest, TfMessage, Time, Transform, TransformStamped,
-    TwistStamped, Vector3,
+    PoseStamped, Quaternion, RegionOfInterest, TfMessage, Time, TransformStamped, TwistStamped,
 };
 use crate::dataset::{CameraSensor, GroundTruthState, ImuSensor};
 
@@ -54,27 +52,6 @@ fn header(t_ns: i64, frame: &str) -> Result<Header, ExportError> {
         })?,
         frame_id: frame.into(),
     })
-}
-
-fn vector(v: &nalgebra::Vector3<f64>) -> Vector3 {
-    Vector3 {
-        x: v.x,
-        y: v.y,
-        z: v.z,
-    }
-}
-
-fn transform(pose: &Pose) -> Transform {
-    let q = pose.q.quaternion();
-    Transform {
-        translation: vector(&pose.p),
-        rotation: Quaternion {
-            x: q.i,
-            y: q.j,
-            z: q.k,
-            w: q.w,
-        },
-    }
 }
 
 fn diagonal(v: [f64; 3]) -> [f64; 9] {
@@ -183,7 +160,7 @@ impl Ros2Bag {
             transforms.push(TransformStamped {
                 header: header(0, "imu0")?,
                 child_frame_id: format!("cam{i}"),
-                transform: transform(&c.t_bs),
+                transform: (&c.t_bs).into(),
             });
         }
         bag.write("/tf_static", 0, &TfMessage { transforms })
@@ -233,27 +210,23 @@ impl ExportSink for Ros2Bag {
             header: header(s.t_ns, "imu0")?,
             orientation: Quaternion::default(),
             orientation_covariance,
-            angular_velocity: vector(&s.gyro),
+            angular_velocity: (&s.gyro).into(),
             angular_velocity_covariance: diagonal([g; 3]),
-            linear_acceleration: vector(&s.accel),
+            linear_acceleration: (&s.accel).into(),
             linear_acceleration_covariance: diagonal([a; 3]),
         };
         self.write(IMU_TOPIC, s.t_ns, &msg)?;
         if let Some(gt) = truth {
-            let t = transform(&gt.pose);
             let pose = PoseStamped {
                 header: header(gt.t_ns, "world")?,
-                pose: crate::dataset::ros2::Pose {
-                    position: t.translation,
-                    orientation: t.rotation,
-                },
+                pose: (&gt.pose).into(),
             };
             self.write("/groundtruth/pose", gt.t_ns, &pose)?;
             let tf = TfMessage {
                 transforms: vec![TransformStamped {
                     header: header(gt.t_ns, "world")?,
                     child_frame_id: "imu0".into(),
-                    transform: t,
+                    transform: (&gt.pose).into(),
                 }],
             };
             self.write("/tf", gt.t_ns, &tf)?;

@@ -28,8 +28,8 @@ use nalgebra::{Matrix3, Matrix6, Vector3};
 use super::{Evaluation, Report, RunContext};
 use crate::dataset::ros2::{
     BagWriter, CompressedImage, Float64, Header, Log, Path as RosPath, PointCloud2, PointField,
-    PoseArray, PoseStamped, PoseWithCovariance, PoseWithCovarianceStamped, Quaternion, TfMessage,
-    Time, Transform, TransformStamped, Vector3 as RosVector3, Vector3Stamped,
+    PoseArray, PoseStamped, PoseWithCovariance, PoseWithCovarianceStamped, TfMessage, Time,
+    TransformStamped, Vector3Stamped,
 };
 use crate::metrics::Sim3;
 use crate::run::RunOutput;
@@ -45,43 +45,18 @@ fn header(t_ns: i64, frame: &str) -> Header {
     }
 }
 
-fn vector(v: &Vector3<f64>) -> RosVector3 {
-    RosVector3 {
-        x: v.x,
-        y: v.y,
-        z: v.z,
-    }
-}
-
-fn ros_pose(p: &Pose) -> crate::dataset::ros2::Pose {
-    let q = p.q.quaternion();
-    crate::dataset::ros2::Pose {
-        position: vector(&p.p),
-        orientation: Quaternion {
-            x: q.i,
-            y: q.j,
-            z: q.k,
-            w: q.w,
-        },
-    }
-}
-
 fn transform(parent: &str, child: &str, t_ns: i64, p: &Pose) -> TransformStamped {
-    let r = ros_pose(p);
     TransformStamped {
         header: header(t_ns, parent),
         child_frame_id: child.into(),
-        transform: Transform {
-            translation: r.position,
-            rotation: r.orientation,
-        },
+        transform: p.into(),
     }
 }
 
 fn stamped(t_ns: i64, p: &Pose) -> PoseStamped {
     PoseStamped {
         header: header(t_ns, "world"),
-        pose: ros_pose(p),
+        pose: p.into(),
     }
 }
 
@@ -203,7 +178,7 @@ pub fn write_run_bag(
             let msg = PoseWithCovarianceStamped {
                 header: header(t, "world"),
                 pose: PoseWithCovariance {
-                    pose: ros_pose(&est),
+                    pose: (&est).into(),
                     covariance: pose_covariance(cov, &f.estimate.T_w_b, &align),
                 },
             };
@@ -215,7 +190,7 @@ pub fn write_run_bag(
                 poses: scene
                     .poses
                     .iter()
-                    .map(|p| ros_pose(&align.transform_pose(p)))
+                    .map(|p| (&align.transform_pose(p)).into())
                     .collect(),
             };
             bag.write("/window/poses", t, &poses)?;
@@ -228,7 +203,7 @@ pub fn write_run_bag(
         }
         let v3 = |v: &Vector3<f64>, frame: &str| Vector3Stamped {
             header: header(t, frame),
-            vector: vector(v),
+            vector: v.into(),
         };
         if ctx.ground_truth {
             bag.write(

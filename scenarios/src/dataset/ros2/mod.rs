@@ -1,10 +1,11 @@
 //! ROS 2 bags in MCAP (rosbag2's default storage): the message types they hold, their CDR
-//! encoding, and a writer and a reader of bags.
+//! encoding, conversions from the estimator's geometry, and a writer and a reader of bags.
 
 mod bag_reader;
 mod bag_writer;
 mod camera_info_rig;
 mod cdr;
+mod conversions;
 mod definitions;
 mod image_message;
 mod messages;
