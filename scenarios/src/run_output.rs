@@ -61,6 +61,8 @@ pub struct WindowScene {
     pub points: Vec<Vector3<f64>>,
     /// The estimate's frame as the estimator received it: `(camera, feature id, pixel)`.
     pub features: Vec<(usize, u64, Vector2<f64>)>,
+    /// The first camera's image of that frame as JPEG (input that is images).
+    pub image_jpeg: Option<Vec<u8>>,
     /// Each camera's image size `[width, height]` (px).
     pub image_sizes: Vec<[u32; 2]>,
 }

@@ -34,8 +34,19 @@ fn options(scenario: &Scenario) -> BagOptions {
 }
 
 fn bag_run(path: &Path, options: &BagOptions, seed: u64) -> Result<ReportedRun, RunError> {
+    bag_run_with(path, options, seed, false)
+}
+
+/// [`bag_run`], recording the window for `run.mcap` when `scene`.
+fn bag_run_with(
+    path: &Path,
+    options: &BagOptions,
+    seed: u64,
+    scene: bool,
+) -> Result<ReportedRun, RunError> {
     let run = RunOptions {
         seed: Some(seed),
+        scene,
         ..Default::default()
     };
     run_to_report(RunInput::Bag { path, options }, &run, RunControl::default())
@@ -82,10 +93,60 @@ fn a_rendered_bag_through_vio_bag_gives_the_run_of_vio_run() {
     let dir = common::scratch();
     let path = export(&scenario, dir.path());
     let expected = common::run_scenario(scenario.clone(), Some(SECONDS));
-    let got = bag_run(&path, &options(&scenario), scenario.spec.world.seed).unwrap();
+    // With run.mcap's window recorded: the estimate is the same.
+    let got = bag_run_with(&path, &options(&scenario), scenario.spec.world.seed, true).unwrap();
     assert_same_run(&expected.run, &got);
     assert_eq!(got.report.camera_mode, "recorded");
     assert!(got.report.timing_ms.frontend.median > 0.0);
+    // Its tracks pictures are drawn over the bag's images.
+    let out = dir.path().join("bag-run");
+    got.write_outputs(&out).unwrap();
+    assert_tracks_over_images(&out.join("run.mcap"), got.output.frames.len());
+}
+
+/// Every `/cam0/tracks` picture of the run bag at `path` (one per estimate, `frames`) is a JPEG
+/// of the camera's size drawn over its image: unlike the flat background of feature-level runs
+/// (`(24, 24, 24)` wherever no track is drawn, most of the picture), grey levels vary across it.
+fn assert_tracks_over_images(path: &Path, frames: usize) {
+    let bag = BagFile::open(path).unwrap();
+    let tracks = bag
+        .contents()
+        .unwrap()
+        .decode_all::<CompressedImage>("/cam0/tracks")
+        .unwrap();
+    assert_eq!(tracks.len(), frames);
+    for (_, msg) in tracks.iter().step_by(10) {
+        assert_eq!(msg.format, "jpeg");
+        let picture = image::load_from_memory(&msg.data).unwrap().into_rgb8();
+        assert_eq!(picture.dimensions(), (752, 480));
+        // Grey pixels (no stroke): their levels spread like the camera image's, dimmed.
+        let grey: Vec<f64> = picture
+            .pixels()
+            .filter(|p| p.0[0].abs_diff(p.0[1]) < 8 && p.0[1].abs_diff(p.0[2]) < 8)
+            .map(|p| f64::from(p.0[1]))
+            .collect();
+        assert!(grey.len() > picture.len() / 3 / 2, "mostly strokes?");
+        let mean = grey.iter().sum::<f64>() / grey.len() as f64;
+        let sd = (grey.iter().map(|g| (g - mean).powi(2)).sum::<f64>() / grey.len() as f64).sqrt();
+        assert!(
+            sd > 10.0 && mean > 30.0,
+            "flat background: mean {mean}, sd {sd}"
+        );
+    }
+}
+
+#[test]
+fn a_rendered_runs_tracks_pictures_are_drawn_over_its_images() {
+    let scenario = Scenario::load("room_figure8_rendered_stereo_imu").unwrap();
+    let options = RunOptions {
+        duration_s: Some(2.0),
+        scene: true,
+        ..Default::default()
+    };
+    let viewed = common::run_with(scenario, &options);
+    let dir = common::scratch();
+    viewed.run.write_outputs(dir.path()).unwrap();
+    assert_tracks_over_images(&dir.path().join("run.mcap"), viewed.run.output.frames.len());
 }
 
 #[test]
@@ -280,13 +341,50 @@ fn run_mcap_holds_the_run_for_viewers_and_changes_nothing_else() {
     assert!(points.iter().any(|(_, p)| p.width >= 10), "no points");
     let window = bag.decode_all::<PoseArray>("/window/poses").unwrap();
     assert!(window.iter().any(|(_, w)| w.poses.len() >= 5));
-    // The tracks picture: one PNG per estimate, of the first camera's size.
+    // The trails: the estimates and the truth so far as points, the last one all of them.
+    for (topic, truth) in [("/estimate/trail", false), ("/groundtruth/trail", true)] {
+        let trails = bag.decode_all::<PointCloud2>(topic).unwrap();
+        // Every 0.2 s of the estimates' span, and the last.
+        let span_s = (poses[frames - 1].0 - poses[0].0) as f64 * 1e-9;
+        assert!(
+            trails.len() > (span_s / 0.2) as usize,
+            "{topic} {} {span_s}",
+            trails.len()
+        );
+        assert!(
+            trails.len() <= (span_s / 0.2) as usize + 2,
+            "{topic} {} {span_s}",
+            trails.len()
+        );
+        let (_, last) = trails.last().unwrap();
+        assert_eq!(last.width as usize, frames, "{topic}");
+        for (i, (_, pose)) in poses.iter().enumerate().step_by(17) {
+            let expected = if truth {
+                let p = viewed.run.output.frames[i].truth.pose.p;
+                [p.x, p.y, p.z]
+            } else {
+                let p = &pose.pose.position;
+                [p.x, p.y, p.z]
+            };
+            let at = |k: usize| {
+                let b = &last.data[12 * i + 4 * k..12 * i + 4 * k + 4];
+                f64::from(f32::from_le_bytes(b.try_into().unwrap()))
+            };
+            for k in 0..3 {
+                assert!((at(k) - expected[k]).abs() < 1e-6, "{topic} point {i}");
+            }
+        }
+    }
+    // The tracks picture: one PNG per estimate, of the first camera's size, on a flat
+    // background (feature-level input has no images).
     let tracks = bag.decode_all::<CompressedImage>("/cam0/tracks").unwrap();
     assert_eq!(tracks.len(), frames);
     let (_, last) = tracks.last().unwrap();
     assert_eq!(last.format, "png");
-    let png = image::load_from_memory(&last.data).unwrap();
+    let png = image::load_from_memory(&last.data).unwrap().into_rgb8();
     assert_eq!((png.width(), png.height()), (752, 480));
+    let flat = png.pixels().filter(|p| p.0 == [24, 24, 24]).count();
+    assert!(flat > png.len() / 3 / 2);
     // Covariances: symmetric, positive on the diagonal.
     let cov = bag
         .decode_all::<PoseWithCovarianceStamped>("/estimate/pose_with_covariance")

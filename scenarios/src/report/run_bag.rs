@@ -7,14 +7,15 @@
 //! | `/tf` | `tf2_msgs/msg/TFMessage` | `world → body` (estimate) and `world → body_truth` at every estimate (3D) |
 //! | `/tf_static` | `tf2_msgs/msg/TFMessage` | `body → cam<i>`, the estimator's extrinsics at its first estimate (3D) |
 //! | `/estimate/pose`, `/groundtruth/pose` | `geometry_msgs/msg/PoseStamped` | every estimate (3D, Plot) |
-//! | `/estimate/path`, `/groundtruth/path` | `nav_msgs/msg/Path` | the trajectory so far, every second and at the end (3D) |
+//! | `/estimate/path`, `/groundtruth/path` | `nav_msgs/msg/Path` | the trajectory so far, at the first estimate of every second and at the end (3D) |
+//! | `/estimate/trail`, `/groundtruth/trail` | `sensor_msgs/msg/PointCloud2` | the same trajectories as points (`x y z` float32), at the first estimate of every 0.2 s and at the end: for viewers that draw point clouds but not paths, such as Rerun (3D) |
 //! | `/estimate/pose_with_covariance` | `geometry_msgs/msg/PoseWithCovarianceStamped` | with `--covariance`-style runs: the newest pose and its 6×6 covariance, rotation in `world` (3D ellipsoids, Plot) |
 //! | `/window/poses` | `geometry_msgs/msg/PoseArray` | the sliding window's frames (3D) |
 //! | `/window/points` | `sensor_msgs/msg/PointCloud2` | its persistent points, `x y z` float32 (3D) |
 //! | `/estimate/position_error` | `geometry_msgs/msg/Vector3Stamped` | aligned estimate − truth (m) (Plot) |
 //! | `/estimate/velocity`, `/estimate/gyro_bias`, `/estimate/accel_bias` | `geometry_msgs/msg/Vector3Stamped` | the state (Plot) |
 //! | `/estimate/time_offset_ms`, `/estimate/landmarks`, `/timing/backend_ms` | `std_msgs/msg/Float64` | (Plot) |
-//! | `/cam0/tracks` | `sensor_msgs/msg/CompressedImage` | PNG: the first camera's features as the estimator received them, each track's trail over its last 20 frames in a colour by age (red new → azure old), on a dark image of the camera's size (Image) |
+//! | `/cam0/tracks` | `sensor_msgs/msg/CompressedImage` | the first camera's features as the estimator received them, each track's trail over its last 20 frames in a colour by age (red new → azure old): JPEG over the camera's image (dimmed) where the input is images (rendered scenarios, `vio euroc`, `vio bag`), PNG on a dark image of the camera's size for feature-level input (Image) |
 //! | `/rosout` | `rcl_interfaces/msg/Log` | the report's events (status changes, suite switches, resets, …) and the scenario's faults (Log) |
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
@@ -37,6 +38,17 @@ use crate::track_drawing::{CIRCLE_PX, age_colour, circle, line};
 
 /// How often the paths are published (ns of run time).
 const PATH_PERIOD_NS: i64 = 1_000_000_000;
+/// How often the trails (the paths as point clouds) are published (ns of run time).
+const TRAIL_PERIOD_NS: i64 = 200_000_000;
+
+/// Whether `t_ns` falls in another period of `period_ns` than the one in `current` (then
+/// `current` becomes its period).
+fn enters_period(current: &mut Option<i64>, t_ns: i64, period_ns: i64) -> bool {
+    let period = t_ns.div_euclid(period_ns);
+    let entered = *current != Some(period);
+    *current = Some(period);
+    entered
+}
 
 fn header(t_ns: i64, frame: &str) -> Header {
     Header {
@@ -143,7 +155,9 @@ pub fn write_run_bag(
         poses: Vec::new(),
     };
     let mut truth_path = estimate_path.clone();
-    let mut next_path_ns = i64::MIN;
+    let (mut estimate_trail, mut truth_trail) = (Vec::new(), Vec::new());
+    // Published at the first estimate of each period of the run's clock, and at the end.
+    let (mut path_period, mut trail_period) = (None, None);
     let n = run.frames.len();
     for (k, f) in run.frames.iter().enumerate() {
         let t = f.estimate.t_ns;
@@ -165,14 +179,22 @@ pub fn write_run_bag(
         }
         estimate_path.poses.push(stamped(t, &est));
         truth_path.poses.push(stamped(t, &truth));
-        if t >= next_path_ns || k + 1 == n {
+        estimate_trail.push(est.p);
+        truth_trail.push(truth.p);
+        let last = k + 1 == n;
+        if enters_period(&mut trail_period, t, TRAIL_PERIOD_NS) || last {
+            bag.write("/estimate/trail", t, &points_cloud(t, &estimate_trail))?;
+            if ctx.ground_truth {
+                bag.write("/groundtruth/trail", t, &points_cloud(t, &truth_trail))?;
+            }
+        }
+        if enters_period(&mut path_period, t, PATH_PERIOD_NS) || last {
             estimate_path.header.stamp = Time::from_ns(t).unwrap_or_default();
             truth_path.header.stamp = estimate_path.header.stamp;
             bag.write("/estimate/path", t, &estimate_path)?;
             if ctx.ground_truth {
                 bag.write("/groundtruth/path", t, &truth_path)?;
             }
-            next_path_ns = t.saturating_add(PATH_PERIOD_NS);
         }
         if let Some(cov) = f.estimate.covariance.as_ref().filter(|c| c.nrows() >= 6) {
             let msg = PoseWithCovarianceStamped {
@@ -262,6 +284,23 @@ pub fn write_run_bag(
     bag.finish()
 }
 
+/// JPEG quality of the tracks pictures drawn over camera images.
+const TRACKS_JPEG_QUALITY: u8 = 70;
+/// Brightness kept of the camera image under the tracks (the strokes stand out).
+const BACKGROUND_GAIN: f32 = 0.6;
+
+/// The scene's camera image (greyscale JPEG) as a dimmed RGB picture; `None` if it does not
+/// decode.
+fn dimmed_background(jpeg: &[u8]) -> Option<RgbImage> {
+    let grey = image::load_from_memory_with_format(jpeg, image::ImageFormat::Jpeg)
+        .ok()?
+        .into_luma8();
+    Some(RgbImage::from_fn(grey.width(), grey.height(), |x, y| {
+        let g = (f32::from(grey.get_pixel(x, y).0[0]) * BACKGROUND_GAIN).round() as u8;
+        Rgb([g, g, g])
+    }))
+}
+
 /// Positions kept per trail (the newest included).
 const TRAIL_FRAMES: usize = 20;
 
@@ -296,7 +335,9 @@ fn write_tracks(bag: &mut BagWriter, run: &RunOutput) -> Result<(), String> {
                 trail.pop_front();
             }
         }
-        let mut img = RgbImage::from_pixel(w, h, Rgb([24, 24, 24]));
+        let background = scene.image_jpeg.as_deref().and_then(dimmed_background);
+        let over_image = background.is_some();
+        let mut img = background.unwrap_or_else(|| RgbImage::from_pixel(w, h, Rgb([24, 24, 24])));
         // Oldest last, so that the long trails stay on top.
         let mut order: Vec<(&u64, &Trail)> = trails.iter().collect();
         order.sort_by_key(|(id, (age, _))| (*age, **id));
@@ -310,14 +351,25 @@ fn write_tracks(bag: &mut BagWriter, run: &RunOutput) -> Result<(), String> {
                 circle(&mut img, p, CIRCLE_PX, colour);
             }
         }
-        let mut png = Vec::new();
-        image::DynamicImage::ImageRgb8(img)
-            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-            .map_err(|e| format!("tracks image: {e}"))?;
+        // Over a camera image JPEG keeps the file small; over the flat background PNG is
+        // smaller and sharp.
+        let (format, encoded) = if over_image {
+            let mut jpeg = Vec::new();
+            image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, TRACKS_JPEG_QUALITY)
+                .encode_image(&img)
+                .map_err(|e| format!("tracks image: {e}"))?;
+            ("jpeg", jpeg)
+        } else {
+            let mut png = Vec::new();
+            image::DynamicImage::ImageRgb8(img)
+                .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+                .map_err(|e| format!("tracks image: {e}"))?;
+            ("png", png)
+        };
         let msg = CompressedImage {
             header: header(t, "cam0"),
-            format: "png".into(),
-            data: png,
+            format: format.into(),
+            data: encoded,
         };
         bag.write("/cam0/tracks", t, &msg)?;
     }

@@ -4,7 +4,7 @@
 
 use std::time::Instant;
 
-use estimator::frontend::FeatureFrame;
+use estimator::frontend::{FeatureFrame, ImageView};
 use estimator::imu::ImuSample;
 use estimator::problem::SolverOptions;
 use estimator::{Estimate, Estimator};
@@ -52,6 +52,11 @@ pub(crate) trait Source {
     fn render_s(&self) -> f64 {
         0.0
     }
+    /// The first camera's image of the frame the source gave last; `None` for input that is
+    /// not images (or a frame without the first camera).
+    fn latest_image(&self) -> Option<ImageView<'_>> {
+        None
+    }
     /// Ground truth at an estimate's time; `None` where there is none.
     fn truth(&mut self, estimate: &Estimate) -> Option<GroundTruth>;
     /// What the source adds to the output at the end (the front end's statistics); an error
@@ -98,7 +103,12 @@ pub(crate) fn drive(
                 estimator.push_imu(s)
             }
             Some(Input::Frame { frame, frontend_s }) => {
-                recorder.frame_pushed(&frame, frontend_s, source.render_s());
+                let image = if options.scene {
+                    source.latest_image()
+                } else {
+                    None
+                };
+                recorder.frame_pushed(&frame, frontend_s, source.render_s(), image);
                 estimator.push_frame(frame)
             }
             Some(Input::Gnss(fix)) => estimator.push_gnss(fix),

@@ -289,6 +289,7 @@ pub(crate) fn replay(
         end,
         imu_i: 0,
         frame_i: 0,
+        latest: Vec::new(),
     };
     let (output, without_truth) = drive(source, estimator, recorder, run, control)?;
     Ok(RecordedRun {
@@ -320,6 +321,8 @@ struct Recorded<'a> {
     end: i64,
     imu_i: usize,
     frame_i: usize,
+    /// The latest frame's images (input that is images), by camera.
+    latest: Vec<image::GrayImage>,
 }
 
 impl Recorded<'_> {
@@ -353,6 +356,8 @@ impl Recorded<'_> {
                     .track(&views, t - t0, self.gyro.take())
                     .map_err(|e| refs[0].error(format!("front end: {e}")))?;
                 self.counts.add(tracker.report(), &frame);
+                drop(views);
+                self.latest = images;
                 frame
             }
         };
@@ -396,6 +401,11 @@ impl Source for Recorded<'_> {
                 Input::Frame { frame, frontend_s }
             }
         }))
+    }
+
+    fn latest_image(&self) -> Option<ImageView<'_>> {
+        let image = self.latest.first()?;
+        ImageView::packed(image.width(), image.height(), image.as_raw()).ok()
     }
 
     fn truth(&mut self, e: &Estimate) -> Option<GroundTruth> {

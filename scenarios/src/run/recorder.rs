@@ -2,16 +2,46 @@
 
 use std::collections::VecDeque;
 
-use estimator::frontend::FeatureFrame;
+use estimator::frontend::{FeatureFrame, ImageView};
 use estimator::{Estimate, Estimator, EstimatorError, EventKind as EstimatorEventKind, Status};
 use nalgebra::Vector2;
 use sim::stream::GroundTruth;
 
 use super::{Event, EventKind, FrameRecord, FrameTiming, RunError, RunOutput, WindowScene};
 
-/// A frame pushed and not yet estimated: camera stamp, front-end s, render s, and its
-/// features when the run records its window.
-type Pending = (i64, f64, f64, Vec<(usize, u64, Vector2<f64>)>);
+/// A frame pushed and not yet estimated.
+#[derive(Debug)]
+struct Pending {
+    /// Camera stamp (ns).
+    t_ns: i64,
+    /// Front-end time (s).
+    frontend_s: f64,
+    /// Render time (s).
+    render_s: f64,
+    /// `(camera, feature id, pixel)` when the run records its window.
+    features: Vec<(usize, u64, Vector2<f64>)>,
+    /// The first camera's image as JPEG, when the run records its window and the input is
+    /// images.
+    image_jpeg: Option<Vec<u8>>,
+}
+
+/// JPEG quality of the images kept for the window's scene: the tracks picture's background.
+const SCENE_JPEG_QUALITY: u8 = 85;
+
+/// `image` as a greyscale JPEG; `None` if it cannot be encoded (the scene then has no
+/// background image).
+fn grey_jpeg(image: &ImageView<'_>) -> Option<Vec<u8>> {
+    let (w, h) = (image.width(), image.height());
+    let mut data = Vec::with_capacity(w as usize * h as usize);
+    for y in 0..h as usize {
+        data.extend_from_slice(image.row(y));
+    }
+    let mut out = Vec::new();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, SCENE_JPEG_QUALITY)
+        .encode(&data, w, h, image::ExtendedColorType::L8)
+        .ok()?;
+    Some(out)
+}
 
 /// Collects a run's output from the estimator's calls: estimates with their ground truth and
 /// timing, status changes and the estimator's events.
@@ -27,8 +57,7 @@ pub(crate) struct Recorder {
     /// Record the window with every estimate ([`super::RunOptions::scene`]).
     pub scene: bool,
     status: Status,
-    /// (camera stamp, front-end s, render s, features when [`Recorder::scene`]) of frames
-    /// pushed and not yet estimated.
+    /// Frames pushed and not yet estimated.
     pending: VecDeque<Pending>,
 }
 
@@ -46,8 +75,15 @@ impl Recorder {
     }
 
     /// A frame stamped `t_ns` (camera clock) went to the estimator after `frontend_s` of
-    /// front-end and `render_s` of rendering time.
-    pub fn frame_pushed(&mut self, frame: &FeatureFrame, frontend_s: f64, render_s: f64) {
+    /// front-end and `render_s` of rendering time; `image`: its first camera's image, when the
+    /// input is images and the run records its window.
+    pub fn frame_pushed(
+        &mut self,
+        frame: &FeatureFrame,
+        frontend_s: f64,
+        render_s: f64,
+        image: Option<ImageView<'_>>,
+    ) {
         self.out.frames_in += 1;
         let features = if self.scene {
             frame
@@ -58,8 +94,14 @@ impl Recorder {
         } else {
             Vec::new()
         };
-        self.pending
-            .push_back((frame.t_ns, frontend_s, render_s, features));
+        let image_jpeg = image.filter(|_| self.scene).and_then(|i| grey_jpeg(&i));
+        self.pending.push_back(Pending {
+            t_ns: frame.t_ns,
+            frontend_s,
+            render_s,
+            features,
+            image_jpeg,
+        });
     }
 
     /// Records one estimator call made at `t_ns` that took `call_s`: its events, and its
@@ -129,10 +171,11 @@ impl Recorder {
             // those recorded when its frame was pushed.
             let camera_t = e.stamp_ns;
             let (mut frame_frontend_s, mut frame_render_s) = (0.0, render_s);
-            let mut features = Vec::new();
-            while self.pending.front().is_some_and(|p| p.0 <= camera_t) {
-                if let Some((_, f, r, obs)) = self.pending.pop_front() {
-                    (frame_frontend_s, frame_render_s, features) = (f, r, obs);
+            let (mut features, mut image_jpeg) = (Vec::new(), None);
+            while self.pending.front().is_some_and(|p| p.t_ns <= camera_t) {
+                if let Some(p) = self.pending.pop_front() {
+                    (frame_frontend_s, frame_render_s) = (p.frontend_s, p.render_s);
+                    (features, image_jpeg) = (p.features, p.image_jpeg);
                 }
             }
             let timing = FrameTiming {
@@ -145,6 +188,7 @@ impl Recorder {
                 poses: estimator.window_poses(),
                 points: estimator.window_points(),
                 features,
+                image_jpeg,
                 image_sizes: estimator
                     .config()
                     .cameras

@@ -5,9 +5,10 @@
 //! Determinism: everything but the timing fields is a function of the scenario and the seed; the
 //! wall clock is read only to fill [`FrameTiming`](super::FrameTiming).
 
-use estimator::frontend::TrackerConfig;
+use estimator::frontend::{ImageView, TrackerConfig};
 use estimator::{Estimate, Estimator, EstimatorConfig};
 use sim::World;
+use sim::render::ImageFrame;
 use sim::stream::{GroundTruth, Measurement, Stream};
 
 use super::driver::{Input, Source, drive};
@@ -82,6 +83,7 @@ pub(crate) fn simulate(
         uses_imu,
         readout_s,
         render_s: 0.0,
+        latest: None,
     };
     drive(source, estimator, recorder, options, control).map(|(out, _)| out)
 }
@@ -101,6 +103,8 @@ struct Simulated<'a> {
     readout_s: f64,
     /// The latest images' render time (s).
     render_s: f64,
+    /// The latest images tracked.
+    latest: Option<ImageFrame>,
 }
 
 impl Source for Simulated<'_> {
@@ -127,6 +131,7 @@ impl Source for Simulated<'_> {
                                 file: self.scenario.file_label(),
                                 message: e.to_string(),
                             })?;
+                    self.latest = Some(images);
                     Input::Frame { frame, frontend_s }
                 }
                 Measurement::Imu(s) => {
@@ -149,6 +154,16 @@ impl Source for Simulated<'_> {
 
     fn render_s(&self) -> f64 {
         self.render_s
+    }
+
+    fn latest_image(&self) -> Option<ImageView<'_>> {
+        let camera = self
+            .latest
+            .as_ref()?
+            .cameras
+            .iter()
+            .find(|c| c.cam_id == 0)?;
+        ImageView::packed(camera.image.width, camera.image.height, &camera.image.data).ok()
     }
 
     fn truth(&mut self, estimate: &Estimate) -> Option<GroundTruth> {
