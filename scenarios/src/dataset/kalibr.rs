@@ -64,6 +64,16 @@ fn numbers(v: &str) -> Result<Vec<f64>, String> {
         .collect()
 }
 
+/// The camchain key of a camera's exact translation `t_b_c` (m), beside `T_cam_imu` (written by
+/// `vio export`; other readers ignore it).
+pub const TRANSLATION_KEY: &str = "vio_T_b_c_translation_m";
+/// The camchain key of a camera's rotation `R_b_c` as the quaternion `[qx, qy, qz, qw]` the rig
+/// was given as, beside `T_cam_imu`.
+pub const QUATERNION_KEY: &str = "vio_T_b_c_quaternion_xyzw";
+/// How far the exact keys may lie from `T_cam_imu`'s inversion: translation (m), rotation (rad).
+/// Rounding leaves them ~1e-16 apart; further means one was edited without the other.
+const EXACT_AGREEMENT: f64 = 1e-9;
+
 /// The inverse `(Rᵀ, −Rᵀ·t)` of the rigid transform `(R, t)`: `T_b_c` of Kalibr's `T_cam_imu`
 /// (and back). The writer ([`super::kalibr_export`]) chooses the digits it writes so that this
 /// very computation gives back the rig's own values.
@@ -99,12 +109,18 @@ pub fn cameras_toml(text: &str, file: &str, pixel_sigma_px: f64) -> Result<Strin
         if let Some(a) = c.alpha {
             out.push_str(&format!("alpha = {a:?}\n"));
         }
+        let rotation = match c.quaternion_xyzw {
+            Some(q) => format!("quaternion_xyzw = [{}]", f(&q)),
+            None => format!(
+                "rotation = [[{}], [{}], [{}]]",
+                f(&[r[(0, 0)], r[(0, 1)], r[(0, 2)]]),
+                f(&[r[(1, 0)], r[(1, 1)], r[(1, 2)]]),
+                f(&[r[(2, 0)], r[(2, 1)], r[(2, 2)]]),
+            ),
+        };
         out.push_str(&format!(
-            "T_b_c = {{ translation_m = [{}], rotation = [[{}], [{}], [{}]] }}\npixel_sigma_px = {pixel_sigma_px:?}\n",
+            "T_b_c = {{ translation_m = [{}], {rotation} }}\npixel_sigma_px = {pixel_sigma_px:?}\n",
             f(c.t_b_c.as_slice()),
-            f(&[r[(0, 0)], r[(0, 1)], r[(0, 2)]]),
-            f(&[r[(1, 0)], r[(1, 1)], r[(1, 2)]]),
-            f(&[r[(2, 0)], r[(2, 1)], r[(2, 2)]]),
         ));
     }
     Ok(out)
@@ -128,8 +144,11 @@ pub(crate) struct CameraRead {
     pub resolution: Vec<String>,
     /// `T_b_c = T_cam_imu⁻¹`.
     pub r_b_c: Matrix3<f64>,
-    /// `T_b_c = T_cam_imu⁻¹`.
+    /// `T_b_c = T_cam_imu⁻¹`, or the exact translation ([`TRANSLATION_KEY`]).
     pub t_b_c: Vector3<f64>,
+    /// The rotation as the quaternion `[qx, qy, qz, qw]` the rig was given as
+    /// ([`QUATERNION_KEY`]).
+    pub quaternion_xyzw: Option<[f64; 4]>,
     /// The line of its `resolution` key.
     pub resolution_line: usize,
 }
@@ -255,7 +274,49 @@ pub(crate) fn read_cameras(text: &str, file: &str) -> Result<Vec<CameraRead>, Ka
                 "its rotation is not a rotation matrix (to 1e-6)".into(),
             ));
         }
-        let (r_b_c, t_b_c) = invert_rigid(&r_c_b, &t_c_b);
+        let (r_b_c, mut t_b_c) = invert_rigid(&r_c_b, &t_c_b);
+        let disagrees = |e: &Entry, by: String| {
+            err(
+                &e.key,
+                Some(e.line),
+                format!(
+                    "disagrees with `T_cam_imu` by {by} (edit both, or delete the `vio_` keys)"
+                ),
+            )
+        };
+        if let Some(e) = doc.get(&format!("{cam}.{TRANSLATION_KEY}")) {
+            let v = numbers(&e.value).map_err(|m| err(&e.key, Some(e.line), m))?;
+            let [x, y, z] = v[..] else {
+                return Err(err(
+                    &e.key,
+                    Some(e.line),
+                    format!("expected 3 numbers, got {}", v.len()),
+                ));
+            };
+            let exact = Vector3::new(x, y, z);
+            let off = (exact - t_b_c).amax();
+            if off > EXACT_AGREEMENT {
+                return Err(disagrees(e, format!("{off:.3e} m")));
+            }
+            t_b_c = exact;
+        }
+        let mut quaternion_xyzw = None;
+        if let Some(e) = doc.get(&format!("{cam}.{QUATERNION_KEY}")) {
+            let v = numbers(&e.value).map_err(|m| err(&e.key, Some(e.line), m))?;
+            let q = estimator::geometry::quat_from_xyzw_checked(&v).map_err(|m| {
+                err(
+                    &e.key,
+                    Some(e.line),
+                    format!("expected a unit quaternion [qx, qy, qz, qw]: {m}"),
+                )
+            })?;
+            let r = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(r_b_c));
+            let angle = q.angle_to(&r);
+            if angle > EXACT_AGREEMENT {
+                return Err(disagrees(e, format!("{angle:.3e} rad")));
+            }
+            quaternion_xyzw = Some([v[0], v[1], v[2], v[3]]);
+        }
         out.push(CameraRead {
             name: cam.to_string(),
             model: ours,
@@ -266,6 +327,7 @@ pub(crate) fn read_cameras(text: &str, file: &str) -> Result<Vec<CameraRead>, Ka
             resolution: res,
             r_b_c,
             t_b_c,
+            quaternion_xyzw,
             resolution_line: res_entry.line,
         });
     }
@@ -378,7 +440,14 @@ pub fn camera_sensors(text: &str, file: &str) -> Result<Vec<CameraSensor>, Kalib
                     )
                 })?;
             }
-            let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&c.r_b_c));
+            let q = match c.quaternion_xyzw {
+                // Checked when read.
+                Some(q) => estimator::geometry::quat_from_xyzw_checked(&q).ok(),
+                None => None,
+            }
+            .unwrap_or_else(|| {
+                UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&c.r_b_c))
+            });
             Ok(CameraSensor {
                 comment: format!("Kalibr {file} {}", c.name),
                 t_bs: Pose::new(q, c.t_b_c),

@@ -105,6 +105,17 @@ pub(crate) fn export_rig(scenario: &Scenario, est: &EstimatorConfig) -> ExportRi
             (Some(rows), None) => Matrix3::from_fn(|a, b| rows[a][b]),
             _ => Rotation3::from(cam.T_b_c.q).into_inner(),
         };
+        // A quaternion as given (the scenario's, or the estimator's when it starts off the
+        // truth): no matrix of doubles carries it bit for bit.
+        let quaternion_xyzw = match (c.T_b_c.quaternion_xyzw, &c.calibration_error) {
+            (Some(q), None) => Some(q),
+            (_, Some(_)) => {
+                let mut q = [0.0; 4];
+                estimator::geometry::quat_to_xyzw(&cam.T_b_c.q, &mut q);
+                Some(q)
+            }
+            (None, None) => None,
+        };
         kalibr.push(KalibrCamera {
             name: format!("cam{i}"),
             camera_model: camera_model.into(),
@@ -114,6 +125,7 @@ pub(crate) fn export_rig(scenario: &Scenario, est: &EstimatorConfig) -> ExportRi
             resolution: c.resolution,
             r_b_c,
             t_b_c: cam.T_b_c.p,
+            quaternion_xyzw,
             rostopic: image_topic(i),
             timeshift_cam_imu: spec.rig.time_offset_s,
         });

@@ -119,6 +119,27 @@ fn malformed_kalibr_files_name_file_key_and_line() {
         e.contains(&format!("camchain.yaml:{line}: key `cam0.intrinsics`")) && e.contains("0.5"),
         "{e}"
     );
+    // The exact keys `vio export` writes beside T_cam_imu: checked against it, located.
+    let exported = {
+        let s = Scenario::load("room_figure8_stereo_imu").unwrap();
+        scenarios::export::kalibr_files(&s).unwrap().0
+    };
+    let key = "vio_T_b_c_translation_m: [";
+    let line = exported.lines().find(|l| l.contains(key)).unwrap();
+    let x = &line[line.find('[').unwrap() + 1..line.find(',').unwrap()];
+    let shifted = format!("{:?}", x.parse::<f64>().unwrap() + 0.5);
+    let moved = exported.replacen(line, &line.replacen(x, &shifted, 1), 1);
+    let e = scenario_with("moved", &moved, IMU).unwrap_err();
+    let line = at(&moved, key);
+    assert!(
+        e.contains(&format!(
+            "camchain.yaml:{line}: key `cam0.vio_T_b_c_translation_m`"
+        )) && e.contains("disagrees with `T_cam_imu` by 5.000e-1 m"),
+        "{e}"
+    );
+    let two = exported.replacen(key, &format!("{key}1.0, 2.0]  # "), 1);
+    let e = scenario_with("two", &two, IMU).unwrap_err();
+    assert!(e.contains("expected 3 numbers, got 2"), "{e}");
     // A camera name that would break TOML is a name, not syntax.
     let quoted = camchain().replacen("cam0:", "cam0\"]x:", 1);
     if let Err(e) = scenario_with("quoted", &quoted, IMU) {
@@ -166,11 +187,12 @@ fn exported_kalibr_files_give_back_every_catalog_rig_exactly() {
             assert_eq!(got.T_b_c.translation_m, [t.x, t.y, t.z], "{at}");
             match (want.T_b_c.rotation, &want.calibration_error) {
                 (Some(rows), None) => assert_eq!(got.T_b_c.rotation, Some(rows), "{at}"),
+                // The estimator's quaternion, as it is.
                 _ => {
-                    let r = nalgebra::Rotation3::from(est.cameras[i].T_b_c.q);
-                    let g = got.T_b_c.rotation.unwrap();
-                    let g = nalgebra::Matrix3::from_fn(|a, b| g[a][b]);
-                    assert!((g - r.matrix()).amax() < 1e-15, "{at}");
+                    let q = est.cameras[i].T_b_c.q.quaternion().coords;
+                    let q = [q.x, q.y, q.z, q.w];
+                    assert_eq!(got.T_b_c.quaternion_xyzw, Some(q), "{at}");
+                    assert_eq!(got.T_b_c.rotation, None, "{at}");
                 }
             }
             cameras += 1;
@@ -253,4 +275,54 @@ fn a_run_on_the_exported_kalibr_rig_gives_the_same_estimate() {
             .collect::<Vec<_>>()
     };
     assert_eq!(poses(&a), poses(&b));
+}
+
+#[test]
+fn arbitrary_rigs_survive_the_kalibr_round_trip_bit_for_bit() {
+    // Generic rotations given as matrices (cam0) and as quaternions (cam1), generic
+    // translations, and a rig the estimator starts off the truth (calibration error): exported
+    // and read back through `rig.kalibr`, the estimator's extrinsics are the same bits.
+    let mut cases = 0;
+    for i in 0..24 {
+        let a = f64::from(i) * 0.37 + 0.05;
+        let mut s = Scenario::load("room_figure8_stereo_imu").unwrap();
+        let q0 = nalgebra::UnitQuaternion::from_euler_angles(a, 0.5 * a + 0.1, -a);
+        let r0 = nalgebra::Rotation3::from(q0).into_inner();
+        let q1 = nalgebra::UnitQuaternion::from_euler_angles(-0.3 * a, a + 0.2, 0.7 * a);
+        let c = &mut s.spec.rig.cameras;
+        c[0].T_b_c.rotation = Some(std::array::from_fn(|r| std::array::from_fn(|k| r0[(r, k)])));
+        c[0].T_b_c.quaternion_xyzw = None;
+        c[0].T_b_c.translation_m = [0.0123 * a - 0.1, -0.055 + 0.001 * a, 0.3 / (1.0 + a)];
+        c[1].T_b_c.rotation = None;
+        let v = q1.quaternion().coords;
+        // Written as a person would: not unit to the last bit.
+        c[1].T_b_c.quaternion_xyzw = Some([v.x, v.y, v.z, v.w * (1.0 + 1e-12)]);
+        c[1].T_b_c.translation_m = [0.11 / (2.0 + a), 1e-3 * a, -0.02 * a];
+        if i % 3 == 2 {
+            let text = format!(
+                "calibration_error = {{ rotation_deg = [{}, -0.4, 0.9], translation_m = [0.01, {}, -0.003] }}",
+                0.1 * a,
+                -0.001 * a
+            );
+            c[1].calibration_error = Some(
+                toml::from_str::<toml::Table>(&text).unwrap()["calibration_error"]
+                    .clone()
+                    .try_into()
+                    .unwrap(),
+            );
+        }
+        let want = s.estimator_config().unwrap();
+        let (camchain, _) = scenarios::export::kalibr_files(&s).unwrap();
+        let back = scenario_with(&format!("any-{i}"), &camchain, IMU).unwrap();
+        let got = back.estimator_config().unwrap();
+        for (g, w) in got.cameras.iter().zip(&want.cameras) {
+            let bits = |p: &estimator::geometry::Pose| {
+                let q = p.q.quaternion().coords;
+                [p.p.x, p.p.y, p.p.z, q.x, q.y, q.z, q.w].map(f64::to_bits)
+            };
+            assert_eq!(bits(&g.T_b_c), bits(&w.T_b_c), "rig {i}");
+            cases += 1;
+        }
+    }
+    assert_eq!(cases, 48);
 }
