@@ -22,6 +22,28 @@ pub struct BatchReference {
     pub batch: Vec<(i64, Pose)>,
     /// The batch solve's statistics.
     pub summary: Option<SolverSummary>,
+    /// The window against the full-information filter at checkpoints during the run.
+    pub checkpoints: Vec<FilterCheckpoint>,
+}
+
+/// The window's and the full-information filter's estimates of the newest frame at one
+/// checkpoint (`Estimator::filter_reference`).
+#[derive(Clone, Debug)]
+pub struct FilterCheckpoint {
+    /// The newest frame's time (ns).
+    pub t_ns: i64,
+    /// The window's estimate of it.
+    pub window: Pose,
+    /// The filter's.
+    pub filter: Pose,
+    /// Ground truth there.
+    pub truth: Pose,
+    /// Frames in the filter's batch.
+    pub frames: usize,
+    /// Iterations of its solve.
+    pub iterations: usize,
+    /// Wall time of its solve (s; for the report only).
+    pub time_s: f64,
 }
 
 /// Wall time spent on one frame (s). Measured for reports only.

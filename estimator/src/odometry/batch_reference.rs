@@ -1,8 +1,10 @@
 //! The full-batch references (`record_history`): every recorded frame, or the window's own
-//! keyframes, solved at once without marginalization, on the measurements the window had.
+//! keyframes, solved at once without marginalization, on the measurements the window had; and
+//! the full-information filter, the same batch with the window's initial prior solved while
+//! the run goes on.
 
 use super::features::Observation;
-use super::frame::WindowFrame;
+use super::frame::{BlockRef, Prior, WindowFrame};
 use super::triangulation;
 use super::window::Window;
 use super::{Estimator, Status};
@@ -19,6 +21,22 @@ pub(super) struct History {
     pub(super) keyframes: Vec<WindowFrame>,
     /// Per frame seq: the observations (feature id, observation).
     pub(super) observations: Vec<(u64, Vec<(u64, Observation)>)>,
+    /// The window's prior when it began tracking (the initial gauge and bias prior).
+    pub(super) initial_prior: Option<Prior>,
+}
+
+/// The full-information filter's estimate of the newest frame
+/// ([`Estimator::filter_reference`]).
+#[derive(Clone, Debug)]
+pub struct FilterEstimate {
+    /// The newest frame's time (ns, IMU clock).
+    pub t_ns: i64,
+    /// Its pose as the batch over everything so far solves it.
+    pub pose: Pose,
+    /// Frames in the batch (keyframes marginalized so far, then the window's).
+    pub frames: usize,
+    /// The solve's statistics.
+    pub summary: SolverSummary,
 }
 
 impl Estimator {
@@ -50,16 +68,69 @@ impl Estimator {
         Some(self.solve_batch(history, history.keyframes.iter().chain(window), options))
     }
 
+    /// The full-information filter at this instant: every keyframe marginalized so far and the
+    /// frames in the window now, with every observation and IMU interval they had and the
+    /// window's initial prior, solved at once without marginalization or a fixed lag (starting
+    /// from the estimates the frames had as they left the window). With exact marginalization
+    /// of a linear-Gaussian problem its newest state would be the window's; the gap is what
+    /// linearizing early, the point budget and dropped tracks cost. Requires `record_history`
+    /// and a tracking estimator whose initial prior's frame is among the keyframes; `None`
+    /// otherwise.
+    pub fn filter_reference(&self, options: &SolverOptions) -> Option<FilterEstimate> {
+        let history = self.history.as_ref()?;
+        if self.status != Status::Tracking {
+            return None;
+        }
+        let prior = history.initial_prior.clone()?;
+        let frames: Vec<&WindowFrame> = history
+            .keyframes
+            .iter()
+            .chain(self.window.frames.iter())
+            .collect();
+        let anchored = prior.1.iter().all(|r| match r {
+            BlockRef::Pose(seq) | BlockRef::SpeedBias(seq) => frames.iter().any(|f| f.seq == *seq),
+            _ => false,
+        });
+        if !anchored {
+            return None;
+        }
+        let count = frames.len();
+        let (window, summary) =
+            self.solve_batch_window(history, frames.into_iter(), Some(prior), options);
+        let newest = window.frames.back()?;
+        Some(FilterEstimate {
+            t_ns: newest.t_ns,
+            pose: newest.pose,
+            frames: count,
+            summary,
+        })
+    }
+
     fn solve_batch<'a>(
         &self,
         history: &History,
         frames: impl Iterator<Item = &'a WindowFrame>,
         options: &SolverOptions,
     ) -> (Vec<(i64, Pose)>, SolverSummary) {
+        let (window, summary) = self.solve_batch_window(history, frames, None, options);
+        let poses = window.frames.iter().map(|f| (f.t_ns, f.pose)).collect();
+        (poses, summary)
+    }
+
+    /// The batch over `frames` (chained by their own IMU intervals) with `prior`, solved: the
+    /// window it built, at the solution, and the solve's statistics.
+    fn solve_batch_window<'a>(
+        &self,
+        history: &History,
+        frames: impl Iterator<Item = &'a WindowFrame>,
+        prior: Option<Prior>,
+        options: &SolverOptions,
+    ) -> (Window, SolverSummary) {
         let uses_imu = self.config.suite.uses_imu();
         // A window over the given frames, chained by their own IMU intervals, with today's
         // extrinsics and time offset and no prior.
         let mut window = Window::new(self.window.extrinsics.clone(), self.window.td);
+        window.prior = prior;
         for f in frames {
             let mut f = f.clone();
             if window.frames.is_empty() {
@@ -88,7 +159,6 @@ impl Estimator {
         let mut built = window.build(&self.problem_settings(), imu_active);
         let summary = solve(&mut built.problem, options);
         window.write_back(&built, &self.config);
-        let poses = window.frames.iter().map(|f| (f.t_ns, f.pose)).collect();
-        (poses, summary)
+        (window, summary)
     }
 }

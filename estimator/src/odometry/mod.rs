@@ -41,6 +41,7 @@ use std::sync::Arc;
 use nalgebra::{DMatrix, Vector3};
 
 pub use aiding_fusion::GnssAlignment;
+pub use batch_reference::FilterEstimate;
 use batch_reference::History;
 pub use chi2::chi2_quantile;
 pub use config::{

@@ -96,6 +96,12 @@ impl Estimator {
         let newest_observations = self.window.newest_observations(&built);
         // The newest frame's state and (not yet merged) IMU interval, as solved.
         let newest = self.window.frames.back().expect("just pushed").clone();
+        if self.status == Status::Tracking
+            && let Some(h) = self.history.as_mut().filter(|h| h.initial_prior.is_none())
+        {
+            // The prior the window began tracking with (before anything slid into it).
+            h.initial_prior = self.window.prior.clone();
+        }
         let marg_start = Instant::now();
         self.slide(&built, keyframe, imu_active, t_ns);
         let marginalization_s = marg_start.elapsed().as_secs_f64();

@@ -52,6 +52,7 @@ mod run_bag;
 mod static_trajectory;
 mod summary;
 pub mod window_vs_batch;
+pub mod window_vs_filter;
 mod write;
 
 pub use calibration_error::{CalibrationReport, CalibrationSample, ExtrinsicError};
@@ -68,4 +69,5 @@ pub use run_bag::write_run_bag;
 pub use static_trajectory::StaticTrajectoryReport;
 pub use summary::summary;
 pub use window_vs_batch::BatchReport;
+pub use window_vs_filter::FilterReport;
 pub use write::{RUN_OUTPUT_FILES, plot_data, write_outputs};

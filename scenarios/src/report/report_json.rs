@@ -14,6 +14,7 @@ use super::replay::ReplayReport;
 use super::rest::{self, RestReport, RestSpeeds};
 use super::static_trajectory::StaticTrajectoryReport;
 use super::window_vs_batch::{self, BatchReport};
+use super::window_vs_filter::{self, FilterReport};
 use crate::frontend::FrontendStats;
 use crate::run_output::{EventKind, RunOutput};
 
@@ -173,6 +174,9 @@ pub struct Report {
     /// The window against the full batch over its keyframes (`vio run --batch-reference`;
     /// `null` otherwise).
     pub batch_reference: Option<BatchReport>,
+    /// The window against the full-information filter at checkpoints during the run (`vio run
+    /// --batch-reference`; `null` otherwise).
+    pub filter_reference: Option<FilterReport>,
     /// What the checks of a replayed recording found and did (`null` for generated motions).
     pub replay: Option<ReplayReport>,
     /// The estimated time offset and extrinsics against the truth (`null` unless the scenario
@@ -371,6 +375,7 @@ pub fn build_report(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> Rep
         events,
         faults,
         batch_reference: window_vs_batch::batch_report(run, eval.alignment),
+        filter_reference: window_vs_filter::filter_report(run, eval.alignment),
         replay: ctx.replay.clone(),
         calibration: ctx
             .calibration_truth

@@ -4,7 +4,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::Report;
-use super::window_vs_batch;
+use super::{window_vs_batch, window_vs_filter};
 
 fn opt(v: Option<f64>, digits: usize, unit: &str) -> String {
     match v {
@@ -195,6 +195,9 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
     );
     if let Some(b) = &r.batch_reference {
         let _ = writeln!(s, "batch ref     {}", window_vs_batch::summary_line(b));
+    }
+    if let Some(f) = &r.filter_reference {
+        let _ = writeln!(s, "filter ref    {}", window_vs_filter::summary_line(f));
     }
     for e in r
         .events

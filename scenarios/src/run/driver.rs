@@ -11,6 +11,7 @@ use estimator::{Estimate, Estimator};
 use estimator::{GnssSample, WheelSample};
 use sim::stream::GroundTruth;
 
+use super::filter_checkpoints::{FilterCheckpoints, period};
 use super::{BatchReference, Recorder, RunControl, RunError, RunOptions, RunOutput};
 
 /// One input for the estimator.
@@ -78,6 +79,7 @@ pub(crate) fn drive(
     let mut last_progress = -1.0;
     let mut finished = false;
     let mut now_ns: i64 = 0;
+    let mut checkpoints = FilterCheckpoints::new(period(end_ns));
     while !finished {
         let input = if control.stopped() {
             recorder
@@ -119,6 +121,9 @@ pub(crate) fn drive(
         recorder.absorb(&mut estimator, result, t_ns, call_s, render_s, |e| {
             source.truth(e)
         })?;
+        if options.batch_reference {
+            checkpoints.after_call(&estimator, &recorder.out.frames);
+        }
         let frac = (t_ns as f64 / end_ns.max(1) as f64).clamp(0.0, 1.0);
         if frac - last_progress >= 0.001 {
             control.report(frac);
@@ -132,7 +137,9 @@ pub(crate) fn drive(
     let interrupted = out.interrupted_at_s.is_some();
     source.finish(&mut out, interrupted)?;
     if options.batch_reference {
-        out.batch_reference = Some(batch_reference(&mut estimator));
+        let mut reference = batch_reference(&mut estimator);
+        reference.checkpoints = checkpoints.list;
+        out.batch_reference = Some(reference);
     }
     control.report(1.0);
     Ok((out, recorder.without_truth))
@@ -155,5 +162,6 @@ fn batch_reference(estimator: &mut Estimator) -> BatchReference {
         finalized: estimator.take_finalized(),
         batch,
         summary,
+        checkpoints: Vec::new(),
     }
 }

@@ -4,6 +4,7 @@
 mod driver;
 mod error;
 mod euroc_folder;
+mod filter_checkpoints;
 mod options;
 mod pipeline;
 mod recorded;
@@ -12,7 +13,8 @@ mod ros2_bag;
 mod simulated;
 
 pub use crate::run_output::{
-    BatchReference, Event, EventKind, FrameRecord, FrameTiming, RunOutput, WindowScene,
+    BatchReference, Event, EventKind, FilterCheckpoint, FrameRecord, FrameTiming, RunOutput,
+    WindowScene,
 };
 pub use error::RunError;
 pub use euroc_folder::EurocOptions;
