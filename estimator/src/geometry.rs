@@ -182,6 +182,23 @@ pub fn quat_from_xyzw_checked(s: &[f64]) -> Result<UnitQuaternion<f64>, Geometry
     )))
 }
 
+/// A rig quaternion `[qx, qy, qz, qw]` as written: taken as it is when its squared norm is 1 to
+/// rounding (within [`UNIT_TO_ROUNDING`]: as `vio export` writes a unit quaternion, so that a rig
+/// written out and read back is the same to the last bit), else normalized. Precondition:
+/// finite and near unit (the callers check their input first).
+pub fn quat_from_xyzw_as_written(s: &[f64; 4]) -> UnitQuaternion<f64> {
+    let q = Quaternion::new(s[3], s[0], s[1], s[2]);
+    if (q.norm_squared() - 1.0).abs() <= UNIT_TO_ROUNDING {
+        UnitQuaternion::new_unchecked(q)
+    } else {
+        UnitQuaternion::new_normalize(q)
+    }
+}
+
+/// How far from 1 a quaternion's squared norm may be for [`quat_from_xyzw_as_written`] to take
+/// it as written (rounding of a unit quaternion's components: a few units of `f64::EPSILON`).
+pub const UNIT_TO_ROUNDING: f64 = 4.0 * f64::EPSILON;
+
 /// Writes `q` as `[qx, qy, qz, qw]`.
 #[inline]
 pub fn quat_to_xyzw(q: &UnitQuaternion<f64>, out: &mut [f64]) {

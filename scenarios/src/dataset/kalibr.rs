@@ -440,14 +440,11 @@ pub fn camera_sensors(text: &str, file: &str) -> Result<Vec<CameraSensor>, Kalib
                     )
                 })?;
             }
-            let q = match c.quaternion_xyzw {
-                // Checked when read.
-                Some(q) => estimator::geometry::quat_from_xyzw_checked(&q).ok(),
-                None => None,
-            }
-            .unwrap_or_else(|| {
-                UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&c.r_b_c))
-            });
+            // The quaternion was checked when read; the same rule as a scenario's rig.
+            let q = match &c.quaternion_xyzw {
+                Some(q) => estimator::geometry::quat_from_xyzw_as_written(q),
+                None => UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&c.r_b_c)),
+            };
             Ok(CameraSensor {
                 comment: format!("Kalibr {file} {}", c.name),
                 t_bs: Pose::new(q, c.t_b_c),

@@ -83,11 +83,12 @@ fn yaml_list(v: &[f64]) -> String {
     format!("[{}]", items.join(", "))
 }
 
+/// How far [`camera_from_imu`] looks on each axis (representable steps; its documentation says
+/// 8).
+const STEPS: u32 = 8;
+
 /// The values within [`STEPS`] representable steps of `x` (and `-x` when `x` is a zero), with
 /// their distance in steps, nearest first.
-/// How far [`camera_from_imu`] looks on each axis (representable steps).
-const STEPS: u32 = 8; // the documentation of `camera_from_imu` says 8
-
 fn neighbours(x: f64) -> Vec<(f64, u32)> {
     let mut out = vec![(x, 0)];
     if x == 0.0 {

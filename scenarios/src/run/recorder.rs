@@ -31,14 +31,15 @@ const SCENE_JPEG_QUALITY: u8 = 85;
 /// `image` as a greyscale JPEG; `None` if it cannot be encoded (the scene then has no
 /// background image).
 fn grey_jpeg(image: &ImageView<'_>) -> Option<Vec<u8>> {
-    let (w, h) = (image.width(), image.height());
-    let mut data = Vec::with_capacity(w as usize * h as usize);
-    for y in 0..h as usize {
-        data.extend_from_slice(image.row(y));
-    }
+    let packed = image.to_owned_image();
     let mut out = Vec::new();
     image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, SCENE_JPEG_QUALITY)
-        .encode(&data, w, h, image::ExtendedColorType::L8)
+        .encode(
+            &packed.data,
+            packed.width,
+            packed.height,
+            image::ExtendedColorType::L8,
+        )
         .ok()?;
     Some(out)
 }

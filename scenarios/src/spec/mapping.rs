@@ -24,10 +24,6 @@ use super::schema::*;
 use super::{Origin, Scenario, SpecError};
 use crate::catalog;
 
-/// How far from 1 a rig quaternion's squared norm may be for it to be taken as written
-/// (rounding of a unit quaternion's components: a few units of `f64::EPSILON`).
-const UNIT_TO_ROUNDING: f64 = 4.0 * f64::EPSILON;
-
 impl Scenario {
     /// The projection model of camera `i`.
     pub(super) fn camera_model(&self, i: usize) -> Result<Arc<dyn CameraModel>, SpecError> {
@@ -149,8 +145,8 @@ impl Scenario {
         Ok(Arc::new(cam))
     }
 
-    /// `T_b_c` of camera `i` (a quaternion whose squared norm is within
-    /// [`UNIT_TO_ROUNDING`] of 1 is taken as it is, others are normalized).
+    /// `T_b_c` of camera `i` (a quaternion as written:
+    /// [`estimator::geometry::quat_from_xyzw_as_written`]).
     pub(super) fn extrinsic(&self, i: usize) -> Result<Pose, SpecError> {
         let e = &self.spec.rig.cameras[i].T_b_c;
         let key = format!("rig.cameras[{i}].T_b_c");
@@ -179,13 +175,7 @@ impl Scenario {
                         "expected a unit quaternion [qx, qy, qz, qw] (norm 1 to 1e-3)",
                     ));
                 }
-                // Unit to rounding (as written by `vio export`): taken as it is, so that a
-                // rig written out and read back is the same to the last bit.
-                if (quat.norm_squared() - 1.0).abs() <= UNIT_TO_ROUNDING {
-                    UnitQuaternion::new_unchecked(quat)
-                } else {
-                    UnitQuaternion::new_normalize(quat)
-                }
+                estimator::geometry::quat_from_xyzw_as_written(&q)
             }
             _ => {
                 return Err(self.error(
