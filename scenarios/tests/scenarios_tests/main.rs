@@ -1,4 +1,4 @@
-//! The scenarios crate's tests: the `vio` CLI, scenario files and bad input, datasets, Kalibr rigs, metrics, reports, regressions, sweeps, the IMU model.
+//! The scenarios crate's tests: the `vio` CLI, scenario files and bad input, datasets, Kalibr rigs, metrics, reports, regressions, sweeps, the IMU model, the OpenVINS peer harness.
 //!
 //! One test binary per crate (each module is one former `tests/*.rs` file): one link instead of
 //! one per file, and the tests of every module share the cores. Run one module with
@@ -17,6 +17,7 @@ mod imu_model;
 mod input_fuzz;
 mod kalibr;
 mod metrics;
+mod peer_openvins;
 mod recorded_imu_input;
 mod regress;
 mod report;

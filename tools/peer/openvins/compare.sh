@@ -1,0 +1,83 @@
+#!/usr/bin/env bash
+# Scores this project's estimator and OpenVINS on identical exported measurements.
+#
+#   bash tools/peer/openvins/compare.sh SCENARIO SEED [DURATION_S]
+#
+# 1. `vio export SCENARIO --seed SEED` writes the IMU log, the feature tracks (realistic ids: a
+#    track lost and found again is a new id) and the ground truth as an ASL folder, with the rig as
+#    Kalibr files;
+# 2. `vio euroc` runs our estimator on that folder's tracks, with the scenario's settings;
+# 3. `ov_feature_driver` (build.sh) runs OpenVINS on the same tracks and IMU samples, with
+#    estimator_config.yaml beside this script (the pixel σ: PIXEL_SIGMA, default 1);
+# 4. `vio eval` scores both against the same ground truth with SE(3) alignment (evo's `-a`) on
+#    the frames both produced.
+# Prints one line and appends it, as CSV, to $OUT_ROOT/results.csv (header written once).
+# Both runs are single-threaded and deterministic: the same command prints the same figures
+# (timings aside).
+set -euo pipefail
+[ $# -ge 2 ] || { echo "usage: compare.sh SCENARIO SEED [DURATION_S]" >&2; exit 2; }
+scenario=$1 seed=$2 duration=${3:-}
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(cd "$here/../../.." && pwd)
+work=${OPENVINS_WORK:-$root/target/peer/openvins}
+out_root=${OUT_ROOT:-$work/runs}
+driver=${OV_DRIVER:-$work/build-driver/ov_feature_driver}
+vio=${VIO:-$root/target/release/vio}
+sigma=${PIXEL_SIGMA:-1}
+[ -x "$driver" ] || { echo "compare.sh: no $driver: run tools/peer/openvins/build.sh first" >&2; exit 2; }
+[ -x "$vio" ] || (cd "$root" && cargo build --release --locked -p scenarios --bin vio >&2)
+
+settings=$scenario
+[ -f "$settings" ] || settings=$root/scenarios/catalog/$scenario.toml
+[ -f "$settings" ] || { echo "compare.sh: no scenario file $scenario or $settings" >&2; exit 2; }
+name=$(basename "$settings" .toml)
+suite=$(sed -n 's/^suite *= *"\([a-z_]*\)".*/\1/p' "$settings" | head -n1)
+case "$suite" in
+  stereo_imu | mono_imu) ;;
+  *) echo "compare.sh: $name is a $suite scenario; OpenVINS needs an IMU and cameras (stereo_imu, mono_imu)" >&2; exit 2 ;;
+esac
+cameras=2
+[ "$suite" = mono_imu ] && cameras=1
+
+run=$out_root/$name-s$seed${duration:+-${duration}s}
+rm -rf "$run"
+mkdir -p "$run/ov"
+dur_args=()
+[ -n "$duration" ] && dur_args=(--duration "$duration")
+
+"$vio" export "$settings" --seed "$seed" "${dur_args[@]}" --out "$run/export" >"$run/export.log"
+
+# OpenVINS reads Kalibr files through OpenCV, which wants the %YAML line and a block sequence
+# indented under its key, and IMU intrinsics keys that Kalibr writes only for its
+# scale-misalignment models (identity here: the exported IMU is calibrated).
+indent_sequences() { sed 's/^\( *\)- /\1  - /'; }
+{ echo "%YAML:1.0"; indent_sequences <"$run/export/camchain-imucam.yaml"; } >"$run/ov/kalibr_imucam_chain.yaml"
+{
+  echo "%YAML:1.0"
+  cat "$run/export/imu.yaml"
+  for m in Tw R_IMUtoGYRO Ta R_IMUtoACC; do
+    printf '  %s:\n  - [1.0, 0.0, 0.0]\n  - [0.0, 1.0, 0.0]\n  - [0.0, 0.0, 1.0]\n' "$m"
+  done
+  printf '  Tg:\n  - [0.0, 0.0, 0.0]\n  - [0.0, 0.0, 0.0]\n  - [0.0, 0.0, 0.0]\n'
+} | indent_sequences >"$run/ov/kalibr_imu_chain.yaml"
+sed -e "s/@PIXEL_SIGMA@/$sigma/" -e "s/@CAMERAS@/$cameras/" "$here/estimator_config.yaml" >"$run/ov/estimator_config.yaml"
+
+"$vio" euroc "$run/export" --suite "$suite" --features "$run/export/features.csv" --settings "$settings" \
+  --pixel-sigma "$sigma" --out "$run/ours" >"$run/ours.log" 2>&1
+"$driver" "$run/ov/estimator_config.yaml" "$run/export" "$run/openvins.tum" "$run/openvins_timing.csv" \
+  >"$run/openvins.log" 2>&1 || { tail -n 20 "$run/openvins.log" >&2; exit 1; }
+
+"$vio" eval --gt "$run/ours/groundtruth.tum" --est "$run/ours/estimate.tum" --common-with "$run/openvins.tum" \
+  >"$run/eval.txt"
+# The first ATE table is ours, the second OpenVINS's, both on the common frames.
+read -r ours_ate ov_ate < <(awk '/^ATE trans/ {printf "%s ", $5} END {print ""}' "$run/eval.txt")
+read -r ours_rot ov_rot < <(awk '/^ATE rot/ {printf "%s ", $5} END {print ""}' "$run/eval.txt")
+common=$(sed -n 's/^common frames: \([0-9]*\) of.*/\1/p' "$run/eval.txt")
+ours_ms=$(python3 -c "import json,sys; print('%.3f' % json.load(open(sys.argv[1]))['timing_ms']['backend']['median'])" "$run/ours/report.json")
+ov_ms=$(sed -n 's/.*after initialization: median \([0-9.]*\) ms.*/\1/p' "$run/openvins.log")
+
+printf '%s seed %s: %s common frames; ATE ours %.4f m %.3f deg, OpenVINS %.4f m %.3f deg; per frame ours %s ms, OpenVINS %s ms\n' \
+  "$name" "$seed" "$common" "$ours_ate" "$ours_rot" "$ov_ate" "$ov_rot" "$ours_ms" "$ov_ms"
+csv=$out_root/results.csv
+[ -f "$csv" ] || echo "scenario,seed,duration_s,common_frames,ours_ate_m,ours_rot_deg,openvins_ate_m,openvins_rot_deg,ours_backend_ms_median,openvins_ms_median" >"$csv"
+echo "$name,$seed,${duration:-full},$common,$ours_ate,$ours_rot,$ov_ate,$ov_rot,$ours_ms,$ov_ms" >>"$csv"
