@@ -265,24 +265,24 @@ impl Estimator {
     /// After a solve of `built` (its kept linearization `lin`): releases every held quantity the
     /// window now determines (see the module documentation), each with a
     /// `CalibrationReleased` event. Only while tracking with the IMU and after the warm-up.
+    /// Returns the σ each quantity would have if free, where they were computed (while one is
+    /// held, after the warm-up).
     pub(super) fn release_calibration(
         &mut self,
         t_ns: i64,
         built: &WindowProblem,
         lin: Option<&Linearization>,
         imu_active: bool,
-    ) {
+    ) -> Option<FreeSigmas> {
         let gates = self.window.calibration;
         if !imu_active || self.status != Status::Tracking || !gates.any_held() {
-            return;
+            return None;
         }
         let warmup_ns = (self.config.calibration_warmup_s * 1e9).round() as i64;
         if self.tracking_since.is_none_or(|t0| t_ns - t0 < warmup_ns) {
-            return;
+            return None;
         }
-        let Some(sigmas) = lin.and_then(|lin| free_sigmas(built, lin, gates, &self.config)) else {
-            return;
-        };
+        let sigmas = lin.and_then(|lin| free_sigmas(built, lin, gates, &self.config))?;
         let c = &self.config;
         let checks = [
             (
@@ -318,6 +318,7 @@ impl Estimator {
                 });
             }
         }
+        Some(sigmas)
     }
 }
 

@@ -129,6 +129,10 @@ pub struct Estimate {
     /// definite: 15×15 over `[δp (world), δθ (body, right perturbation), δv, δba, δbg]` for
     /// IMU suites, 6×6 over `[δp, δθ]` for stereo-only.
     pub covariance: Option<DMatrix<f64>>,
+    /// With `EstimatorConfig::compute_covariance`, when the time offset is a variable: its
+    /// marginal σ (s), from the same factorization as `covariance`; while it is held (see
+    /// `calibration_gates`), the σ it would have if free (`None` before the warm-up ends).
+    pub td_sigma_s: Option<f64>,
     /// Whether the frame was detected at rest (its velocity constrained to zero; see
     /// `EstimatorConfig::zero_velocity`).
     pub at_rest: bool,

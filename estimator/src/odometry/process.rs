@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use nalgebra::{DMatrix, UnitQuaternion, Vector3};
 
+use super::calibration_gates::Gate;
 use super::frame::WindowFrame;
 use super::health::FailureReason;
 use super::window_information::{self, RelativePose};
@@ -27,6 +28,7 @@ struct Solved {
     marginalization_s: f64,
     covariance: Option<DMatrix<f64>>,
     relative_pose: Option<RelativePose>,
+    td_sigma_s: Option<f64>,
 }
 
 impl Estimator {
@@ -87,8 +89,16 @@ impl Estimator {
 
         // 7. What the solve gives: calibration released, the newest covariance, fixes for the
         // GNSS alignment.
-        self.release_calibration(t_ns, &built, linearization.as_ref(), imu_active);
-        let (covariance, relative_pose) = self.newest_covariance(&built, linearization.as_ref());
+        let td_held = self.window.calibration.td == Gate::Held;
+        let free = self.release_calibration(t_ns, &built, linearization.as_ref(), imu_active);
+        let (covariance, relative_pose, td_sigma_s) =
+            self.newest_covariance(&built, linearization.as_ref());
+        // The time offset's σ: while the solve held it, what the data alone give (σ if free);
+        // the hold's own σ says nothing about how well the offset is known.
+        let td_sigma_s = match (td_held, free) {
+            (true, free) => free.filter(|_| covariance.is_some()).map(|f| f.td_s),
+            (false, _) => td_sigma_s,
+        };
         self.collect_alignment_fixes(imu_active, t_ns);
 
         // 8. Slide: marginalize or drop a frame, reject outliers, judge the rejections.
@@ -130,6 +140,7 @@ impl Estimator {
             marginalization_s,
             covariance,
             relative_pose,
+            td_sigma_s,
         };
         self.estimate(&newest, stamp_ns, keyframe, start, Some(solved))
     }
@@ -365,15 +376,17 @@ impl Estimator {
         &self,
         built: &WindowProblem,
         linearization: Option<&Linearization>,
-    ) -> (Option<DMatrix<f64>>, Option<RelativePose>) {
+    ) -> (Option<DMatrix<f64>>, Option<RelativePose>, Option<f64>) {
         match linearization {
             Some(lin) if self.config.compute_covariance => {
                 let frames: Vec<&WindowFrame> = self.window.frames.iter().collect();
                 let interval_s = self.config.relative_pose_interval_s;
                 window_information::newest_covariance(built, lin, &frames, interval_s)
-                    .map_or((None, None), |(c, r)| (Some(c), r))
+                    .map_or((None, None, None), |n| {
+                        (Some(n.covariance), n.relative_pose, n.td_sigma_s)
+                    })
             }
-            _ => (None, None),
+            _ => (None, None, None),
         }
     }
 
@@ -455,6 +468,7 @@ impl Estimator {
             at_rest: self.window.rest.contains_key(&newest.seq),
             relative_pose: solved.as_ref().and_then(|s| s.relative_pose.clone()),
             gnss_alignment: self.window.aiding.alignment(),
+            td_sigma_s: solved.as_ref().and_then(|s| s.td_sigma_s),
             covariance: solved.and_then(|s| s.covariance),
         }
     }

@@ -23,18 +23,28 @@ pub struct RelativePose {
     pub covariance: Matrix6<f64>,
 }
 
+/// What the window says of its newest state's uncertainty: see [`newest_covariance`].
+pub(super) struct NewestUncertainty {
+    /// Pose and speed-bias covariance ([`super::Estimate::covariance`]).
+    pub covariance: DMatrix<f64>,
+    /// The newest pose relative to an earlier window frame, when there is a variable one.
+    pub relative_pose: Option<RelativePose>,
+    /// The time offset's marginal σ (s), when it is a variable.
+    pub td_sigma_s: Option<f64>,
+}
+
 /// The newest state's marginal covariance (pose and speed-bias, see
-/// [`super::Estimate::covariance`]) and its pose relative to the window frame closest to
-/// `interval_s` before it, from the window solve's last linearization `lin` (its landmarks
-/// eliminated by the Schur complement). One reduced-system factorization serves both. `None`
-/// if a block of the newest frame is constant or absent, or the information is not positive
-/// definite; the relative pose is `None` when there is no earlier variable pose.
+/// [`super::Estimate::covariance`]), its pose relative to the window frame closest to
+/// `interval_s` before it and the time offset's marginal σ, from the window solve's last
+/// linearization `lin` (its landmarks eliminated by the Schur complement). One reduced-system
+/// factorization serves all three. `None` if a block of the newest frame is constant or
+/// absent, or the information is not positive definite.
 pub(super) fn newest_covariance(
     built: &WindowProblem,
     lin: &Linearization,
     frames: &[&WindowFrame],
     interval_s: f64,
-) -> Option<(DMatrix<f64>, Option<RelativePose>)> {
+) -> Option<NewestUncertainty> {
     let (newest, earlier) = frames.split_last()?;
     let mut coords = Vec::new();
     for r in [BlockRef::Pose(newest.seq), BlockRef::SpeedBias(newest.seq)] {
@@ -59,6 +69,10 @@ pub(super) fn newest_covariance(
             .expect("filtered above");
         coords.extend(tangent(&built.problem, id));
     }
+    let td = built.variable_block(BlockRef::Td).map(|id| {
+        coords.push((id, 0));
+        coords.len() - 1
+    });
     let cov = lin.marginal_covariance(&coords)?;
     let relative = from.map(|a| {
         // Joint covariance of [pose a, pose b] (tangent order of each: δp world, δθ body).
@@ -73,7 +87,11 @@ pub(super) fn newest_covariance(
         }
         relative_pose(a.t_ns, &a.pose, &newest.pose, &joint)
     });
-    Some((cov.view((0, 0), (own, own)).into_owned(), relative))
+    Some(NewestUncertainty {
+        covariance: cov.view((0, 0), (own, own)).into_owned(),
+        relative_pose: relative,
+        td_sigma_s: td.map(|k| cov[(k, k)].max(0.0).sqrt()),
+    })
 }
 
 fn tangent(problem: &Problem, id: BlockId) -> impl Iterator<Item = (BlockId, usize)> {

@@ -24,6 +24,8 @@ pub struct CalibrationSample {
     pub t_s: f64,
     /// Estimated minus true time offset (ms).
     pub td_error_ms: f64,
+    /// The time offset's marginal σ (ms), where the estimator gave one (`compute_covariance`).
+    pub td_sigma_ms: Option<f64>,
     /// The largest camera rotation error (deg).
     pub rotation_error_deg: f64,
     /// The largest camera translation error (mm).
@@ -41,6 +43,30 @@ pub struct CalibrationReport {
     pub cameras: Vec<ExtrinsicError>,
     /// The errors at the first estimate of every whole second.
     pub history: Vec<CalibrationSample>,
+    /// How far the time offset strayed from the truth after the start-up.
+    pub td_excursion: Option<TdExcursion>,
+}
+
+/// How long after the first estimate the start-up lasts for [`TdExcursion`] (s).
+pub const TD_EXCURSION_AFTER_S: f64 = 1.0;
+
+/// The time offset's largest error over every estimate from [`TD_EXCURSION_AFTER_S`] after the
+/// first one on: a right offset should stay within a few of its own σ of the truth.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct TdExcursion {
+    /// The start-up left out (s after the first estimate).
+    pub after_s: f64,
+    /// The largest |estimated − true| (ms).
+    pub max_error_ms: f64,
+    /// When it was reached (s).
+    pub at_s: f64,
+    /// The largest |estimated − true| / σ over the estimates that carry a σ; `None` without
+    /// (a run without `compute_covariance`).
+    pub max_error_sigmas: Option<f64>,
+    /// The mean of (error / σ)² over the same estimates: about 1 where the σ is honest (the
+    /// time offset's NEES; neighbouring estimates are strongly correlated, so one run's mean
+    /// spreads widely around 1).
+    pub mean_squared_sigmas: Option<f64>,
 }
 
 fn extrinsic_error(est: &Pose, truth: &Pose) -> ExtrinsicError {
@@ -64,6 +90,7 @@ pub fn calibration_report(truth: &CalibrationTruth, run: &RunOutput) -> Option<C
             CalibrationSample {
                 t_s: e.t_ns as f64 * 1e-9,
                 td_error_ms: (e.td_s - truth.td_at(e.t_ns)) * 1e3,
+                td_sigma_ms: e.td_sigma_s.map(|s| s * 1e3),
                 rotation_error_deg: max(|x| x.rotation_error_deg),
                 translation_error_mm: max(|x| x.translation_error_mm),
             },
@@ -81,11 +108,44 @@ pub fn calibration_report(truth: &CalibrationTruth, run: &RunOutput) -> Option<C
             next_s = t.floor() + 1.0;
         }
     }
+    let first_ns = run.frames.first()?.estimate.t_ns;
+    let after_ns = first_ns + (TD_EXCURSION_AFTER_S * 1e9).round() as i64;
+    let mut td_excursion: Option<TdExcursion> = None;
+    let (mut sum_sq, mut with_sigma) = (0.0, 0usize);
+    for e in run.frames.iter().map(|f| &f.estimate) {
+        if e.t_ns < after_ns {
+            continue;
+        }
+        let error_ms = ((e.td_s - truth.td_at(e.t_ns)) * 1e3).abs();
+        let sigmas = e
+            .td_sigma_s
+            .map(|s| error_ms / (s * 1e3).max(f64::MIN_POSITIVE));
+        let x = td_excursion.get_or_insert(TdExcursion {
+            after_s: TD_EXCURSION_AFTER_S,
+            max_error_ms: error_ms,
+            at_s: e.t_ns as f64 * 1e-9,
+            max_error_sigmas: None,
+            mean_squared_sigmas: None,
+        });
+        if error_ms > x.max_error_ms {
+            x.max_error_ms = error_ms;
+            x.at_s = e.t_ns as f64 * 1e-9;
+        }
+        if let Some(k) = sigmas {
+            x.max_error_sigmas = Some(x.max_error_sigmas.map_or(k, |m| m.max(k)));
+            sum_sq += k * k;
+            with_sigma += 1;
+        }
+    }
+    if let Some(x) = td_excursion.as_mut().filter(|_| with_sigma > 0) {
+        x.mean_squared_sigmas = Some(sum_sq / with_sigma as f64);
+    }
     Some(CalibrationReport {
         td_true_ms: truth.td_at(last.estimate.t_ns) * 1e3,
         td_error_ms: end.td_error_ms,
         cameras,
         history,
+        td_excursion,
     })
 }
 

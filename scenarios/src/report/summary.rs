@@ -93,6 +93,17 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
             worst(|e| e.rotation_error_deg),
             worst(|e| e.translation_error_mm)
         );
+        if let Some(x) = &c.td_excursion {
+            let sigmas = match (x.max_error_sigmas, x.mean_squared_sigmas) {
+                (Some(k), Some(m)) => format!(", at most {k:.1} σ (mean squared {m:.2})"),
+                _ => String::new(),
+            };
+            let _ = writeln!(
+                s,
+                "              td after {:.0} s: largest error {:.3} ms at {:.1} s{sigmas}",
+                x.after_s, x.max_error_ms, x.at_s
+            );
+        }
     }
     if let Some(z) = &r.rest {
         let _ = writeln!(

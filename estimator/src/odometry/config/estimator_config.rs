@@ -234,10 +234,16 @@ pub struct EstimatorConfig {
     /// points (states carried through marginalization, as OKVIS and Basalt keep landmarks and
     /// OpenVINS its SLAM features), up to this many in the window; the rest end with their
     /// anchor. Each point adds 3 coordinates to the dense reduced system. 0: none. Measured
-    /// on the default figure-eight (60 s, seeds 1 / 2 / 3, 2026-11-25): 30 (the default)
-    /// window/batch ATE ratio 2.11 / 3.24 / 1.26 at 2.8–3.0 ms per frame; 50: 1.10 / 1.77 /
-    /// 1.38 at 2.8–2.9 ms (3.5 ms in the window bench, whose world fills all 50); 100: 1.17 /
-    /// 1.24 / 1.30 at 4.7–5.1 ms (README, "How many persistent points").
+    /// on the default figure-eight (60 s, seeds 1 / 2 / 3, 2026-11-25): 30 window/batch ATE
+    /// ratio 2.11 / 3.24 / 1.26 at 2.8–3.0 ms per frame; 50: 1.10 / 1.77 / 1.38 at 2.8–2.9 ms
+    /// (3.5 ms in the window bench, whose world fills all 50); 100: 1.17 / 1.24 / 1.30 at
+    /// 4.7–5.1 ms (book, "Window against batch"). Seeds 1–10 of the figure-eight and of the
+    /// V2_02 replay (2026-11-27, `vio sweep` over 30 / 40 / 50 / 60 / 100): mean ATE 8.4 /
+    /// 7.4 / 7.2 / 6.9 / 5.5 mm on the figure-eight (worst seed 12.1 / 10.0 / 13.4 / 11.3 /
+    /// 7.4 mm), 4.9 / 4.7 / 4.5 / 4.5 / 3.9 mm on the replay. Still 30: at 60 the time offset
+    /// wanders further (−1.56 ms at 22 s on the figure-eight, seed 1) and two injected faults
+    /// end in the IMU χ² reset instead of the checks built for them (book, "Window against
+    /// batch").
     pub max_persistent_points: usize,
     /// First-estimate Jacobians: every factor's Jacobians with respect to a state in the
     /// marginalization prior are evaluated at the prior's linearization point of that state
