@@ -190,7 +190,7 @@ pub(super) fn bench_command(quick: bool, out: Option<PathBuf>, one: Option<Strin
     // Ctrl-C reaches the child too (one process group): it stops there, and so does the table.
     let _ = super::interrupt::on_ctrl_c("stopping: the table and bench.json cover the rows done");
     let mut rows = Vec::new();
-    for &(name, ..) in bench::SCENARIOS {
+    for name in bench::SCENARIOS.iter().map(|c| c.name) {
         if super::interrupt::interrupted() {
             break;
         }
