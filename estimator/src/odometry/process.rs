@@ -95,9 +95,10 @@ impl Estimator {
             self.newest_covariance(&built, linearization.as_ref());
         // The time offset's σ: while the solve held it, what the data alone give (σ if free);
         // the hold's own σ says nothing about how well the offset is known.
-        let td_sigma_s = match (td_held, free) {
-            (true, free) => free.filter(|_| covariance.is_some()).map(|f| f.td_s),
-            (false, _) => td_sigma_s,
+        let td_sigma_s = if td_held {
+            free.filter(|_| covariance.is_some()).map(|f| f.td_s)
+        } else {
+            td_sigma_s
         };
         self.collect_alignment_fixes(imu_active, t_ns);
 

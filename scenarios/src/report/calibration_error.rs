@@ -78,6 +78,7 @@ fn extrinsic_error(est: &Pose, truth: &Pose) -> ExtrinsicError {
 
 /// The calibration report of `run` against `truth`; `None` without estimates.
 pub fn calibration_report(truth: &CalibrationTruth, run: &RunOutput) -> Option<CalibrationReport> {
+    let td_error_ms = |e: &estimator::Estimate| (e.td_s - truth.td_at(e.t_ns)) * 1e3;
     let sample = |e: &estimator::Estimate| {
         let errors: Vec<ExtrinsicError> = e
             .T_b_c
@@ -89,7 +90,7 @@ pub fn calibration_report(truth: &CalibrationTruth, run: &RunOutput) -> Option<C
         (
             CalibrationSample {
                 t_s: e.t_ns as f64 * 1e-9,
-                td_error_ms: (e.td_s - truth.td_at(e.t_ns)) * 1e3,
+                td_error_ms: td_error_ms(e),
                 td_sigma_ms: e.td_sigma_s.map(|s| s * 1e3),
                 rotation_error_deg: max(|x| x.rotation_error_deg),
                 translation_error_mm: max(|x| x.translation_error_mm),
@@ -108,44 +109,42 @@ pub fn calibration_report(truth: &CalibrationTruth, run: &RunOutput) -> Option<C
             next_s = t.floor() + 1.0;
         }
     }
-    let first_ns = run.frames.first()?.estimate.t_ns;
-    let after_ns = first_ns + (TD_EXCURSION_AFTER_S * 1e9).round() as i64;
-    let mut td_excursion: Option<TdExcursion> = None;
-    let (mut sum_sq, mut with_sigma) = (0.0, 0usize);
-    for e in run.frames.iter().map(|f| &f.estimate) {
-        if e.t_ns < after_ns {
-            continue;
-        }
-        let error_ms = ((e.td_s - truth.td_at(e.t_ns)) * 1e3).abs();
-        let sigmas = e
-            .td_sigma_s
-            .map(|s| error_ms / (s * 1e3).max(f64::MIN_POSITIVE));
-        let x = td_excursion.get_or_insert(TdExcursion {
-            after_s: TD_EXCURSION_AFTER_S,
-            max_error_ms: error_ms,
-            at_s: e.t_ns as f64 * 1e-9,
-            max_error_sigmas: None,
-            mean_squared_sigmas: None,
-        });
-        if error_ms > x.max_error_ms {
-            x.max_error_ms = error_ms;
-            x.at_s = e.t_ns as f64 * 1e-9;
-        }
-        if let Some(k) = sigmas {
-            x.max_error_sigmas = Some(x.max_error_sigmas.map_or(k, |m| m.max(k)));
-            sum_sq += k * k;
-            with_sigma += 1;
-        }
-    }
-    if let Some(x) = td_excursion.as_mut().filter(|_| with_sigma > 0) {
-        x.mean_squared_sigmas = Some(sum_sq / with_sigma as f64);
-    }
+    let after_ns = run.frames.first()?.estimate.t_ns + (TD_EXCURSION_AFTER_S * 1e9).round() as i64;
+    let td_excursion = td_excursion(
+        run.frames
+            .iter()
+            .map(|f| &f.estimate)
+            .filter(|e| e.t_ns >= after_ns)
+            .map(|e| (e.t_ns as f64 * 1e-9, td_error_ms(e).abs(), e.td_sigma_s)),
+    );
     Some(CalibrationReport {
         td_true_ms: truth.td_at(last.estimate.t_ns) * 1e3,
         td_error_ms: end.td_error_ms,
         cameras,
         history,
         td_excursion,
+    })
+}
+
+/// [`TdExcursion`] over the estimates after the start-up, each `(t_s, |error| ms, σ s)`;
+/// `None` without any.
+fn td_excursion(samples: impl Iterator<Item = (f64, f64, Option<f64>)>) -> Option<TdExcursion> {
+    let samples: Vec<_> = samples.collect();
+    // The first of equal largest errors.
+    let &(at_s, max_error_ms, _) = samples
+        .iter()
+        .reduce(|a, b| if b.1 > a.1 { b } else { a })?;
+    let sigmas: Vec<f64> = samples
+        .iter()
+        .filter_map(|&(_, error_ms, s)| s.map(|s| error_ms / (s * 1e3).max(f64::MIN_POSITIVE)))
+        .collect();
+    let stats = crate::metrics::Stats::from_errors(&sigmas);
+    Some(TdExcursion {
+        after_s: TD_EXCURSION_AFTER_S,
+        max_error_ms,
+        at_s,
+        max_error_sigmas: stats.map(|s| s.max),
+        mean_squared_sigmas: stats.map(|s| s.sse / s.count as f64),
     })
 }
 

@@ -37,16 +37,10 @@ pub struct FilterReport {
     pub solve_time_s: f64,
 }
 
-fn median_and_max(mut v: Vec<f64>) -> [f64; 2] {
-    v.sort_by(f64::total_cmp);
-    let median = if v.is_empty() {
-        0.0
-    } else if v.len() % 2 == 1 {
-        v[v.len() / 2]
-    } else {
-        0.5 * (v[v.len() / 2 - 1] + v[v.len() / 2])
-    };
-    [median, v.last().copied().unwrap_or(0.0)]
+/// Median and largest of `v` (evo's statistics: an even count's median is the mean of the two
+/// middle values); `v` is never empty here.
+fn median_and_max(v: &[f64]) -> [f64; 2] {
+    metrics::Stats::from_errors(v).map_or([0.0; 2], |s| [s.median, s.max])
 }
 
 /// Compares the run's filter checkpoints with the window; `None` without a batch reference or
@@ -61,11 +55,11 @@ pub fn filter_report(run: &RunOutput, alignment: Alignment) -> Option<FilterRepo
     let filter: Vec<Pose> = checkpoints.iter().map(|c| c.filter).collect();
     let aw = metrics::ate(&truth, &window, alignment).ok()?;
     let af = metrics::ate(&truth, &filter, alignment).ok()?;
-    let position = checkpoints
+    let position: Vec<f64> = checkpoints
         .iter()
         .map(|c| (c.window.p - c.filter.p).norm())
         .collect();
-    let rotation = checkpoints
+    let rotation: Vec<f64> = checkpoints
         .iter()
         .map(|c| c.window.q.angle_to(&c.filter.q).to_degrees())
         .collect();
@@ -75,8 +69,8 @@ pub fn filter_report(run: &RunOutput, alignment: Alignment) -> Option<FilterRepo
         ate_filter_m: af.translation.rmse,
         ratio: aw.translation.rmse / af.translation.rmse,
         ate_rot_deg: [aw.rotation_deg.rmse, af.rotation_deg.rmse],
-        position_gap_m: median_and_max(position),
-        rotation_gap_deg: median_and_max(rotation),
+        position_gap_m: median_and_max(&position),
+        rotation_gap_deg: median_and_max(&rotation),
         last_batch_frames: checkpoints.last().map_or(0, |c| c.frames),
         solve_time_s: checkpoints.iter().map(|c| c.time_s).sum(),
     })

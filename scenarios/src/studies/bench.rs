@@ -54,11 +54,8 @@ pub const SCENARIOS: &[BenchCase] = &[
     // "Window against batch"): what that budget costs in a run.
     BenchCase {
         name: "room_figure8_stereo_imu_100_points",
-        scenario: "room_figure8_stereo_imu",
-        mode: "features",
-        duration_s: 30.0,
-        quick_duration_s: 8.0,
         estimator: "max_persistent_points = 100",
+        ..case("room_figure8_stereo_imu", "features", 30.0, 8.0)
     },
     case("room_figure8_mono_imu", "features", 30.0, 8.0),
     case("room_figure8_stereo", "features", 30.0, 8.0),
