@@ -253,26 +253,28 @@ fn a_diverging_window_fails_the_imu_chi2_test() {
     assert!(ate < 0.5, "ATE {ate} m");
 }
 
-/// The same divergence with the time offset estimated (the default) and the frames' first
-/// estimates never renewed (`frame_relinearize_fraction = inf`, the setting this was measured
-/// with; by default the χ² test above resets it at 3.50 s, before the offset moves): released
-/// at 3.50 s, the offset jumped to 113 ms in the next solve, where it absorbed what the χ² test
-/// caught above (without the health limit on it the run went on to 211 ms and 0.91 m ATE in
-/// 8.4 s, no reset). The limit (100 ms from the configured offset) resets the window at 3.55 s;
-/// measured ATE 0.268 m.
+/// The same divergence with the time offset estimated (the default), the frames' first
+/// estimates never renewed (`frame_relinearize_fraction = inf`, the setting this was found
+/// with) and the IMU χ² test off (`health.imu_chi2_z = inf`; on, it resets this window at
+/// 3.30 s, before the offset can move): released at 3.50 s, the offset jumps past 100 ms in
+/// the next solves, where it absorbs what the χ² test catches above (without the health limit
+/// on it the run went on to 211 ms and 0.91 m ATE in 8.4 s, no reset). The limit (100 ms from
+/// the configured offset) resets the window at 3.59 s (106.8 ms); measured ATE 0.298 m, final
+/// offset error 4.8 ms. Bounds: the reset within 0.5 s of the release, ATE measured + 50 %.
 #[test]
 fn a_time_offset_that_absorbs_a_divergence_fails_its_health_check() {
-    let r = run_with_1cm_baseline("frame_relinearize_fraction = inf");
+    let r = run_with_1cm_baseline(
+        "frame_relinearize_fraction = inf\n\n[estimator.health]\nimu_chi2_z = inf",
+    );
     let resets = reset_events(&r);
     assert!(
         resets
             .first()
-            .is_some_and(|e| e.detail.starts_with("time offset") && e.t_s < 3.6),
+            .is_some_and(|e| e.detail.starts_with("time offset") && e.t_s < 4.0),
         "{resets:?}"
     );
-    // Measured + 50 %: 0.91 m without the limit.
     let ate = r.ate_rmse_m.unwrap();
-    assert!(ate < 0.4, "ATE {ate} m");
+    assert!(ate < 0.45, "ATE {ate} m");
     let td_error_ms = r.calibration.as_ref().unwrap().td_error_ms;
     assert!(td_error_ms.abs() < 10.0, "final td error {td_error_ms} ms");
 }
@@ -374,12 +376,15 @@ fn a_dead_camera_stays_dead_with_the_time_offset_estimated() {
 /// Mono+IMU on the EuRoC V2_02 replay with an unmodelled 35 ms camera–IMU offset, the
 /// initialization's offset search off and the frames' first estimates never renewed
 /// (`frame_relinearize_fraction = inf`; renewed, the default, this window does not diverge:
-/// 0.45 m, no reset), seed 1: the window drifts away from what the camera sees without failing
-/// the IMU χ² test (it reset once at 8.5 s, then ran to 12 m/s and 13.2 m
-/// ATE, its IMU χ² 0.2 for 150 dof: carried by the IMU alone). Its reprojection test rejected
-/// 12–25 % of the tracks per solve from 12 s on; the rejection monitor resets it at 12.65 s and
-/// the estimator initializes again from the data (measured: ATE 1.54 m over the run, the
-/// drift before the reset included). Bound: measured + 50 %.
+/// 0.45 m, no reset), seed 1, and the IMU χ² test off (`health.imu_chi2_z = inf`): the window
+/// drifts away from what the camera sees, carried by the IMU alone. With the χ² test on it now
+/// fails that test at 8.6 s and 9.6 s (ATE 0.71 m); when it did not (its IMU χ² 0.2 for 150
+/// dof, 12 m/s and 13.2 m ATE), only the reprojection test saw the drift, rejecting 12–25 %
+/// of the tracks per solve. With the χ² test off the rejection monitor resets the window at
+/// 9.20 s (11 % of its tracks rejected over 20 solves) and the estimator initializes again
+/// from the data (measured: ATE 1.64 m over the run, the drift before the reset included).
+/// Bounds: the first reset is the monitor's, after the drift starts (8 s) and before 14 s;
+/// ATE measured + 50 %.
 #[test]
 fn a_window_its_camera_contradicts_is_initialized_again() {
     let r = common::run_edited("room_replay_v2_02_mono_imu", None, |t| {
@@ -387,19 +392,20 @@ fn a_window_its_camera_contradicts_is_initialized_again() {
             "[rig]\n",
             "[rig]\ntime_offset_s = 0.035\n",
             1,
-        ) + "\n[estimator]\ninit_td_search_s = 0.0\nframe_relinearize_fraction = inf\n"
+        ) + "\n[estimator]\ninit_td_search_s = 0.0\nframe_relinearize_fraction = inf\n\n\
+             [estimator.health]\nimu_chi2_z = inf\n"
     })
     .run
     .report;
     let resets = reset_events(&r);
     assert!(
         resets
-            .iter()
-            .any(|e| e.detail.contains("cameras contradict")
+            .first()
+            .is_some_and(|e| e.detail.contains("cameras contradict")
                 && e.detail.ends_with("initializing again")
-                && (12.0..14.0).contains(&e.t_s)),
+                && (8.0..14.0).contains(&e.t_s)),
         "no rejection reset: {resets:?}"
     );
     let ate = r.ate_rmse_m.unwrap();
-    assert!(ate < 2.3, "ATE {ate} m");
+    assert!(ate < 2.5, "ATE {ate} m");
 }

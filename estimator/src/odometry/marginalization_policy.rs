@@ -137,7 +137,7 @@ pub(super) fn prior_without_second_newest(window: &Window, built: &WindowProblem
 
 /// The prior `r` with the blocks `remove` marginalized out of it alone. Where every block it
 /// keeps holds the prior's linearization point (first-estimate Jacobians) and is variable,
-/// this is [`PriorFactor::marginalized`] on its square-root form (nothing to relinearize);
+/// this is [`PriorFactor::marginalized`] on its information form (nothing to relinearize);
 /// otherwise the general marginalization, which re-expresses the prior at the current values.
 fn prior_alone_without(
     window: &Window,
@@ -165,7 +165,9 @@ fn prior_alone_without(
         .filter(|k| !removed.contains(k))
         .map(|k| refs[k])
         .collect();
-    (!marginal.r0().is_empty()).then(|| (Arc::new(marginal), kept_refs))
+    marginal
+        .has_information()
+        .then(|| (Arc::new(marginal), kept_refs))
 }
 
 /// The prior without the GNSS alignment (it is forgotten; see
@@ -200,7 +202,8 @@ fn prior_from(
         .map(|b| built.refs.iter().find(|(_, x)| x == b).map(|(r, _)| *r))
         .collect::<Option<Vec<_>>>()
         .unwrap_or_default();
-    (refs.len() == mp.blocks.len() && mp.rank > 0).then(|| (Arc::new(mp.factor), refs))
+    (refs.len() == mp.blocks.len() && mp.factor.has_information())
+        .then(|| (Arc::new(mp.factor), refs))
 }
 
 #[cfg(test)]

@@ -32,7 +32,7 @@ pub fn marginal_covariance(problem: &Problem, coords: &[(BlockId, usize)]) -> Op
         }
     }
     let residuals: Vec<ResidualId> = (0..problem.num_residuals()).map(ResidualId).collect();
-    let (mut h, _) = schur_complement_system(problem, &residuals, &states, &eliminated)?;
+    let mut h = schur_complement_system(problem, &residuals, &states, &eliminated)?.hessian;
     let mut offsets = Vec::with_capacity(states.len());
     let mut at = 0;
     for b in &states {

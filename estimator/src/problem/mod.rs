@@ -21,8 +21,9 @@ pub use loss::{CauchyLoss, HuberLoss, LossFunction, apply_loss};
 pub use manifold::{Euclidean, Manifold, PoseManifold, QuaternionManifold};
 pub use prior::{PriorError, PriorFactor};
 pub use solver::{
-    Linearization, Method, SolverOptions, SolverSummary, SolverWorkspace, Termination,
-    schur_complement_system, solve, solve_keeping_linearization, solve_keeping_linearization_in,
+    Linearization, Method, SchurComplementSystem, SolverOptions, SolverSummary, SolverWorkspace,
+    Termination, schur_complement_system, solve, solve_keeping_linearization,
+    solve_keeping_linearization_in,
 };
 
 /// Deterministic pseudo-random numbers in [−1, 1] for the unit tests (no RNG dependency in the

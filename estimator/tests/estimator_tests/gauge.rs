@@ -256,7 +256,9 @@ fn window_gauge_leak(sys: &estimator::odometry::WindowSystem) -> ([f64; 4], Vec<
         .chain(&sys.points)
         .copied()
         .collect();
-    let (h, _) = schur_complement_system(p, &residuals, &states, &sys.landmarks).unwrap();
+    let h = schur_complement_system(p, &residuals, &states, &sys.landmarks)
+        .unwrap()
+        .hessian;
     let n = h.nrows();
     let at = |b: BlockId| p.linearization_point(b).unwrap_or(p.values(b)).to_vec();
     let sb0 = 6 * sys.poses.len();
@@ -366,8 +368,8 @@ fn first_estimate_jacobians_keep_the_four_dimensional_nullspace_over_a_long_run(
         results.push((keyframes, leak, spec, est.points_relinearized()));
     }
     // Measured (seed 3, 30 s, 380 keyframes, persistent world points in the prior): with FEJ
-    // the four gauge leaks are 6e-16..3.2e-15 and the scaled spectrum is 4 eigenvalues
-    // ≤ 1.9e-16, then 9.9e-5. Relinearized: yaw leaks 5.9e-7 and its eigenvalue rises to
+    // the four gauge leaks are 3e-15..9e-15 and the scaled spectrum is 4 eigenvalues
+    // ≤ 3.8e-13, then 7.7e-5. Relinearized: yaw leaks 5.9e-7 and its eigenvalue rises to
     // 2.0e-5; translation stays at round-off (≤ 2.6e-14). With FEJ, 48 points got a new first
     // estimate and the leaks stayed ≤ 1.0e-14 (yaw 1.2e-15); moving them without carrying
     // the prior's directions along leaked 5.2e-7 in yaw, as much as no FEJ for points.
@@ -389,7 +391,7 @@ fn first_estimate_jacobians_keep_the_four_dimensional_nullspace_over_a_long_run(
         spec[3]
     );
     // Frames renewed at every solve, their directions carried along: as null as the default
-    // (measured: leaks ≤ 3.3e-15, 4 eigenvalues ≤ 4.3e-16 then 8.9e-5; without carrying the
+    // (measured: leaks ≤ 9.5e-15, 4 eigenvalues ≤ 4.6e-17 then 7.8e-5; without carrying the
     // prior's directions along, yaw leaks 5.3e-7 and its eigenvalue rises to 1.5e-5).
     let (keyframes, leak, spec, _) = &results[3];
     assert_four_null_directions("frames renewed", *keyframes, leak, spec);
@@ -397,14 +399,18 @@ fn first_estimate_jacobians_keep_the_four_dimensional_nullspace_over_a_long_run(
 
 /// Asserts that a long run (`keyframes` > 200) ended with the four gauge directions null
 /// (`leak` < 1e-12 each) and exactly four null eigenvalues in the scaled spectrum `spec`
-/// (the 4th < 1e-13, the 5th > 1e-6); `label` names the run in the messages.
+/// (the 4th < 1e-11, the 5th > 1e-6); `label` names the run in the messages. The prior is
+/// kept in information form, so the round-off each marginalization leaves along the gauge
+/// stays in it (a square root cut at a rank tolerance dropped it): measured, the 4th
+/// eigenvalue is 3.8e-13 after 380 keyframes (≈1e-15 per marginalization, where the square
+/// root gave 1.9e-16), the 5th 7.7e-5; a relinearized window's 4th is 1.4e-5.
 fn assert_four_null_directions(label: &str, keyframes: usize, leak: &[f64], spec: &[f64]) {
     assert!(keyframes > 200, "{label}: only {keyframes} keyframes");
     for (dir, l) in leak.iter().enumerate() {
         assert!(*l < 1e-12, "{label}: gauge direction {dir} leaks {l:e}");
     }
     assert!(
-        spec[3] < 1e-13,
+        spec[3] < 1e-11,
         "{label}: 4th smallest eigenvalue {:e}",
         spec[3]
     );

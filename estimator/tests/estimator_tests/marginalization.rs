@@ -181,7 +181,7 @@ fn sliding_window_with_marginalization_equals_batch() {
                 DMatrix::from_fn(idx.len(), idx.len(), |i, j| cov_sub[(idx[i], idx[j])]);
             let expected_info = marginal_cov.try_inverse().unwrap();
             let nk = idx.len();
-            let jp = DMatrix::from_row_slice(mp.rank, nk, mp.factor.jacobian());
+            let jp = DMatrix::from_row_slice(mp.factor.residual_dim(), nk, mp.factor.jacobian());
             let info = jp.transpose() * &jp;
             let rel = (&info - &expected_info).norm() / expected_info.norm();
             assert!(

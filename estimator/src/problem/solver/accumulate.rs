@@ -93,6 +93,7 @@ impl NormalEquations {
         self.gl.fill(0.0);
         self.w.fill(0.0);
         let mut total = 0.0;
+        self.model_constant = 0.0;
         problem.fill_rotations(&problem.values, &mut self.rot);
         problem.fill_linearization_rotations(&self.rot, &mut self.rot_lin);
         let mut plans = std::mem::take(&mut self.state_res);
@@ -216,6 +217,7 @@ impl NormalEquations {
         let m = p.m;
         let slots = &self.slots[p.slots.0..p.slots.1];
         let r = &self.r[..m];
+        self.model_constant += r.iter().map(|v| v * v).sum::<f64>();
         let jac = &self.jac[..p.jlen];
         let n = self.n;
         // The landmark's own rows and its Jacobian, if any.
@@ -382,6 +384,7 @@ impl NormalEquations {
             res.factor.constant_hessian(lin_params)
         });
         let cost = self.direct_normal_equations(problem, &problem.values, p, constant.is_none())?;
+        self.model_constant += cost;
         let slots = &self.slots[p.slots.0..p.slots.1];
         let total: usize = slots.iter().map(|s| s.t).sum();
         add_direct_gradient(slots, &self.direct_g, &mut self.gx);

@@ -40,7 +40,7 @@ impl Linearization {
             return None;
         }
         let n = self.eqs.n;
-        let (mut h, _) = self.eqs.undamped_reduced();
+        let (mut h, _, _) = self.eqs.undamped_reduced();
         let picks: Vec<(usize, usize)> = coords
             .iter()
             .enumerate()

@@ -26,7 +26,7 @@ pub use dense::dense_normal_equations;
 pub use linearization::Linearization;
 pub use options::{Method, SolverOptions, SolverSummary, Termination};
 pub(crate) use plan::{Layout, NONE};
-pub use schur::schur_complement_system;
+pub use schur::{SchurComplementSystem, schur_complement_system};
 pub use trust_region::{
     SolverWorkspace, solve, solve_keeping_linearization, solve_keeping_linearization_in,
 };

@@ -18,6 +18,10 @@ pub(crate) struct NormalEquations {
     pub gx: Vec<f64>,
     /// `½ Σ ρ` at the linearization point.
     pub cost: f64,
+    /// `Σ ‖r̃‖²` at the linearization point: the constant of the Gauss-Newton model
+    /// `Σ ‖r̃ + J̃ δ‖²` (robust residuals as their loss corrects them; direct factors' own
+    /// `‖r‖²`), which the model never drops below the minimum of.
+    pub model_constant: f64,
     /// Tangent size of each landmark.
     pub lt: Vec<usize>,
     /// Offset of each landmark in the stacked landmark vector (`gl`, steps).
@@ -237,6 +241,7 @@ impl NormalEquations {
             hxx: vec![0.0; n * n],
             gx: vec![0.0; n],
             cost: f64::NAN,
+            model_constant: f64::NAN,
             loff: layout.landmark_offset.clone(),
             lhoff,
             hll: vec![0.0; hlen],

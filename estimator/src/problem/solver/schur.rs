@@ -457,9 +457,10 @@ impl NormalEquations {
 
 impl NormalEquations {
     /// The undamped Schur complement onto the states: `H = H_xx − H_xl H_ll⁻¹ H_lx` (full,
-    /// row-major `n × n`) and `−g = −g_x + H_xl H_ll⁻¹ g_l`. A landmark without information
-    /// folds nothing in.
-    pub(crate) fn undamped_reduced(&self) -> (Vec<f64>, Vec<f64>) {
+    /// row-major `n × n`), `−g = −g_x + H_xl H_ll⁻¹ g_l`, and what eliminating the landmarks
+    /// takes off the model's constant, `Σ g_lᵀ H_ll⁻¹ g_l`. A landmark without information folds
+    /// nothing in.
+    pub(crate) fn undamped_reduced(&self) -> (Vec<f64>, Vec<f64>, f64) {
         let mut h = self.hxx.clone();
         let mut neg_g: Vec<f64> = self.gx.iter().map(|v| -v).collect();
         let mut cinv = vec![0.0; self.hll.len()];
@@ -475,8 +476,32 @@ impl NormalEquations {
             &mut SchurScratch::default(),
         );
         mirror_upper(&mut h, self.n);
-        (h, neg_g)
+        let mut eliminated = 0.0;
+        for (l, &t) in self.lt.iter().enumerate() {
+            if !valid[l] {
+                continue;
+            }
+            let (ho, go) = (self.lhoff[l], self.loff[l]);
+            let gl = &self.gl[go..go + t];
+            let ci = &cinv[ho..ho + t * t];
+            for i in 0..t {
+                eliminated += gl[i] * dot(&ci[i * t..(i + 1) * t], gl);
+            }
+        }
+        (h, neg_g, eliminated)
     }
+}
+
+/// The normal equations of some residuals over some states with landmark blocks folded in:
+/// what [`schur_complement_system`] returns. The Gauss-Newton model of the residuals, minimized
+/// over the eliminated blocks, is `constant + 2 gᵀδ + δᵀH δ` (twice the solver's cost).
+pub struct SchurComplementSystem {
+    /// `H` (symmetric, exactly).
+    pub hessian: DMatrix<f64>,
+    /// `g = Σ J̃ᵀ r̃` with the eliminated blocks folded in.
+    pub gradient: DVector<f64>,
+    /// The model's value at `δ = 0`: `Σ ‖r̃‖²` less what the eliminated blocks take off.
+    pub constant: f64,
 }
 
 /// The normal equations `H δ = −g` of the residuals `residual_ids` at the problem's current
@@ -492,7 +517,7 @@ pub fn schur_complement_system(
     residual_ids: &[ResidualId],
     states: &[BlockId],
     eliminated: &[BlockId],
-) -> Option<(DMatrix<f64>, DVector<f64>)> {
+) -> Option<SchurComplementSystem> {
     let nblocks = problem.blocks.len();
     let mut state_offset = vec![NONE; nblocks];
     let mut landmark_slot = vec![NONE; nblocks];
@@ -519,12 +544,13 @@ pub fn schur_complement_system(
     };
     let ids: Vec<usize> = residual_ids.iter().map(|r| r.0).collect();
     let eqs = linearize(problem, &layout, Some(&ids))?;
-    let (h, neg_g) = eqs.undamped_reduced();
+    let (h, neg_g, eliminated) = eqs.undamped_reduced();
     // Mirrored, so exactly symmetric: the row-major buffer is the column-major one.
-    Some((
-        DMatrix::from_vec(n, n, h),
-        DVector::from_iterator(n, neg_g.iter().map(|v| -v)),
-    ))
+    Some(SchurComplementSystem {
+        hessian: DMatrix::from_vec(n, n, h),
+        gradient: DVector::from_iterator(n, neg_g.iter().map(|v| -v)),
+        constant: eqs.model_constant - eliminated,
+    })
 }
 
 #[cfg(test)]
