@@ -240,10 +240,12 @@ pub struct EstimatorConfig {
     /// 4.7–5.1 ms (book, "Window against batch"). Seeds 1–10 of the figure-eight and of the
     /// V2_02 replay (2026-11-27, `vio sweep` over 30 / 40 / 50 / 60 / 100): mean ATE 8.4 /
     /// 7.4 / 7.2 / 6.9 / 5.5 mm on the figure-eight (worst seed 12.1 / 10.0 / 13.4 / 11.3 /
-    /// 7.4 mm), 4.9 / 4.7 / 4.5 / 4.5 / 3.9 mm on the replay. Still 30: at 60 the time offset
-    /// wanders further (−1.56 ms at 22 s on the figure-eight, seed 1) and two injected faults
-    /// end in the IMU χ² reset instead of the checks built for them (book, "Window against
-    /// batch").
+    /// 7.4 mm), 4.9 / 4.7 / 4.5 / 4.5 / 3.9 mm on the replay. With the prior in information
+    /// form 100 points cost 8.4–9.0 ms per frame against 5.5–5.6 ms at 30 (60 s, seed 1). Still
+    /// 30: at 60 the time offset wanders further (−1.54 ms at 22 s on the figure-eight, seed 1),
+    /// the extrinsic rotation's start-up excursion reaches 0.76°, a modelled rolling shutter
+    /// costs seed 2 1.37× the global shutter's ATE and the 1 cm-baseline divergence reaches the
+    /// time offset's limit only at 6.65 s (book, "Window against batch").
     pub max_persistent_points: usize,
     /// First-estimate Jacobians: every factor's Jacobians with respect to a state in the
     /// marginalization prior are evaluated at the prior's linearization point of that state
