@@ -108,7 +108,7 @@ impl PriorFactor {
         jacobian: Vec<f64>,
         r0: Vec<f64>,
     ) -> Result<Self, PriorError> {
-        let (sizes, tangents, offsets) = check_blocks(&manifolds, &linearization_points)?;
+        let (_, tangents, _) = check_blocks(&manifolds, &linearization_points)?;
         let n: usize = tangents.iter().sum();
         let m = r0.len();
         if jacobian.len() != m * n {
@@ -149,20 +149,14 @@ impl PriorFactor {
             return Err(PriorError::NonFinite);
         }
         let constant = r0.iter().map(|v| v * v).sum();
-        let root = OnceLock::new();
-        root.set(SquareRoot { jacobian, r0 }).expect("new cell");
-        Ok(Self {
-            manifolds,
-            linearization_points,
-            sizes,
-            tangents,
-            offsets,
-            hessian,
-            gradient,
-            constant,
-            rows: m,
-            root,
-        })
+        let mut prior =
+            Self::from_information(manifolds, linearization_points, hessian, gradient, constant)?;
+        prior.rows = m;
+        prior
+            .root
+            .set(SquareRoot { jacobian, r0 })
+            .expect("a new prior's square root is unset");
+        Ok(prior)
     }
 
     /// Builds a prior from its information form: `hessian` `H` (row-major, n × n, exactly
