@@ -145,9 +145,6 @@ impl PriorFactor {
                 hessian[i * n + j] = hessian[j * n + i];
             }
         }
-        if !hessian.iter().all(|v| v.is_finite()) {
-            return Err(PriorError::NonFinite);
-        }
         let constant = r0.iter().map(|v| v * v).sum();
         let mut prior =
             Self::from_information(manifolds, linearization_points, hessian, gradient, constant)?;
@@ -232,6 +229,22 @@ impl PriorFactor {
         &self.root().r0
     }
 
+    /// The quadratic at `d = x ⊟ x̄` (all blocks' tangent coordinates): its value
+    /// `c + 2bᵀd + dᵀHd` and `b + H d` (half its gradient in `d`).
+    fn quadratic_at(&self, d: &[f64]) -> (f64, Vec<f64>) {
+        let n = self.tangent_dim();
+        let hd: Vec<f64> = (0..n)
+            .map(|i| dot(&self.hessian[i * n..(i + 1) * n], d))
+            .collect();
+        let value = self.constant
+            + d.iter()
+                .zip(self.gradient.iter().zip(&hd))
+                .map(|(di, (bi, hdi))| 2.0 * bi * di + di * hdi)
+                .sum::<f64>();
+        let gradient = self.gradient.iter().zip(&hd).map(|(b, h)| b + h).collect();
+        (value, gradient)
+    }
+
     /// Whether the prior says anything: some diagonal entry of `H` is positive.
     pub fn has_information(&self) -> bool {
         let n = self.tangent_dim();
@@ -262,21 +275,7 @@ impl PriorFactor {
             manifold.minus(x, &points[k], &mut step[off..off + t]);
             points[k] = x.to_vec();
         }
-        let h_step: Vec<f64> = (0..n)
-            .map(|i| dot(&self.hessian[i * n..(i + 1) * n], &step))
-            .collect();
-        let constant = self.constant
-            + step
-                .iter()
-                .zip(self.gradient.iter().zip(&h_step))
-                .map(|(s, (b, hs))| 2.0 * b * s + s * hs)
-                .sum::<f64>();
-        let gradient = self
-            .gradient
-            .iter()
-            .zip(&h_step)
-            .map(|(b, hs)| b + hs)
-            .collect();
+        let (constant, gradient) = self.quadratic_at(&step);
         Self::from_information(
             self.manifolds.clone(),
             points,
@@ -432,16 +431,7 @@ impl Factor for PriorFactor {
             manifold.minus_jacobian(lin_params[k], x0, &mut b);
             mj.push((!is_identity(&b, t)).then_some(b));
         }
-        // u = b + H d, cost.
-        let hd: Vec<f64> = (0..n)
-            .map(|i| dot(&self.hessian[i * n..(i + 1) * n], &d))
-            .collect();
-        let cost = self.constant
-            + d.iter()
-                .zip(self.gradient.iter().zip(&hd))
-                .map(|(di, (bi, hdi))| 2.0 * bi * di + di * hdi)
-                .sum::<f64>();
-        let u: Vec<f64> = self.gradient.iter().zip(&hd).map(|(a, b)| a + b).collect();
+        let (cost, u) = self.quadratic_at(&d);
         let with_hessian = !h.is_empty();
         if with_hessian {
             h[..n * n].copy_from_slice(&self.hessian);
