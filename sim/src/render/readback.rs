@@ -25,6 +25,19 @@ pub(super) fn finish_camera(
             height: cam.height,
             data: remap::remap_u8(&cam.table, &data[base..base + image_bytes]),
         }
+    } else if samples == 1 && cam.row_weights.is_none() {
+        // One exposure sample with blur or noise: float levels straight from the remap.
+        let pinhole = &data[base..base + image_bytes];
+        GrayImage {
+            width: cam.width,
+            height: cam.height,
+            data: remap::develop(
+                remap::remap_levels(&cam.table, pinhole),
+                cam.width as usize,
+                p,
+                (seed, &cam.name, frame_index),
+            ),
+        }
     } else {
         let mut acc = vec![0u64; cam.width as usize * cam.height as usize];
         for k in 0..samples {

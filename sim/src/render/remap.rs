@@ -232,9 +232,8 @@ pub(crate) fn accumulate_weighted(
 }
 
 /// Turns sums of accumulated images into grey levels (`den`: the sum of a uniform grey level
-/// of 1, `samples << 16` for a plain sum of `samples` images): without noise rounded
-/// exactly in integers; with an optical blur, blurred (see [`optics`]); with noise, read noise and shot noise from the stream
-/// `<name>/pixels` of `seed` (ChaCha stream = `frame_index`) are added before rounding.
+/// of 1, `samples << 16` for a plain sum of `samples` images): without noise or blur rounded
+/// exactly in integers, otherwise through [`develop`].
 pub(crate) fn finish(
     acc: &[u64],
     den: u64,
@@ -248,39 +247,67 @@ pub(crate) fn finish(
             .collect()
     } else {
         let scale = (1.0 / den as f64) as f32;
-        let mut levels: Vec<f32> = acc.iter().map(|&a| a as f32 * scale).collect();
-        if p.optical_blur_px > 0.0 {
-            optics::gaussian_blur(&mut levels, width as usize, p.optical_blur_px);
-        }
-        if noisy(p) {
-            let mut rng: ChaCha8Rng = sensor_rng(seed, &format!("{name}/pixels"));
-            rng.set_stream(frame_index);
-            let read2 = (p.read_noise * p.read_noise) as f32;
-            let per_level = if p.electrons_per_level > 0.0 {
-                (1.0 / p.electrons_per_level) as f32
-            } else {
-                0.0
-            };
-            levels
-                .iter()
-                .map(|&i| {
-                    let n: f32 = StandardNormal.sample(&mut rng);
-                    let v = i + (read2 + i * per_level).sqrt() * n;
-                    v.round().clamp(0.0, 255.0) as u8
-                })
-                .collect()
-        } else {
-            levels
-                .iter()
-                .map(|&i| i.round().clamp(0.0, 255.0) as u8)
-                .collect()
-        }
+        let levels = acc.iter().map(|&a| a as f32 * scale).collect();
+        develop(levels, width as usize, p, (seed, name, frame_index))
     };
     GrayImage {
         width,
         height,
         data,
     }
+}
+
+/// One pinhole readback remapped to grey levels as floats: the single-sample case of
+/// [`finish`]'s levels (the same values as accumulating once and scaling by 2⁻¹⁶), without the
+/// sum buffer.
+pub(crate) fn remap_levels(table: &RemapTable, pinhole: &[u8]) -> Vec<f32> {
+    let row = table.row;
+    let scale = (1.0 / f64::from(1u32 << 16)) as f32;
+    table
+        .taps
+        .iter()
+        .map(|t| u64::from(tap_value(t, pinhole, row)) as f32 * scale)
+        .collect()
+}
+
+/// From grey levels to 8-bit pixels: with an optical blur, blurred (see [`optics`]); with
+/// noise, read noise and shot noise from the stream `<name>/pixels` of `seed` (ChaCha stream =
+/// `frame_index`) are added; then rounded. The standard normals are drawn first, in pixel order
+/// (the one sequential step), and the arithmetic per pixel runs over whole rows at once.
+pub(crate) fn develop(
+    mut levels: Vec<f32>,
+    width: usize,
+    p: &Photometric,
+    (seed, name, frame_index): (u64, &str, u64),
+) -> Vec<u8> {
+    if p.optical_blur_px > 0.0 {
+        optics::gaussian_blur(&mut levels, width, p.optical_blur_px);
+    }
+    if !noisy(p) {
+        return levels
+            .iter()
+            .map(|&i| i.round().clamp(0.0, 255.0) as u8)
+            .collect();
+    }
+    let mut rng: ChaCha8Rng = sensor_rng(seed, &format!("{name}/pixels"));
+    rng.set_stream(frame_index);
+    let normals: Vec<f32> = (0..levels.len())
+        .map(|_| StandardNormal.sample(&mut rng))
+        .collect();
+    let read2 = (p.read_noise * p.read_noise) as f32;
+    let per_level = if p.electrons_per_level > 0.0 {
+        (1.0 / p.electrons_per_level) as f32
+    } else {
+        0.0
+    };
+    levels
+        .iter()
+        .zip(&normals)
+        .map(|(&i, &n)| {
+            let v = i + (read2 + i * per_level).sqrt() * n;
+            v.round().clamp(0.0, 255.0) as u8
+        })
+        .collect()
 }
 
 /// Remaps an inverse-depth pinhole image (`row` floats per row) to depth along the optical axis
