@@ -107,10 +107,10 @@ pub struct Stream {
     imu_queue: VecDeque<ImuSample>,
     /// True biases of generated samples (trimmed to the retention window).
     biases: VecDeque<ImuBias>,
-    /// Frames to emit (after faults), oldest first; a rendered stream keeps one more than it
-    /// emits, its images already rendering.
+    /// Frames to emit (after faults), oldest first; a rendered stream keeps
+    /// [`RenderWorker::STAGES`] more than it emits, their images already rendering.
     pending: VecDeque<PendingFrame>,
-    /// The renderer of a rendered stream, on its own thread.
+    /// The renderer of a rendered stream, on its own threads.
     worker: Option<RenderWorker>,
     /// Time spent rendering the last emitted images (s).
     render_s: f64,
@@ -230,9 +230,13 @@ impl Stream {
     }
 
     /// Makes sure a frame is pending unless the rig has passed the end; a rendered stream also
-    /// keeps the next frame pending with its render job submitted.
+    /// keeps the next [`RenderWorker::STAGES`] frames pending with their render jobs submitted.
     fn fill_frame(&mut self) {
-        let want = if self.worker.is_some() { 2 } else { 1 };
+        let want = if self.worker.is_some() {
+            1 + RenderWorker::STAGES
+        } else {
+            1
+        };
         while self.pending.len() < want && !self.rig_done {
             let Some(rig) = self.rig.as_mut() else {
                 self.rig_done = true;

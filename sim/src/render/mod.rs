@@ -42,6 +42,7 @@
 //! may differ by a grey level in a few pixels.
 
 mod config;
+mod formation;
 mod images;
 mod optics;
 mod readback;
@@ -57,10 +58,13 @@ use crate::camera::RigConfig;
 use crate::rng::sensor_rng;
 use crate::scene::{Scene, SurfaceTexture};
 use estimator::geometry::Pose;
+use formation::CameraFormation;
+pub(crate) use formation::{ImageFormation, Readback};
 use nalgebra::{Matrix4, Vector2, Vector3};
 use rand::RngExt;
-use readback::{copy_out, finish_camera};
+use readback::copy_out;
 use setup::{choose_adapter, padded_row, projection, scene_vertices, texture_2d, view};
+use std::sync::Arc;
 use wgpu::util::DeviceExt;
 
 /// Near clipping distance (m).
@@ -94,13 +98,11 @@ struct SceneCameraUniform {
     pad: [f32; 2],
 }
 
-/// GPU targets and remap table of one camera.
+/// GPU targets of one camera.
 struct CameraTargets {
-    name: String,
     t_b_c: Pose,
-    width: u32,
-    height: u32,
-    table: remap::RemapTable,
+    /// Size of the virtual pinhole (px).
+    pinhole_size: (u32, u32),
     /// Projection of the virtual pinhole (camera frame → clip).
     proj: Matrix4<f64>,
     msaa_view: Option<wgpu::TextureView>,
@@ -111,15 +113,14 @@ struct CameraTargets {
     inv_depth: Option<(wgpu::Texture, wgpu::TextureView, wgpu::TextureView)>,
     /// Byte offset of this camera's first pinhole image in the readback buffer.
     readback_offset: u64,
-    /// Per row, the weights of the frame's renders (a rig with a rolling shutter; see
-    /// `shutter.rs`); `None`: the renders' plain average.
-    row_weights: Option<Vec<u32>>,
 }
 
 /// The renderer: a wgpu device with the scene, its textures and per-camera targets uploaded.
 pub struct Renderer {
     config: RenderConfig,
-    seed: u64,
+    /// From read-back renders to camera images (shared with the render worker's forming
+    /// thread).
+    formation: Arc<ImageFormation>,
     adapter: AdapterSummary,
     device: wgpu::Device,
     queue: wgpu::Queue,
@@ -427,6 +428,7 @@ impl Renderer {
         let attach = wgpu::TextureUsages::RENDER_ATTACHMENT;
         let copy = wgpu::TextureUsages::COPY_SRC;
         let mut cameras = Vec::new();
+        let mut formations = Vec::new();
         let mut readback_size = 0u64;
         for (cam, row_weights) in rig.cameras.iter().zip(plan.row_weights.drain(..)) {
             let table = remap::build(
@@ -477,10 +479,8 @@ impl Renderer {
                 readback_size += u64::from(padded_row(4 * pin.width)) * u64::from(pin.height);
             }
             cameras.push(CameraTargets {
-                name: cam.name.clone(),
                 t_b_c: cam.t_b_c,
-                width: cam.model.width(),
-                height: cam.model.height(),
+                pinhole_size: size,
                 proj: projection(&pin),
                 pinhole_view: view(&pinhole),
                 pinhole,
@@ -494,8 +494,14 @@ impl Renderer {
                 )),
                 msaa_view,
                 inv_depth,
-                table,
                 readback_offset,
+            });
+            formations.push(CameraFormation {
+                name: cam.name.clone(),
+                width: cam.model.width(),
+                height: cam.model.height(),
+                table,
+                readback_offset: readback_offset as usize,
                 row_weights,
             });
         }
@@ -516,7 +522,13 @@ impl Renderer {
         }
         Ok(Self {
             config: config.clone(),
-            seed,
+            formation: Arc::new(ImageFormation {
+                cameras: formations,
+                photometric: config.photometric.clone(),
+                samples: samples as usize,
+                depth: config.depth,
+                seed,
+            }),
             adapter: summary,
             device,
             queue,
@@ -534,6 +546,12 @@ impl Renderer {
         })
     }
 
+    /// The image formation of this renderer's rig (for forming read-back frames on another
+    /// thread).
+    pub(crate) fn formation(&self) -> Arc<ImageFormation> {
+        Arc::clone(&self.formation)
+    }
+
     /// The adapter in use.
     pub fn adapter(&self) -> &AdapterSummary {
         &self.adapter
@@ -546,12 +564,13 @@ impl Renderer {
 
     /// Image size `(width, height)` of camera `cam`.
     pub fn image_size(&self, cam: usize) -> (u32, u32) {
-        (self.cameras[cam].width, self.cameras[cam].height)
+        let c = &self.formation.cameras[cam];
+        (c.width, c.height)
     }
 
     /// The virtual pinhole camera `cam` is rendered through before distortion.
     pub fn pinhole(&self, cam: usize) -> VirtualPinhole {
-        self.cameras[cam].table.pinhole
+        self.formation.cameras[cam].table.pinhole
     }
 
     /// Times (ns, relative to the capture time) of the poses [`Renderer::render`] needs: one
@@ -585,6 +604,20 @@ impl Renderer {
         poses_w_b: &[Pose],
         live: &[usize],
     ) -> Result<ImageFrame, RenderError> {
+        let frame = self.read_back(t_capture_ns, stamp_ns, frame_index, poses_w_b, live)?;
+        Ok(self.formation.form(&frame))
+    }
+
+    /// The first half of [`Renderer::render`]: the scene passes drawn and read back, not yet
+    /// formed into camera images (see [`Renderer::formation`]).
+    pub(crate) fn read_back(
+        &mut self,
+        t_capture_ns: i64,
+        stamp_ns: i64,
+        frame_index: u64,
+        poses_w_b: &[Pose],
+        live: &[usize],
+    ) -> Result<Readback, RenderError> {
         let k_n = self.samples as usize;
         if poses_w_b.len() != k_n {
             return Err(RenderError::Config(format!(
@@ -631,7 +664,7 @@ impl Renderer {
             });
         for &c in live {
             let cam = &self.cameras[c];
-            let (pw, ph) = (cam.table.pinhole.width, cam.table.pinhole.height);
+            let (pw, ph) = cam.pinhole_size;
             let image_bytes = u64::from(padded_row(pw)) * u64::from(ph);
             for k in 0..k_n {
                 let offset = ((c * k_n + k) as u64 * UNIFORM_STRIDE) as u32;
@@ -666,34 +699,16 @@ impl Renderer {
             Ok(Err(e)) => return Err(RenderError::Gpu(format!("readback: {e}"))),
             Err(_) => return Err(RenderError::Gpu("readback callback dropped".into())),
         }
-        let frame = {
-            let data = slice
-                .get_mapped_range()
-                .map_err(|e| RenderError::Gpu(format!("readback: {e:?}")))?;
-            let data: &[u8] = &data;
-            let cams = &self.cameras;
-            let (config, seed) = (&self.config, self.seed);
-            // Cameras are remapped in parallel, each from its own bytes: no shared state, so
-            // the result does not depend on the thread count.
-            let images: Vec<CameraImage> = std::thread::scope(|s| {
-                let handles: Vec<_> = live
-                    .iter()
-                    .map(|&c| {
-                        s.spawn(move || {
-                            finish_camera(&cams[c], c, data, k_n, config, seed, frame_index)
-                        })
-                    })
-                    .collect();
-                handles
-                    .into_iter()
-                    .map(|h| h.join().expect("remap thread panicked"))
-                    .collect()
-            });
-            ImageFrame {
-                t_ns: stamp_ns,
-                t_capture_ns,
-                cameras: images,
-            }
+        let bytes = slice
+            .get_mapped_range()
+            .map_err(|e| RenderError::Gpu(format!("readback: {e:?}")))?
+            .to_vec();
+        let frame = Readback {
+            t_ns: stamp_ns,
+            t_capture_ns,
+            frame_index,
+            live: live.to_vec(),
+            bytes,
         };
         self.readback.unmap();
         if let Some(e) = pollster::block_on(scope.pop()) {
