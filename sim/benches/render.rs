@@ -1,7 +1,8 @@
 //! Render + readback (+ distortion remap) time per stereo pair on the default adapter: the
 //! EuRoC-like 752×480 radtan pair in the textured room, with the default settings (mip-mapped
-//! textures, distortion on), with 4× MSAA, with motion blur (4 sub-frames), and with sensor
-//! noise. Prints the adapter first.
+//! textures, distortion on), with 4× MSAA, with motion blur (4 sub-frames), with sensor noise,
+//! and with the settings the rendered catalog scenarios fit to the real EuRoC frames (blur and
+//! noise included). Prints the adapter first.
 //!
 //! `cargo bench -p sim --bench render`
 
@@ -22,7 +23,7 @@ fn render_pair(c: &mut Criterion) {
     let poses: Vec<Pose> = (0..40)
         .map(|i| stream.truth(2_000_000_000 + i * 50_000_000).unwrap().pose)
         .collect();
-    let variants: [(&str, RenderConfig); 6] = [
+    let variants: [(&str, RenderConfig); 7] = [
         ("stereo_pair_default", RenderConfig::default()),
         (
             "stereo_pair_pinhole_scale_1",
@@ -59,6 +60,20 @@ fn render_pair(c: &mut Criterion) {
             let mut cfg = RenderConfig::default();
             cfg.photometric.read_noise = 1.0;
             cfg.photometric.electrons_per_level = 40.0;
+            cfg
+        }),
+        // The settings of `room_figure8_rendered_stereo_imu`, fitted to the real EuRoC frames:
+        // texture, vignetting, optical blur, read and shot noise.
+        ("stereo_pair_fitted_to_euroc", {
+            let mut cfg = RenderConfig {
+                texture_density: 0.1,
+                texture_contrast: 0.6,
+                ..RenderConfig::default()
+            };
+            cfg.photometric.vignetting = 0.25;
+            cfg.photometric.read_noise = 0.4;
+            cfg.photometric.electrons_per_level = 62.0;
+            cfg.photometric.optical_blur_px = 1.0;
             cfg
         }),
     ];
