@@ -4,6 +4,7 @@
 
 use estimator::frontend::TrackSummary;
 use estimator::geometry::Pose;
+use estimator::odometry::FilterEstimate;
 use estimator::problem::SolverSummary;
 use estimator::{Estimate, Status};
 use nalgebra::{Vector2, Vector3};
@@ -34,14 +35,11 @@ pub struct FilterCheckpoint {
     pub t_ns: i64,
     /// The window's estimate of it.
     pub window: Pose,
-    /// The filter's.
-    pub filter: Pose,
+    /// The filter's: pose, velocity, biases, with `compute_covariance` their covariance; the
+    /// batch's size and its solve's statistics.
+    pub filter: FilterEstimate,
     /// Ground truth there.
     pub truth: Pose,
-    /// Frames in the filter's batch.
-    pub frames: usize,
-    /// Iterations of its solve.
-    pub iterations: usize,
     /// Wall time of its solve (s; for the report only).
     pub time_s: f64,
 }

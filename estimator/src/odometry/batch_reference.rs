@@ -7,9 +7,11 @@ use super::features::Observation;
 use super::frame::{BlockRef, Prior, WindowFrame};
 use super::triangulation;
 use super::window::Window;
+use super::window_information::{RelativePose, newest_covariance};
 use super::{Estimator, Status};
 use crate::geometry::Pose;
-use crate::problem::{SolverOptions, SolverSummary, solve};
+use crate::problem::{SolverOptions, SolverSummary, solve_keeping_linearization};
+use nalgebra::{DMatrix, Vector3};
 
 /// What the estimator keeps, with `record_history`, for the batch solves.
 #[derive(Clone, Debug, Default)]
@@ -33,11 +35,27 @@ pub struct FilterEstimate {
     pub t_ns: i64,
     /// Its pose as the batch over everything so far solves it.
     pub pose: Pose,
+    /// Its velocity (world frame, m/s), as the batch solves it.
+    pub v_w: Vector3<f64>,
+    /// Its accelerometer bias (m/s²).
+    pub ba: Vector3<f64>,
+    /// Its gyroscope bias (rad/s).
+    pub bg: Vector3<f64>,
+    /// With `EstimatorConfig::compute_covariance`: the batch's marginal covariance of the newest
+    /// state, in the layout of the window's (`Estimate::covariance`), from the solve's last
+    /// linearization.
+    pub covariance: Option<DMatrix<f64>>,
+    /// With `compute_covariance`: the newest pose relative to the batch frame closest to
+    /// `relative_pose_interval_s` before it, as `Estimate::relative_pose`.
+    pub relative_pose: Option<RelativePose>,
     /// Frames in the batch (keyframes marginalized so far, then the window's).
     pub frames: usize,
     /// The solve's statistics.
     pub summary: SolverSummary,
 }
+
+/// The batch's marginal covariance of its newest state and its relative pose.
+type BatchUncertainty = (DMatrix<f64>, Option<RelativePose>);
 
 impl Estimator {
     /// Solves all recorded frames at once without marginalization (the "physical limit"
@@ -95,12 +113,18 @@ impl Estimator {
             return None;
         }
         let count = frames.len();
-        let (window, summary) =
+        let (window, summary, uncertainty) =
             self.solve_batch_window(history, frames.into_iter(), Some(prior), options);
         let newest = window.frames.back()?;
+        let (covariance, relative_pose) = uncertainty.map_or((None, None), |u| (Some(u.0), u.1));
         Some(FilterEstimate {
             t_ns: newest.t_ns,
             pose: newest.pose,
+            v_w: newest.v,
+            ba: newest.ba,
+            bg: newest.bg,
+            covariance,
+            relative_pose,
             frames: count,
             summary,
         })
@@ -112,20 +136,21 @@ impl Estimator {
         frames: impl Iterator<Item = &'a WindowFrame>,
         options: &SolverOptions,
     ) -> (Vec<(i64, Pose)>, SolverSummary) {
-        let (window, summary) = self.solve_batch_window(history, frames, None, options);
+        let (window, summary, _) = self.solve_batch_window(history, frames, None, options);
         let poses = window.frames.iter().map(|f| (f.t_ns, f.pose)).collect();
         (poses, summary)
     }
 
     /// The batch over `frames` (chained by their own IMU intervals) with `prior`, solved: the
-    /// window it built, at the solution, and the solve's statistics.
+    /// window it built, at the solution, the solve's statistics, and with `compute_covariance`
+    /// the newest state's marginal covariance and relative pose.
     fn solve_batch_window<'a>(
         &self,
         history: &History,
         frames: impl Iterator<Item = &'a WindowFrame>,
         prior: Option<Prior>,
         options: &SolverOptions,
-    ) -> (Window, SolverSummary) {
+    ) -> (Window, SolverSummary, Option<BatchUncertainty>) {
         let uses_imu = self.config.suite.uses_imu();
         // A window over the given frames, chained by their own IMU intervals, with today's
         // extrinsics and time offset and no prior.
@@ -157,8 +182,16 @@ impl Estimator {
         triangulation::triangulate_tracks(&mut window, &self.config, &self.focal);
         let imu_active = uses_imu && self.status == Status::Tracking;
         let mut built = window.build(&self.problem_settings(), imu_active);
-        let summary = solve(&mut built.problem, options);
+        let (summary, linearization) = solve_keeping_linearization(&mut built.problem, options);
         window.write_back(&built, &self.config);
-        (window, summary)
+        let uncertainty = linearization
+            .filter(|_| self.config.compute_covariance)
+            .and_then(|lin| {
+                let frames: Vec<&WindowFrame> = window.frames.iter().collect();
+                let interval_s = self.config.relative_pose_interval_s;
+                newest_covariance(&built, &lin, &frames, interval_s)
+            })
+            .map(|u| (u.covariance, u.relative_pose));
+        (window, summary, uncertainty)
     }
 }

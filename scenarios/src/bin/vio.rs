@@ -90,6 +90,11 @@ enum Command {
         /// Worker threads [default: the machine's cores]; the result does not depend on it.
         #[arg(long)]
         threads: Option<usize>,
+        /// Also solve the full-information filter at checkpoints of every run (as `vio run
+        /// --batch-reference`) and compare its NEES with the window's there (slow: a batch over
+        /// the whole run so far at each checkpoint).
+        #[arg(long)]
+        batch_reference: bool,
     },
     /// Run the image front end and the estimator on a recorded EuRoC ASL folder (`mav0/`:
     /// `imu0`, `cam0`, `cam1` with `data.csv`, PNG images and `sensor.yaml`; ground truth
@@ -340,7 +345,8 @@ fn main() -> ExitCode {
             duration,
             out,
             threads,
-        } => nees_command(scenario, seeds, duration, out, threads),
+            batch_reference,
+        } => nees_command(scenario, seeds, duration, out, threads, batch_reference),
         Command::Settings { scenario } => {
             match load_scenario(scenario.as_deref()).map(|s| s.settings_toml()) {
                 Ok(Ok(text)) => {

@@ -52,16 +52,16 @@ pub fn filter_report(run: &RunOutput, alignment: Alignment) -> Option<FilterRepo
     }
     let truth: Vec<Pose> = checkpoints.iter().map(|c| c.truth).collect();
     let window: Vec<Pose> = checkpoints.iter().map(|c| c.window).collect();
-    let filter: Vec<Pose> = checkpoints.iter().map(|c| c.filter).collect();
+    let filter: Vec<Pose> = checkpoints.iter().map(|c| c.filter.pose).collect();
     let aw = metrics::ate(&truth, &window, alignment).ok()?;
     let af = metrics::ate(&truth, &filter, alignment).ok()?;
     let position: Vec<f64> = checkpoints
         .iter()
-        .map(|c| (c.window.p - c.filter.p).norm())
+        .map(|c| (c.window.p - c.filter.pose.p).norm())
         .collect();
     let rotation: Vec<f64> = checkpoints
         .iter()
-        .map(|c| c.window.q.angle_to(&c.filter.q).to_degrees())
+        .map(|c| c.window.q.angle_to(&c.filter.pose.q).to_degrees())
         .collect();
     Some(FilterReport {
         checkpoints: checkpoints.len(),
@@ -71,7 +71,7 @@ pub fn filter_report(run: &RunOutput, alignment: Alignment) -> Option<FilterRepo
         ate_rot_deg: [aw.rotation_deg.rmse, af.rotation_deg.rmse],
         position_gap_m: median_and_max(&position),
         rotation_gap_deg: median_and_max(&rotation),
-        last_batch_frames: checkpoints.last().map_or(0, |c| c.frames),
+        last_batch_frames: checkpoints.last().map_or(0, |c| c.filter.frames),
         solve_time_s: checkpoints.iter().map(|c| c.time_s).sum(),
     })
 }

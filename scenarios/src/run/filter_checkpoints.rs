@@ -2,7 +2,9 @@
 //! run, once the estimator tracks, the batch over everything received so far
 //! (`Estimator::filter_reference`) beside the window's estimate of the same newest frame.
 //!
-//! Determinism: the checkpoints fall on estimate times, a function of the input; only
+//! Determinism: the checkpoints fall on the first tracking estimate of each period of camera
+//! time (the stamps, so seeds that estimate different time offsets still check the same
+//! frames), a function of the input; only
 //! [`FilterCheckpoint::time_s`] reads the wall clock.
 
 use std::time::Instant;
@@ -60,7 +62,8 @@ impl FilterCheckpoints {
             return;
         };
         let e = &newest.estimate;
-        let period = e.t_ns.div_euclid(self.period_ns);
+        // Periods of camera time: the same frames in every seed, whatever offset each estimates.
+        let period = e.stamp_ns.div_euclid(self.period_ns);
         if e.status != Status::Tracking || self.last_period == Some(period) {
             return;
         }
@@ -79,10 +82,8 @@ impl FilterCheckpoints {
         self.list.push(FilterCheckpoint {
             t_ns: e.t_ns,
             window: e.T_w_b,
-            filter: filter.pose,
+            filter,
             truth: newest.truth.pose,
-            frames: filter.frames,
-            iterations: filter.summary.iterations,
             time_s: start.elapsed().as_secs_f64(),
         });
     }

@@ -21,12 +21,14 @@ use std::collections::BTreeMap;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
+use estimator::Estimate;
 use estimator::geometry::{Pose, skew, so3_log};
-use estimator::odometry::chi2_quantile;
+use estimator::odometry::{FilterEstimate, RelativePose, chi2_quantile};
 use nalgebra::{DMatrix, Matrix3, SMatrix, Vector3, Vector6};
 use serde::Serialize;
+use sim::stream::GroundTruth;
 
-use crate::metrics::{self, Alignment};
+use crate::metrics::{self, Alignment, Sim3};
 use crate::run::{
     ReportedRun, RunControl, RunError, RunInput, RunOptions, RunOutput, run_to_report,
 };
@@ -50,6 +52,9 @@ pub struct NeesOptions {
     pub duration_s: Option<f64>,
     /// Worker threads (the result does not depend on it).
     pub threads: usize,
+    /// Also solve the full-information filter at checkpoints (`vio run --batch-reference`)
+    /// and compare its NEES with the window's there.
+    pub batch_reference: bool,
 }
 
 /// One metric's NEES over time.
@@ -86,6 +91,19 @@ pub struct NeesReport {
     pub metrics: Vec<NeesMetric>,
     /// Whether every metric's time average is inside its band.
     pub passed: bool,
+    /// With `batch_reference`: the window's and the full-information filter's NEES at the
+    /// filter checkpoints (every 2 s, a tenth of a shorter run).
+    pub filter_reference: Option<FilterNees>,
+}
+
+/// The window and the full-information filter at the same checkpoints, each against the truth
+/// with its own covariance: a window as consistent as the filter it approximates reads like it.
+#[derive(Clone, Debug, Serialize)]
+pub struct FilterNees {
+    /// The window's NEES at the checkpoints.
+    pub window: Vec<NeesMetric>,
+    /// The filter's.
+    pub filter: Vec<NeesMetric>,
 }
 
 /// The two-sided 95 % band of the NEES averaged over `runs` runs.
@@ -133,6 +151,7 @@ pub fn run_nees_until(
                         seed: Some(options.seeds[i]),
                         duration_s: options.duration_s,
                         covariance: true,
+                        batch_reference: options.batch_reference,
                         ..Default::default()
                     };
                     let control = RunControl {
@@ -185,83 +204,161 @@ fn quadratic<const D: usize>(e: &SMatrix<f64, D, 1>, p: &SMatrix<f64, D, D>) -> 
     p.cholesky().map(|c| e.dot(&c.solve(e)))
 }
 
+/// A newest-state estimate with its covariance: the window's at a frame, or the
+/// full-information filter's at a checkpoint.
+struct NewestState<'a> {
+    t_w_b: &'a Pose,
+    v_w: &'a Vector3<f64>,
+    ba: &'a Vector3<f64>,
+    bg: &'a Vector3<f64>,
+    /// 15×15 over `[δp, δθ, δv, δba, δbg]` (`Estimate::covariance`).
+    covariance: &'a DMatrix<f64>,
+    relative_pose: Option<&'a RelativePose>,
+}
+
+impl<'a> NewestState<'a> {
+    /// The window's estimate, when it has an IMU suite's covariance.
+    fn of_window(e: &'a Estimate) -> Option<Self> {
+        Some(Self {
+            t_w_b: &e.T_w_b,
+            v_w: &e.v_w,
+            ba: &e.ba,
+            bg: &e.bg,
+            covariance: e.covariance.as_ref().filter(|p| p.nrows() == 15)?,
+            relative_pose: e.relative_pose.as_ref(),
+        })
+    }
+
+    /// The filter's estimate at a checkpoint, when it has an IMU suite's covariance.
+    fn of_filter(f: &'a FilterEstimate) -> Option<Self> {
+        Some(Self {
+            t_w_b: &f.pose,
+            v_w: &f.v_w,
+            ba: &f.ba,
+            bg: &f.bg,
+            covariance: f.covariance.as_ref().filter(|p| p.nrows() == 15)?,
+            relative_pose: f.relative_pose.as_ref(),
+        })
+    }
+}
+
+/// The run's truth and its position+yaw alignment, for the NEES of its states.
+struct RunTruth {
+    align: Sim3,
+    /// True pose at every processed frame time (IMU clock), for the relative poses.
+    at: BTreeMap<i64, Pose>,
+}
+
+impl RunTruth {
+    /// `None` when the run's estimates cannot be aligned (too few tracking frames).
+    fn of(out: &RunOutput) -> Option<Self> {
+        let frames = out
+            .frames
+            .iter()
+            .filter(|f| f.estimate.status.initialized());
+        let (gt, est): (Vec<_>, Vec<_>) = frames.map(|f| (f.truth.pose, f.estimate.T_w_b)).unzip();
+        let align = metrics::estimate_alignment(&gt, &est, Alignment::PosYaw).ok()?;
+        let at = out
+            .frames
+            .iter()
+            .map(|f| (f.estimate.t_ns, f.truth.pose))
+            .collect();
+        Some(Self { align, at })
+    }
+
+    /// NEES of every metric of `e` against the truth `t`.
+    fn nees(&self, e: &NewestState, t: &GroundTruth) -> FrameNees {
+        let p = e.covariance;
+        let r_est = e.t_w_b.q.to_rotation_matrix().into_inner();
+        // Velocity in the body frame: δv_b = [v_b]× δθ + Rᵀ δv_w.
+        let v_b = r_est.transpose() * e.v_w;
+        let v_b_true = t.pose.q.to_rotation_matrix().into_inner().transpose() * t.v_w;
+        let mut j = DMatrix::zeros(3, 15);
+        j.view_mut((0, 3), (3, 3)).copy_from(&skew(&v_b));
+        j.view_mut((0, 6), (3, 3)).copy_from(&r_est.transpose());
+        let pv: Matrix3<f64> = (&j * p * j.transpose()).fixed_view::<3, 3>(0, 0).into();
+        let velocity = quadratic(&(v_b_true - v_b), &pv);
+        let block = |o: usize| -> Matrix3<f64> { p.fixed_view::<3, 3>(o, o).into() };
+        let accel = quadratic(&(t.accel_bias - e.ba), &block(9));
+        let gyro = quadratic(&(t.gyro_bias - e.bg), &block(12));
+        // Tilt: the aligned estimate's rotation error in the world, x and y.
+        let q_aligned = self.align.transform_pose(e.t_w_b).q;
+        let r_aligned = q_aligned.to_rotation_matrix().into_inner();
+        let dtheta_w: Vector3<f64> = r_aligned * so3_log(&(q_aligned.inverse() * t.pose.q));
+        let jt = r_aligned.fixed_rows::<2>(0).into_owned();
+        let p_tilt = jt * block(3) * jt.transpose();
+        let tilt = quadratic(&dtheta_w.fixed_rows::<2>(0).into_owned(), &p_tilt);
+        let relative = e.relative_pose.and_then(|r| {
+            let t_a = self.at.get(&r.from_t_ns)?;
+            let truth = t_a.inverse().compose(&t.pose);
+            let mut err = Vector6::zeros();
+            err.fixed_rows_mut::<3>(0).copy_from(&(truth.p - r.T_a_b.p));
+            err.fixed_rows_mut::<3>(3)
+                .copy_from(&so3_log(&(r.T_a_b.q.inverse() * truth.q)));
+            quadratic(&err, &r.covariance)
+        });
+        [velocity, accel, gyro, tilt, relative]
+    }
+}
+
 /// Per tracking frame with a covariance: `(camera stamp, NEES of each metric)`. Runs are
 /// matched by camera stamp: an estimate's `t_ns` is on the IMU clock (`stamp + td`), and with
 /// the offset estimated every seed has its own `td`.
 fn run_nees_series(out: &RunOutput) -> Vec<(i64, FrameNees)> {
-    let frames: Vec<_> = out
-        .frames
-        .iter()
-        .filter(|f| f.estimate.status.initialized())
-        .collect();
-    let gt: Vec<_> = frames.iter().map(|f| f.truth.pose).collect();
-    let est: Vec<_> = frames.iter().map(|f| f.estimate.T_w_b).collect();
-    let Ok(align) = metrics::estimate_alignment(&gt, &est, Alignment::PosYaw) else {
+    let Some(truth) = RunTruth::of(out) else {
         return Vec::new();
     };
-    // True pose at every processed frame time (IMU clock), for the relative poses.
-    let truth_at: BTreeMap<i64, Pose> = out
-        .frames
+    out.frames
         .iter()
-        .map(|f| (f.estimate.t_ns, f.truth.pose))
-        .collect();
-    frames
-        .iter()
+        .filter(|f| f.estimate.status.initialized())
         .filter_map(|f| {
-            let e = &f.estimate;
-            let p: &DMatrix<f64> = e.covariance.as_ref().filter(|p| p.nrows() == 15)?;
-            let t = &f.truth;
-            let r_est = e.T_w_b.q.to_rotation_matrix().into_inner();
-            // Velocity in the body frame: δv_b = [v_b]× δθ + Rᵀ δv_w.
-            let v_b = r_est.transpose() * e.v_w;
-            let v_b_true = t.pose.q.to_rotation_matrix().into_inner().transpose() * t.v_w;
-            let mut j = DMatrix::zeros(3, 15);
-            j.view_mut((0, 3), (3, 3)).copy_from(&skew(&v_b));
-            j.view_mut((0, 6), (3, 3)).copy_from(&r_est.transpose());
-            let pv: Matrix3<f64> = (&j * p * j.transpose()).fixed_view::<3, 3>(0, 0).into();
-            let velocity = quadratic(&(v_b_true - v_b), &pv);
-            let block = |o: usize| -> Matrix3<f64> { p.fixed_view::<3, 3>(o, o).into() };
-            let accel = quadratic(&(t.accel_bias - e.ba), &block(9));
-            let gyro = quadratic(&(t.gyro_bias - e.bg), &block(12));
-            // Tilt: the aligned estimate's rotation error in the world, x and y.
-            let q_aligned = align.transform_pose(&e.T_w_b).q;
-            let r_aligned = q_aligned.to_rotation_matrix().into_inner();
-            let dtheta_w: Vector3<f64> = r_aligned * so3_log(&(q_aligned.inverse() * t.pose.q));
-            let jt = r_aligned.fixed_rows::<2>(0).into_owned();
-            let p_tilt = jt * block(3) * jt.transpose();
-            let tilt = quadratic(&dtheta_w.fixed_rows::<2>(0).into_owned(), &p_tilt);
-            let relative = e.relative_pose.as_ref().and_then(|r| {
-                let t_a = truth_at.get(&r.from_t_ns)?;
-                let truth = t_a.inverse().compose(&t.pose);
-                let mut err = Vector6::zeros();
-                err.fixed_rows_mut::<3>(0).copy_from(&(truth.p - r.T_a_b.p));
-                err.fixed_rows_mut::<3>(3)
-                    .copy_from(&so3_log(&(r.T_a_b.q.inverse() * truth.q)));
-                quadratic(&err, &r.covariance)
-            });
-            Some((e.stamp_ns, [velocity, accel, gyro, tilt, relative]))
+            let e = NewestState::of_window(&f.estimate)?;
+            Some((f.estimate.stamp_ns, truth.nees(&e, &f.truth)))
         })
         .collect()
 }
 
-fn report(scenario: &Scenario, options: &NeesOptions, runs: &[ReportedRun]) -> NeesReport {
-    let n = runs.len();
-    // Per metric: frame time → (sum, count) over the runs.
-    let mut sums: Vec<BTreeMap<i64, (f64, usize)>> = vec![BTreeMap::new(); METRICS.len()];
-    for r in runs {
-        for (t, values) in run_nees_series(&r.output) {
-            for (m, v) in values.iter().enumerate() {
-                if let Some(v) = v {
-                    let e = sums[m].entry(t).or_insert((0.0, 0));
-                    e.0 += v;
-                    e.1 += 1;
-                }
-            }
+/// At every filter checkpoint of the run (`--batch-reference`) where both have a covariance:
+/// `(camera stamp, NEES of the window, NEES of the filter)`, the same newest frame.
+fn checkpoint_nees_series(out: &RunOutput) -> Vec<(i64, FrameNees, FrameNees)> {
+    let (Some(truth), Some(reference)) = (RunTruth::of(out), out.batch_reference.as_ref()) else {
+        return Vec::new();
+    };
+    reference
+        .checkpoints
+        .iter()
+        .filter_map(|c| {
+            let f = out.frames.iter().find(|f| f.estimate.t_ns == c.t_ns)?;
+            let window = NewestState::of_window(&f.estimate)?;
+            let filter = NewestState::of_filter(&c.filter)?;
+            Some((
+                f.estimate.stamp_ns,
+                truth.nees(&window, &f.truth),
+                truth.nees(&filter, &f.truth),
+            ))
+        })
+        .collect()
+}
+
+/// Per metric: frame time → (sum of NEES, runs with a value).
+type NeesSums = Vec<BTreeMap<i64, (f64, usize)>>;
+
+fn add_to_sums(sums: &mut NeesSums, t: i64, values: &FrameNees) {
+    for (m, v) in values.iter().enumerate() {
+        if let Some(v) = v {
+            let e = sums[m].entry(t).or_insert((0.0, 0));
+            e.0 += v;
+            e.1 += 1;
         }
     }
-    let metrics = METRICS
+}
+
+/// The metrics of `n` runs' sums: the run-averaged NEES at the times every run has a value,
+/// against the band of `n` runs.
+fn metrics_of(sums: &NeesSums, n: usize) -> Vec<NeesMetric> {
+    METRICS
         .iter()
-        .zip(&sums)
+        .zip(sums)
         .map(|(&(name, dof), by_t)| {
             let band = band(n, dof);
             let series: Vec<(f64, f64)> = by_t
@@ -285,7 +382,27 @@ fn report(scenario: &Scenario, options: &NeesOptions, runs: &[ReportedRun]) -> N
                 series,
             }
         })
-        .collect::<Vec<_>>();
+        .collect()
+}
+
+fn report(scenario: &Scenario, options: &NeesOptions, runs: &[ReportedRun]) -> NeesReport {
+    let n = runs.len();
+    let mut sums: NeesSums = vec![BTreeMap::new(); METRICS.len()];
+    let (mut window_sums, mut filter_sums) = (sums.clone(), sums.clone());
+    for r in runs {
+        for (t, values) in run_nees_series(&r.output) {
+            add_to_sums(&mut sums, t, &values);
+        }
+        for (t, window, filter) in checkpoint_nees_series(&r.output) {
+            add_to_sums(&mut window_sums, t, &window);
+            add_to_sums(&mut filter_sums, t, &filter);
+        }
+    }
+    let metrics = metrics_of(&sums, n);
+    let filter_reference = options.batch_reference.then(|| FilterNees {
+        window: metrics_of(&window_sums, n),
+        filter: metrics_of(&filter_sums, n),
+    });
     let mut backend: Vec<f64> = runs
         .iter()
         .flat_map(|r| r.output.frames.iter().map(|f| f.timing.backend_s * 1e3))
@@ -299,6 +416,7 @@ fn report(scenario: &Scenario, options: &NeesOptions, runs: &[ReportedRun]) -> N
         backend_ms_median: backend.get(backend.len() / 2).copied().unwrap_or(0.0),
         passed: metrics.iter().all(|m| m.inside),
         metrics,
+        filter_reference,
     }
 }
 
@@ -323,6 +441,24 @@ pub fn summary(r: &NeesReport) -> String {
             100.0 * m.fraction_in_band,
             m.series.len()
         );
+    }
+    if let Some(f) = &r.filter_reference {
+        let points = f.window.first().map_or(0, |m| m.series.len());
+        s += &format!(
+            "filter ref    at {points} checkpoints, NEES window / full-information filter (band):\n"
+        );
+        for (w, fi) in f.window.iter().zip(&f.filter) {
+            s += &format!(
+                "  {:<13} {:>8.3} / {:>8.3}  [{:.3}, {:.3}]  window {}, filter {}\n",
+                w.name,
+                w.time_average,
+                fi.time_average,
+                w.band[0],
+                w.band[1],
+                if w.inside { "inside" } else { "OUTSIDE" },
+                if fi.inside { "inside" } else { "OUTSIDE" },
+            );
+        }
     }
     s += &format!(
         "backend       {:.2} ms per frame (median, covariance included)\nresult        {}\n",

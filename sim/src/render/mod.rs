@@ -524,7 +524,7 @@ impl Renderer {
             config: config.clone(),
             formation: Arc::new(ImageFormation {
                 cameras: formations,
-                photometric: config.photometric.clone(),
+                photometric: config.photometric,
                 samples: samples as usize,
                 depth: config.depth,
                 seed,

@@ -358,6 +358,7 @@ pub(super) fn nees_command(
     duration: Option<f64>,
     out: Option<PathBuf>,
     threads: Option<usize>,
+    batch_reference: bool,
 ) -> ExitCode {
     let scenario = match load_scenario(scenario.as_deref()) {
         Ok(s) => s,
@@ -376,6 +377,7 @@ pub(super) fn nees_command(
         threads: threads.unwrap_or_else(|| {
             std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
         }),
+        batch_reference,
     };
     let stop = super::interrupt::on_ctrl_c(
         "stopping: the seeds under way are dropped, the NEES of the finished ones written",
