@@ -98,11 +98,10 @@ struct SceneCameraUniform {
     pad: [f32; 2],
 }
 
-/// GPU targets of one camera.
+/// GPU targets of one camera (its virtual pinhole's size and place in the readback are its
+/// [`CameraFormation`]'s).
 struct CameraTargets {
     t_b_c: Pose,
-    /// Size of the virtual pinhole (px).
-    pinhole_size: (u32, u32),
     /// Projection of the virtual pinhole (camera frame → clip).
     proj: Matrix4<f64>,
     msaa_view: Option<wgpu::TextureView>,
@@ -111,8 +110,6 @@ struct CameraTargets {
     zbuf_view: wgpu::TextureView,
     /// Inverse-depth target and its single-sample depth buffer (depth images only).
     inv_depth: Option<(wgpu::Texture, wgpu::TextureView, wgpu::TextureView)>,
-    /// Byte offset of this camera's first pinhole image in the readback buffer.
-    readback_offset: u64,
 }
 
 /// The renderer: a wgpu device with the scene, its textures and per-camera targets uploaded.
@@ -480,7 +477,6 @@ impl Renderer {
             }
             cameras.push(CameraTargets {
                 t_b_c: cam.t_b_c,
-                pinhole_size: size,
                 proj: projection(&pin),
                 pinhole_view: view(&pinhole),
                 pinhole,
@@ -494,7 +490,6 @@ impl Renderer {
                 )),
                 msaa_view,
                 inv_depth,
-                readback_offset,
             });
             formations.push(CameraFormation {
                 name: cam.name.clone(),
@@ -664,7 +659,9 @@ impl Renderer {
             });
         for &c in live {
             let cam = &self.cameras[c];
-            let (pw, ph) = cam.pinhole_size;
+            let formed = &self.formation.cameras[c];
+            let (pw, ph) = (formed.table.pinhole.width, formed.table.pinhole.height);
+            let readback_offset = formed.readback_offset as u64;
             let image_bytes = u64::from(padded_row(pw)) * u64::from(ph);
             for k in 0..k_n {
                 let offset = ((c * k_n + k) as u64 * UNIFORM_STRIDE) as u32;
@@ -673,7 +670,7 @@ impl Renderer {
                     &mut enc,
                     &cam.pinhole,
                     &self.readback,
-                    cam.readback_offset + k as u64 * image_bytes,
+                    readback_offset + k as u64 * image_bytes,
                     (pw, ph),
                     1,
                 );
@@ -681,7 +678,7 @@ impl Renderer {
             if let Some((tex, _, _)) = &cam.inv_depth {
                 let offset = ((c * k_n + k_n / 2) as u64 * UNIFORM_STRIDE) as u32;
                 self.scene_pass(&mut enc, cam, offset, None);
-                let at = cam.readback_offset + k_n as u64 * image_bytes;
+                let at = readback_offset + k_n as u64 * image_bytes;
                 copy_out(&mut enc, tex, &self.readback, at, (pw, ph), 4);
             }
         }
