@@ -304,10 +304,7 @@ impl RunTruth {
 /// Per tracking frame with a covariance: `(camera stamp, NEES of each metric)`. Runs are
 /// matched by camera stamp: an estimate's `t_ns` is on the IMU clock (`stamp + td`), and with
 /// the offset estimated every seed has its own `td`.
-fn run_nees_series(out: &RunOutput) -> Vec<(i64, FrameNees)> {
-    let Some(truth) = RunTruth::of(out) else {
-        return Vec::new();
-    };
+fn run_nees_series(out: &RunOutput, truth: &RunTruth) -> Vec<(i64, FrameNees)> {
     out.frames
         .iter()
         .filter(|f| f.estimate.status.initialized())
@@ -320,8 +317,8 @@ fn run_nees_series(out: &RunOutput) -> Vec<(i64, FrameNees)> {
 
 /// At every filter checkpoint of the run (`--batch-reference`) where both have a covariance:
 /// `(camera stamp, NEES of the window, NEES of the filter)`, the same newest frame.
-fn checkpoint_nees_series(out: &RunOutput) -> Vec<(i64, FrameNees, FrameNees)> {
-    let (Some(truth), Some(reference)) = (RunTruth::of(out), out.batch_reference.as_ref()) else {
+fn checkpoint_nees_series(out: &RunOutput, truth: &RunTruth) -> Vec<(i64, FrameNees, FrameNees)> {
+    let Some(reference) = out.batch_reference.as_ref() else {
         return Vec::new();
     };
     reference
@@ -390,10 +387,14 @@ fn report(scenario: &Scenario, options: &NeesOptions, runs: &[ReportedRun]) -> N
     let mut sums: NeesSums = vec![BTreeMap::new(); METRICS.len()];
     let (mut window_sums, mut filter_sums) = (sums.clone(), sums.clone());
     for r in runs {
-        for (t, values) in run_nees_series(&r.output) {
+        // A run whose estimates cannot be aligned (too few tracking frames) adds nothing.
+        let Some(truth) = RunTruth::of(&r.output) else {
+            continue;
+        };
+        for (t, values) in run_nees_series(&r.output, &truth) {
             add_to_sums(&mut sums, t, &values);
         }
-        for (t, window, filter) in checkpoint_nees_series(&r.output) {
+        for (t, window, filter) in checkpoint_nees_series(&r.output, &truth) {
             add_to_sums(&mut window_sums, t, &window);
             add_to_sums(&mut filter_sums, t, &filter);
         }
