@@ -5,12 +5,14 @@ mod driver;
 mod error;
 mod euroc_folder;
 mod filter_checkpoints;
+mod lookahead;
 mod options;
 mod pipeline;
 mod recorded;
 mod recorder;
 mod ros2_bag;
 mod simulated;
+mod stage;
 
 pub use crate::run_output::{
     BatchReference, Event, EventKind, FilterCheckpoint, FrameRecord, FrameTiming, RunOutput,

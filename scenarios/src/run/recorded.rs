@@ -26,6 +26,8 @@ use nalgebra::Vector3;
 use sim::stream::GroundTruth;
 
 use super::driver::{Input, Source, drive};
+use super::lookahead::{Lookahead, Slot};
+use super::stage::Stage;
 use super::{Recorder, RunControl, RunError, RunOptions, RunOutput};
 use crate::dataset::GroundTruthState;
 use crate::frontend::GyroIntegrator;
@@ -276,22 +278,29 @@ pub(crate) fn replay(
     let mut recorder = Recorder::new(out, estimator.status());
     recorder.skip_without_truth = true;
     let has_truth = !recording.groundtruth.is_empty();
-    let source = Recorded {
-        imu,
-        groundtruth: &recording.groundtruth,
-        frames: recording.frames,
-        stamps,
-        tracker,
-        uses_imu: suite.uses_imu(),
-        gyro: GyroIntegrator::default(),
-        counts: TrackStatistics::default(),
-        t0,
-        end,
-        imu_i: 0,
-        frame_i: 0,
-        latest: Vec::new(),
-    };
-    let (output, without_truth) = drive(source, estimator, recorder, run, control)?;
+    let frames = &recording.frames;
+    let (output, without_truth) = std::thread::scope(|scope| {
+        let frontend = tracker.map(|tracker| RecordedFrontend {
+            tracker,
+            gyro: GyroIntegrator::default(),
+            counts: TrackStatistics::default(),
+        });
+        let source = Recorded {
+            imu,
+            groundtruth: &recording.groundtruth,
+            frames,
+            stamps,
+            tracking: frontend.map(|f| Stage::spawn(scope, "vio-track", f, RecordedFrontend::run)),
+            uses_imu: suite.uses_imu(),
+            t0,
+            end,
+            imu_i: 0,
+            frame_i: 0,
+            ahead: Lookahead::default(),
+            latest: Vec::new(),
+        };
+        drive(source, estimator, recorder, run, control)
+    })?;
     Ok(RecordedRun {
         output,
         without_truth,
@@ -301,77 +310,110 @@ pub(crate) fn replay(
     })
 }
 
-/// The recording as a run's source: IMU samples and frames merged in time order (IMU first at
-/// equal stamps), every stamp shifted by `t0`.
-struct Recorded<'a> {
-    imu: &'a [ImuSample],
-    groundtruth: &'a [GroundTruthState],
-    frames: Frames<'a>,
-    /// Each frame's stamp (dataset clock), in order.
-    stamps: Vec<i64>,
-    /// The image front end (`None`: feature tracks are fed as they are).
-    tracker: Option<FeatureTracker>,
-    /// Whether the front end predicts rotations from the gyroscope.
-    uses_imu: bool,
+/// The image front end of a recorded run, as a pipeline stage: the tracker with its gyro
+/// integration and statistics.
+struct RecordedFrontend {
+    tracker: FeatureTracker,
     gyro: GyroIntegrator,
     counts: TrackStatistics,
+}
+
+/// A job of the front end's stage.
+enum TrackJob<'r, 'a> {
+    /// A gyroscope sample for the rotation prediction.
+    Imu(ImuSample),
+    /// A capture to read and track: its stamp (run clock) and each camera's image.
+    Capture(i64, &'r [ImageRef<'a>]),
+}
+
+/// The stage's answer to a capture: the frame and the tracker's time (s), and the images.
+type Tracked = (Result<(FeatureFrame, f64), RunError>, Vec<image::GrayImage>);
+
+impl RecordedFrontend {
+    /// Runs one job.
+    fn run(&mut self, job: TrackJob) -> Option<Tracked> {
+        match job {
+            TrackJob::Imu(s) => {
+                self.gyro.push(&s);
+                None
+            }
+            TrackJob::Capture(t_ns, refs) => {
+                let mut latest = Vec::new();
+                let frame = self.track(t_ns, refs, &mut latest);
+                Some((frame, latest))
+            }
+        }
+    }
+
+    /// Reads and tracks a capture (its images into `latest`).
+    fn track(
+        &mut self,
+        t_ns: i64,
+        refs: &[ImageRef],
+        latest: &mut Vec<image::GrayImage>,
+    ) -> Result<(FeatureFrame, f64), RunError> {
+        *latest = refs
+            .iter()
+            .map(ImageRef::load)
+            .collect::<Result<Vec<_>, _>>()?;
+        let views = latest
+            .iter()
+            .zip(refs)
+            .enumerate()
+            .map(|(cam_id, (im, r))| {
+                ImageView::packed(im.width(), im.height(), im.as_raw())
+                    .map(|image| CameraImageView { cam_id, image })
+                    .map_err(|e| r.error(e.to_string()))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let frame = self
+            .tracker
+            .track(&views, t_ns, self.gyro.take())
+            .map_err(|e| refs[0].error(format!("front end: {e}")))?;
+        self.counts.add(self.tracker.report(), &frame);
+        Ok((frame, self.tracker.report().times.total_s))
+    }
+}
+
+/// The recording as a run's source: IMU samples and frames merged in time order (IMU first at
+/// equal stamps), every stamp shifted by `t0`. Images are read and tracked by the front end's
+/// stage (`vio-track`), one capture ahead of the estimator (see [`Lookahead`]).
+struct Recorded<'r, 'a, 's> {
+    imu: &'r [ImuSample],
+    groundtruth: &'r [GroundTruthState],
+    frames: &'r Frames<'a>,
+    /// Each frame's stamp (dataset clock), in order.
+    stamps: Vec<i64>,
+    /// The image front end's stage (`None`: feature tracks are fed as they are).
+    tracking: Option<Stage<'s, RecordedFrontend, TrackJob<'r, 'a>, Tracked>>,
+    /// Whether the front end predicts rotations from the gyroscope.
+    uses_imu: bool,
     /// The dataset's stamp of the run's 0.
     t0: i64,
     /// The last stamp read (dataset clock).
     end: i64,
     imu_i: usize,
     frame_i: usize,
+    /// Inputs read and not yet given to the estimator.
+    ahead: Lookahead<()>,
     /// The latest frame's images (input that is images), by camera.
     latest: Vec<image::GrayImage>,
 }
 
-impl Recorded<'_> {
-    /// The next frame: the feature tracks as exported, or the images tracked.
-    fn next_frame(&mut self) -> Result<FeatureFrame, RunError> {
-        let t0 = self.t0;
-        let frame = match &self.frames {
-            Frames::Features(f) => {
-                let mut frame = f[self.frame_i].clone();
-                frame.t_ns -= t0;
-                frame
+impl Recorded<'_, '_, '_> {
+    /// Reads the recording as far as [`Lookahead`] wants.
+    fn read_ahead(&mut self) {
+        while self.ahead.wants_more(self.tracking.is_some()) {
+            match self.read() {
+                Some(slot) => self.ahead.push(slot),
+                None => self.ahead.end(),
             }
-            Frames::Images(list) => {
-                let (t, refs) = &list[self.frame_i];
-                let images = refs
-                    .iter()
-                    .map(ImageRef::load)
-                    .collect::<Result<Vec<_>, _>>()?;
-                let views = images
-                    .iter()
-                    .zip(refs)
-                    .enumerate()
-                    .map(|(cam_id, (im, r))| {
-                        ImageView::packed(im.width(), im.height(), im.as_raw())
-                            .map(|image| CameraImageView { cam_id, image })
-                            .map_err(|e| r.error(e.to_string()))
-                    })
-                    .collect::<Result<Vec<_>, _>>()?;
-                let tracker = self.tracker.as_mut().expect("images need the tracker");
-                let frame = tracker
-                    .track(&views, t - t0, self.gyro.take())
-                    .map_err(|e| refs[0].error(format!("front end: {e}")))?;
-                self.counts.add(tracker.report(), &frame);
-                drop(views);
-                self.latest = images;
-                frame
-            }
-        };
-        self.frame_i += 1;
-        Ok(frame)
-    }
-}
-
-impl Source for Recorded<'_> {
-    fn end_ns(&self) -> i64 {
-        self.end - self.t0
+        }
     }
 
-    fn next_input(&mut self) -> Result<Option<Input>, RunError> {
+    /// The next measurement in time order as an input (a capture goes to the front end);
+    /// `None` past the end.
+    fn read(&mut self) -> Option<Slot<()>> {
         let end = self.end;
         let imu_t = self
             .imu
@@ -379,25 +421,61 @@ impl Source for Recorded<'_> {
             .map(|s| s.t_ns)
             .filter(|&t| t <= end);
         let frame_t = self.stamps.get(self.frame_i).copied().filter(|&t| t <= end);
-        Ok(Some(match (imu_t, frame_t) {
-            (None, None) => return Ok(None),
+        Some(match (imu_t, frame_t) {
+            (None, None) => return None,
             (Some(a), b) if b.is_none_or(|b| a <= b) => {
                 let s = ImuSample {
                     t_ns: a - self.t0,
                     ..self.imu[self.imu_i]
                 };
                 self.imu_i += 1;
-                if self.uses_imu {
-                    self.gyro.push(&s);
+                if let Some(stage) = self.tracking.as_ref().filter(|_| self.uses_imu) {
+                    stage.submit(TrackJob::Imu(s));
                 }
-                Input::Imu(s)
+                Slot::Ready(Input::Imu(s))
             }
             _ => {
-                let frame = self.next_frame()?;
-                let frontend_s = self
-                    .tracker
-                    .as_ref()
-                    .map_or(0.0, |t| t.report().times.total_s);
+                let i = self.frame_i;
+                self.frame_i += 1;
+                match (self.frames, &self.tracking) {
+                    (Frames::Features(f), _) => {
+                        let mut frame = f[i].clone();
+                        frame.t_ns -= self.t0;
+                        Slot::Ready(Input::Frame {
+                            frame,
+                            frontend_s: 0.0,
+                        })
+                    }
+                    (Frames::Images(list), Some(stage)) => {
+                        let (t, refs) = &list[i];
+                        stage.submit(TrackJob::Capture(t - self.t0, refs));
+                        Slot::Tracking(())
+                    }
+                    (Frames::Images(_), None) => unreachable!("images come with the tracker"),
+                }
+            }
+        })
+    }
+}
+
+impl Source for Recorded<'_, '_, '_> {
+    fn end_ns(&self) -> i64 {
+        self.end - self.t0
+    }
+
+    fn next_input(&mut self) -> Result<Option<Input>, RunError> {
+        self.read_ahead();
+        Ok(Some(match self.ahead.pop() {
+            None => return Ok(None),
+            Some(Slot::Ready(input)) => input,
+            Some(Slot::Tracking(())) => {
+                let stage = self
+                    .tracking
+                    .as_mut()
+                    .expect("captures go to the front end");
+                let (frame, images) = stage.next_result();
+                self.latest = images;
+                let (frame, frontend_s) = frame?;
                 Input::Frame { frame, frontend_s }
             }
         }))
@@ -426,8 +504,10 @@ impl Source for Recorded<'_> {
     }
 
     fn finish(self, out: &mut RunOutput, _interrupted: bool) -> Result<(), RunError> {
-        if self.tracker.is_some() {
-            out.frontend_tracks = Some(self.counts.summary());
+        // A stopped run's front end may have tracked the capture after the last one the
+        // estimator took; its statistics then count that capture too.
+        if let Some(stage) = self.tracking {
+            out.frontend_tracks = Some(stage.finish().counts.summary());
         }
         Ok(())
     }

@@ -2,16 +2,25 @@
 //! wheel measurements, and its frames (feature-level, or rendered images through the image
 //! front end), with ground truth from the simulator.
 //!
+//! The image front end runs as a pipeline stage on its own thread (`vio-track`), one capture
+//! ahead of the estimator: while the estimator takes frame k, the front end tracks frame k + 1
+//! (VINS-Fusion's split of the feature tracker from the estimator). It needs nothing from the
+//! estimator (its rotation prediction is the raw gyroscope's), so it sees the same calls in the
+//! same order either way.
+//!
 //! Determinism: everything but the timing fields is a function of the scenario and the seed; the
 //! wall clock is read only to fill [`FrameTiming`](super::FrameTiming).
 
-use estimator::frontend::{ImageView, TrackerConfig};
+use estimator::frontend::{FeatureFrame, ImageView, TrackerConfig, TrackerError};
+use estimator::imu::ImuSample;
 use estimator::{Estimate, Estimator, EstimatorConfig};
 use sim::World;
 use sim::render::ImageFrame;
 use sim::stream::{GroundTruth, Measurement, Stream};
 
 use super::driver::{Input, Source, drive};
+use super::lookahead::{Lookahead, Slot};
+use super::stage::Stage;
 use super::{Recorder, RunControl, RunError, RunOptions, RunOutput};
 use crate::frontend::{CapturePoses, ImageFrontend};
 use crate::spec::Scenario;
@@ -75,81 +84,138 @@ pub(crate) fn simulate(
     let (stream, renderer) = measurement_stream(scenario, &world)?;
     let out = RunOutput::new(scenario.name.clone(), seed, end_ns as f64 * 1e-9, renderer);
     let recorder = Recorder::new(out, estimator.status());
-    let source = Simulated {
-        scenario,
-        stream,
-        end_ns,
-        frontend,
-        uses_imu,
-        readout_s,
-        render_s: 0.0,
-        latest: None,
-    };
-    drive(source, estimator, recorder, options, control).map(|(out, _)| out)
+    std::thread::scope(|scope| {
+        let source = Simulated {
+            scenario,
+            stream,
+            end_ns,
+            tracking: frontend.map(|fe| Stage::spawn(scope, "vio-track", fe, track)),
+            uses_imu,
+            readout_s,
+            ahead: Lookahead::default(),
+            render_s: 0.0,
+            latest: None,
+        };
+        drive(source, estimator, recorder, options, control).map(|(out, _)| out)
+    })
+}
+
+/// A job of the front end's stage: a gyroscope sample for its rotation prediction, or a capture
+/// to track with the true poses over its readout.
+enum TrackJob {
+    Imu(ImuSample),
+    Images(ImageFrame, Option<CapturePoses>),
+}
+
+/// The stage's answer to a capture: the frame and the tracker's time (s), and the images back.
+type Tracked = (Result<(FeatureFrame, f64), TrackerError>, ImageFrame);
+
+/// The front end's stage: runs each job in order.
+fn track(fe: &mut ImageFrontend, job: TrackJob) -> Option<Tracked> {
+    match job {
+        TrackJob::Imu(s) => {
+            fe.push_imu(&s);
+            None
+        }
+        TrackJob::Images(images, truth) => Some((fe.process(&images, truth.as_ref()), images)),
+    }
 }
 
 /// The world's stream as a run's source.
-struct Simulated<'a> {
+struct Simulated<'a, 's> {
     scenario: &'a Scenario,
     stream: Stream,
     end_ns: i64,
-    /// The image front end (rendered scenarios): it tracks the images, and the ideal frames
-    /// that follow them are skipped.
-    frontend: Option<ImageFrontend>,
+    /// The image front end's stage (rendered scenarios): it tracks the images, and the ideal
+    /// frames that follow them are skipped.
+    tracking: Option<Stage<'s, ImageFrontend, TrackJob, Tracked>>,
     /// Whether the front end predicts rotations from the gyroscope.
     uses_imu: bool,
     /// The rig's longest rolling-shutter readout (s): the span of the true poses the front
     /// end's statistics need per capture.
     readout_s: f64,
+    /// Inputs read from the stream and not yet given to the estimator; a capture with the
+    /// front end keeps its render time (s).
+    ahead: Lookahead<f64>,
     /// The latest images' render time (s).
     render_s: f64,
     /// The latest images tracked.
     latest: Option<ImageFrame>,
 }
 
-impl Source for Simulated<'_> {
+impl Simulated<'_, '_> {
+    /// Reads the stream as far as [`Lookahead`] wants.
+    fn read_ahead(&mut self) {
+        while self.ahead.wants_more(self.tracking.is_some()) {
+            match self.stream.next() {
+                Some(m) => {
+                    if let Some(slot) = self.take(m) {
+                        self.ahead.push(slot);
+                    }
+                }
+                None => self.ahead.end(),
+            }
+        }
+    }
+
+    /// One measurement of the stream as an input (images go to the front end); `None` for
+    /// what the estimator does not take.
+    fn take(&mut self, m: Measurement) -> Option<Slot<f64>> {
+        let input = match m {
+            Measurement::Images(images) => {
+                let render_s = self.stream.last_render_s();
+                let Some(stage) = &self.tracking else {
+                    self.render_s = render_s;
+                    return None;
+                };
+                let truth = capture_poses(&mut self.stream, images.t_capture_ns, self.readout_s);
+                stage.submit(TrackJob::Images(images, truth));
+                return Some(Slot::Tracking(render_s));
+            }
+            Measurement::Imu(s) => {
+                if let Some(stage) = self.tracking.as_ref().filter(|_| self.uses_imu) {
+                    stage.submit(TrackJob::Imu(s));
+                }
+                Input::Imu(s)
+            }
+            Measurement::Gnss(fix) => Input::Gnss(fix),
+            Measurement::Wheel(reading) => Input::Wheel(reading),
+            Measurement::Frame(_) if self.tracking.is_some() => return None,
+            // Feature-level input: the frame is already the estimator's input.
+            Measurement::Frame(frame) => Input::Frame {
+                frame,
+                frontend_s: 0.0,
+            },
+        };
+        Some(Slot::Ready(input))
+    }
+}
+
+impl Source for Simulated<'_, '_> {
     fn end_ns(&self) -> i64 {
         self.end_ns
     }
 
     fn next_input(&mut self) -> Result<Option<Input>, RunError> {
-        loop {
-            let Some(m) = self.stream.next() else {
-                return Ok(None);
-            };
-            return Ok(Some(match m {
-                Measurement::Images(images) => {
-                    self.render_s = self.stream.last_render_s();
-                    let Some(fe) = self.frontend.as_mut() else {
-                        continue;
-                    };
-                    let truth =
-                        capture_poses(&mut self.stream, images.t_capture_ns, self.readout_s);
-                    let (frame, frontend_s) =
-                        fe.process(&images, truth.as_ref())
-                            .map_err(|e| RunError::Frontend {
-                                file: self.scenario.file_label(),
-                                message: e.to_string(),
-                            })?;
-                    self.latest = Some(images);
-                    Input::Frame { frame, frontend_s }
-                }
-                Measurement::Imu(s) => {
-                    if let Some(fe) = self.frontend.as_mut().filter(|_| self.uses_imu) {
-                        fe.push_imu(&s);
-                    }
-                    Input::Imu(s)
-                }
-                Measurement::Gnss(fix) => Input::Gnss(fix),
-                Measurement::Wheel(reading) => Input::Wheel(reading),
-                Measurement::Frame(_) if self.frontend.is_some() => continue,
-                // Feature-level input: the frame is already the estimator's input.
-                Measurement::Frame(frame) => Input::Frame {
-                    frame,
-                    frontend_s: 0.0,
-                },
-            }));
-        }
+        self.read_ahead();
+        Ok(Some(match self.ahead.pop() {
+            None => return Ok(None),
+            Some(Slot::Ready(input)) => input,
+            Some(Slot::Tracking(render_s)) => {
+                let stage = self
+                    .tracking
+                    .as_mut()
+                    .expect("captures go to the front end");
+                let (result, images) = stage.next_result();
+                self.render_s = render_s;
+                self.latest = Some(images);
+                let (frame, frontend_s) = result.map_err(|e| RunError::Frontend {
+                    file: self.scenario.file_label(),
+                    message: e.to_string(),
+                })?;
+                Input::Frame { frame, frontend_s }
+            }
+        }))
     }
 
     fn render_s(&self) -> f64 {
@@ -171,8 +237,11 @@ impl Source for Simulated<'_> {
     }
 
     fn finish(self, out: &mut RunOutput, interrupted: bool) -> Result<(), RunError> {
-        out.frontend_tracks = self.frontend.as_ref().map(|f| f.track_summary());
-        out.frontend = self.frontend.map(|f| f.stats());
+        // A stopped run's front end may have tracked the capture after the last one the
+        // estimator took; its statistics then count that capture too.
+        let frontend = self.tracking.map(Stage::finish);
+        out.frontend_tracks = frontend.as_ref().map(|f| f.track_summary());
+        out.frontend = frontend.map(|f| f.stats());
         if interrupted {
             return Ok(());
         }
