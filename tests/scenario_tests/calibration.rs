@@ -82,8 +82,12 @@ fn extrinsics_are_estimated_where_the_motion_determines_them() {
     // Default motion, seed 1, 20 s, from the true extrinsics. The figure-eight turns about one
     // axis: the window determines the rig's rotation to 0.5° within about 2 s, never its
     // translation (σ about 13 mm if free: a horizontal lever arm looks like an accelerometer
-    // bias). Measured: rotation released at 2.1 s, a 0.51° excursion at 3 s, at most 0.17°
-    // after 10 s; translation held, 0.19 mm; ATE 0.0108 m.
+    // bias). Measured: rotation released at 1.8 s, a 0.85° excursion at 2 s, at most 0.18°
+    // after 10 s; translation held, 0.04 mm; ATE 0.0088 m. Over seeds 1–8 the largest
+    // excursions are 0.85 / 0.44 / 0.26 / 0.23 / 0.90 / 0.38 / 0.63 / 0.33° with the persistent
+    // points spread over the view (0.57 / 0.49 / 0.31 / 0.38 / 0.49 / 0.45 / 0.65 / 0.39° with
+    // the longest tracks first): seeds 1 and 5 are released 0.3–0.5 s earlier, further from
+    // the truth (book, "Window against batch").
     let done = run_edited(scenarios::catalog::DEFAULT, Some(20.0), |text| {
         text.replace(
             "[expectations]",
@@ -101,7 +105,7 @@ fn extrinsics_are_estimated_where_the_motion_determines_them() {
     let c = r.calibration.as_ref().unwrap();
     for s in &c.history {
         assert!(
-            s.rotation_error_deg < 0.7 && s.translation_error_mm < 0.5,
+            s.rotation_error_deg < 1.0 && s.translation_error_mm < 0.5,
             "{s:?}"
         );
         if s.t_s >= 10.0 {

@@ -39,27 +39,23 @@ fn ate(readout_ms: f64, modelled: bool, seed: u64) -> f64 {
 
 #[test]
 fn a_modelled_20_ms_readout_costs_what_a_global_shutter_does() {
-    // Measured (seeds 1, 2, 3; global / modelled / not modelled, m): 0.0069 / 0.0073 / 0.0133,
-    // 0.0080 / 0.0073 / 0.0119, 0.0056 / 0.0057 / 0.0112.
-    let mut unmodelled_over_modelled = Vec::new();
-    for seed in [1, 2] {
-        let global = ate(0.0, true, seed);
-        let modelled = ate(20.0, true, seed);
-        let ignored = ate(20.0, false, seed);
-        println!(
-            "seed {seed}: global {global:.4} m, modelled {modelled:.4} m, ignored {ignored:.4} m"
-        );
-        assert!(
-            modelled <= 1.3 * global,
-            "seed {seed}: {modelled} vs {global}"
-        );
-        unmodelled_over_modelled.push(ignored / modelled);
+    // Judged on the mean over seeds 1–3: one seed's ATE moves by ±40 % with which points the
+    // window keeps (seed 2 with the points spread over the view, 2026-11-27: global 0.0093,
+    // modelled 0.0072, ignored 0.0090 m), which a ratio per seed would read as the shutter.
+    // Measured (seeds 1–6; global / modelled / not modelled, mm): 6.4 / 6.5 / 11.6, 9.3 / 7.2 /
+    // 9.0, 5.5 / 5.3 / 13.7, 6.3 / 5.8 / 16.5, 7.4 / 8.1 / 8.6, 3.6 / 6.2 / 11.2; over seeds
+    // 1–3 the modelled readout costs 0.90× the global shutter, ignoring it 1.80× the model.
+    let (mut global, mut modelled, mut ignored) = (0.0, 0.0, 0.0);
+    for seed in [1, 2, 3] {
+        let g = ate(0.0, true, seed);
+        let m = ate(20.0, true, seed);
+        let i = ate(20.0, false, seed);
+        println!("seed {seed}: global {g:.4} m, modelled {m:.4} m, ignored {i:.4} m");
+        (global, modelled, ignored) = (global + g, modelled + m, ignored + i);
     }
-    // Ignoring the readout costs 1.6–2× here: the test sees the shutter, not noise.
-    assert!(
-        unmodelled_over_modelled.iter().all(|r| *r > 1.3),
-        "{unmodelled_over_modelled:?}"
-    );
+    assert!(modelled <= 1.2 * global, "{modelled} vs {global} (sums)");
+    // Ignoring the readout costs 1.8× here: the test sees the shutter, not noise.
+    assert!(ignored > 1.4 * modelled, "{ignored} vs {modelled} (sums)");
 }
 
 #[test]

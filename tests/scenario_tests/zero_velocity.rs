@@ -11,9 +11,11 @@ use scenarios::spec::Scenario;
 fn rest_is_detected_from_the_imu_and_the_images_and_never_while_moving() {
     let done = run_catalog("room_figure8_stops_stereo_imu", Some(20.0));
     let rest = done.report.rest.as_ref().expect("a rest block");
-    // Seed 1: 77 of the 81 frames at rest detected; the 4 missed are the first of the rest,
-    // inside the 0.25 s the test needs (seeds 2, 3: 78 of 81). None while moving.
-    assert_eq!(rest.frames_at_rest, 81);
+    // Seed 1: 77–78 of the 81–82 frames at rest detected; the 4 missed are the first of the
+    // rest, inside the 0.25 s the test needs (seeds 2, 3: 78 of 81). None while moving. The
+    // truth is read at each estimate's time, which the estimated time offset shifts: a frame
+    // at an edge of the rest counts on either side.
+    assert!((81..=82).contains(&rest.frames_at_rest), "{rest:?}");
     assert!(rest.frames_detected >= 76, "{rest:?}");
     assert_eq!(rest.false_detections, 0, "{rest:?}");
     assert_eq!(rest.rests.len(), 1);

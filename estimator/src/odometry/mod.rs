@@ -25,6 +25,7 @@ pub mod health;
 mod imu_buffer;
 mod init;
 mod marginalization_policy;
+mod point_selection;
 mod process;
 mod relinearization;
 mod sliding;

@@ -15,6 +15,7 @@ use super::calibration_gates::CalibrationGates;
 use super::config::EstimatorConfig;
 use super::features::{FeatureManager, Track};
 use super::frame::{BlockRef, Prior, WindowFrame};
+use super::point_selection;
 use super::stationary::Rest;
 use super::window_problem::{ProblemSettings, WindowProblem};
 use crate::factors::{
@@ -416,8 +417,9 @@ impl Window {
 
     /// Makes the live tracks anchored in the oldest frame persistent world points, before that
     /// frame is marginalized (its inverse-depth landmarks would otherwise leave with it and
-    /// their tracks end): those seen in the newest frame, longest first, up to
-    /// `max_persistent_points` in the window. Exact at the current estimates.
+    /// their tracks end): those seen in the newest frame, spread over the view (longest, then
+    /// oldest, first within a cell; [`point_selection`]), up to `max_persistent_points` in the
+    /// window. Exact at the current estimates.
     pub fn promote_to_points(&mut self, config: &EstimatorConfig) {
         let room = config
             .max_persistent_points
@@ -439,7 +441,24 @@ impl Window {
             .map(|(id, t)| (t.obs.len(), *id))
             .collect();
         candidates.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
-        for (_, id) in candidates.into_iter().take(room) {
+        // The cell of a track's bearing in the newest frame.
+        let seen_cell = |t: &Track| {
+            let o = t.obs.last()?;
+            let c = o.first_camera()?;
+            Some(point_selection::cell(c, &o.meas[c].as_ref()?.point))
+        };
+        let kept = self
+            .features
+            .tracks
+            .values()
+            .filter(|t| t.point.is_some() && t.obs.last().is_some_and(|o| o.seq == newest));
+        let occupied: Vec<_> = kept.filter_map(seen_cell).collect();
+        let cells: Vec<_> = candidates
+            .iter()
+            .map(|(_, id)| seen_cell(&self.features.tracks[id]).unwrap_or((0, 0, 0)))
+            .collect();
+        for i in point_selection::spread(&cells, occupied, room) {
+            let id = candidates[i].1;
             let Some(x) = self.track_world_point(id) else {
                 continue;
             };
