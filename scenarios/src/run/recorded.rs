@@ -326,8 +326,8 @@ enum TrackJob<'r, 'a> {
     Capture(i64, &'r [ImageRef<'a>]),
 }
 
-/// The stage's answer to a capture: the frame and the tracker's time (s), and the images.
-type Tracked = (Result<(FeatureFrame, f64), RunError>, Vec<image::GrayImage>);
+/// The stage's answer to a capture: the frame, the tracker's time (s) and the images read.
+type Tracked = Result<(FeatureFrame, f64, Vec<image::GrayImage>), RunError>;
 
 impl RecordedFrontend {
     /// Runs one job.
@@ -337,26 +337,17 @@ impl RecordedFrontend {
                 self.gyro.push(&s);
                 None
             }
-            TrackJob::Capture(t_ns, refs) => {
-                let mut latest = Vec::new();
-                let frame = self.track(t_ns, refs, &mut latest);
-                Some((frame, latest))
-            }
+            TrackJob::Capture(t_ns, refs) => Some(self.track(t_ns, refs)),
         }
     }
 
-    /// Reads and tracks a capture (its images into `latest`).
-    fn track(
-        &mut self,
-        t_ns: i64,
-        refs: &[ImageRef],
-        latest: &mut Vec<image::GrayImage>,
-    ) -> Result<(FeatureFrame, f64), RunError> {
-        *latest = refs
+    /// Reads and tracks a capture.
+    fn track(&mut self, t_ns: i64, refs: &[ImageRef]) -> Tracked {
+        let images = refs
             .iter()
             .map(ImageRef::load)
             .collect::<Result<Vec<_>, _>>()?;
-        let views = latest
+        let views = images
             .iter()
             .zip(refs)
             .enumerate()
@@ -371,7 +362,8 @@ impl RecordedFrontend {
             .track(&views, t_ns, self.gyro.take())
             .map_err(|e| refs[0].error(format!("front end: {e}")))?;
         self.counts.add(self.tracker.report(), &frame);
-        Ok((frame, self.tracker.report().times.total_s))
+        drop(views);
+        Ok((frame, self.tracker.report().times.total_s, images))
     }
 }
 
@@ -473,9 +465,8 @@ impl Source for Recorded<'_, '_, '_> {
                     .tracking
                     .as_mut()
                     .expect("captures go to the front end");
-                let (frame, images) = stage.next_result();
+                let (frame, frontend_s, images) = stage.next_result()?;
                 self.latest = images;
-                let (frame, frontend_s) = frame?;
                 Input::Frame { frame, frontend_s }
             }
         }))
