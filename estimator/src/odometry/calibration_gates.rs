@@ -26,7 +26,7 @@ use super::frame::BlockRef;
 use super::window_problem::WindowProblem;
 use super::{Estimator, Status};
 use crate::factors::RelativePosePrior;
-use crate::problem::{Euclidean, Linearization, PoseManifold, PriorFactor};
+use crate::problem::{Euclidean, Linearization, Manifold, PoseManifold, PriorFactor};
 
 /// The hold's σ as a fraction of the configured prior's σ.
 pub const HOLD_FRACTION: f64 = 0.01;
@@ -167,46 +167,158 @@ impl CalibrationGates {
     }
 }
 
-/// The marginal σ (largest over directions) each calibrated quantity would have if it were
-/// free.
+/// What the window's data alone say of one calibrated quantity, from a solve that may hold it.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FreeSigmas {
-    /// Rig rotation (rad), from camera 0's extrinsic.
-    pub rotation_rad: f64,
-    /// Rig translation (m), from camera 0's extrinsic.
-    pub translation_m: f64,
-    /// Time offset (s).
-    pub td_s: f64,
+pub struct FreeView {
+    /// The marginal σ it would have if free (largest over directions; rad, m or s).
+    pub sigma: f64,
+    /// How far the configured value lies from the estimate it would have if free, in that
+    /// estimate's own uncertainty (the Mahalanobis distance `√(eᵀ Σ⁻¹ e)`); 0 when not held.
+    pub disagreement_sigmas: f64,
 }
 
-/// The σ each calibrated quantity would have with every hold lifted, from the solve's kept
-/// linearization `lin` of `built` (built with `gates`). The holds touch only calibration blocks,
-/// so the information of the calibration coordinates without them is exactly their marginal
-/// information with them (the inverse of their joint marginal covariance) minus the holds' own
-/// information: no second build and no second factorization. `None` when there are no
-/// calibration variables or the window's information is not positive definite. Camera 0's
-/// extrinsic speaks for the rig (the relative priors tie the others to it).
-fn free_sigmas(
+/// What the window's data alone say of each calibrated quantity ([`FreeView`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FreeViews {
+    /// Rig rotation (rad), from camera 0's extrinsic.
+    pub rotation: FreeView,
+    /// Rig translation (m), from camera 0's extrinsic.
+    pub translation: FreeView,
+    /// Time offset (s).
+    pub td: FreeView,
+}
+
+impl Estimator {
+    /// Sets the gates from the configuration before a solve.
+    pub(super) fn configure_calibration(&mut self) {
+        let g = &mut self.window.calibration;
+        g.rotation.configure(self.config.estimate_extrinsics);
+        g.translation.configure(self.config.estimate_extrinsics);
+        g.td.configure(self.config.estimate_td);
+    }
+
+    /// After a solve of `built` (its kept linearization `lin`): releases every held quantity the
+    /// window now determines, or whose configured value its data contradict (see the module
+    /// documentation), each with a `CalibrationReleased` event. Only while tracking with the
+    /// IMU and after the warm-up. Returns what the data alone say of each quantity, where it
+    /// was computed (while one is held, after the warm-up).
+    pub(super) fn release_calibration(
+        &mut self,
+        t_ns: i64,
+        built: &WindowProblem,
+        lin: Option<&Linearization>,
+        imu_active: bool,
+    ) -> Option<FreeViews> {
+        let gates = self.window.calibration;
+        if !imu_active || self.status != Status::Tracking || !gates.any_held() {
+            return None;
+        }
+        let warmup_ns = (self.config.calibration_warmup_s * 1e9).round() as i64;
+        if self.tracking_since.is_none_or(|t0| t_ns - t0 < warmup_ns) {
+            return None;
+        }
+        let views = lin.and_then(|lin| free_views(built, lin, gates, &self.config))?;
+        let c = &self.config;
+        // (gate, name, what the data say, released once σ ≤, released once contradicted while
+        // σ ≤, unit). The extrinsics go only once determined.
+        let rotation_limit = c.calibration_release_sigma_deg.to_radians();
+        let checks = [
+            (
+                &mut self.window.calibration.rotation,
+                "rotation",
+                views.rotation,
+                rotation_limit,
+                rotation_limit,
+                (1f64.to_degrees(), "°"),
+            ),
+            (
+                &mut self.window.calibration.translation,
+                "translation",
+                views.translation,
+                c.calibration_release_sigma_m,
+                c.calibration_release_sigma_m,
+                (1e3, " mm"),
+            ),
+            (
+                &mut self.window.calibration.td,
+                "time offset",
+                views.td,
+                c.calibration_release_sigma_ms * 1e-3,
+                c.calibration_contradiction_sigma_ms * 1e-3,
+                (1e3, " ms"),
+            ),
+        ];
+        let contradicted = c.calibration_release_disagreement_sigmas;
+        for (gate, name, view, determined, contradiction, (scale, unit)) in checks {
+            if *gate != Gate::Held {
+                continue;
+            }
+            let why = if view.sigma <= determined {
+                "determined"
+            } else if view.sigma <= contradiction && view.disagreement_sigmas >= contradicted {
+                "contradicted"
+            } else {
+                continue;
+            };
+            *gate = Gate::Free;
+            self.events.push(Event {
+                t_ns,
+                kind: EventKind::CalibrationReleased {
+                    detail: format!(
+                        "{name} {why} (σ {:.3}{unit} if free, the configured value {:.1} σ \
+                         from the free estimate)",
+                        view.sigma * scale,
+                        view.disagreement_sigmas
+                    ),
+                },
+            });
+        }
+        Some(views)
+    }
+}
+
+/// What the window's data alone say of each calibrated quantity, from the solve's kept
+/// linearization `lin` of `built` (built with `gates`) and the solved values.
+///
+/// The σ: the holds touch only calibration blocks, so the information of the calibration
+/// coordinates without them is exactly their marginal information with them (the inverse of
+/// their joint marginal covariance) minus the holds' own information: no second build and no
+/// second factorization.
+///
+/// The disagreement: at the held solve's optimum the data's gradient balances the holds', `−H_h d`
+/// (`d` the held values' offset from the configured ones, `H_h` the holds' information), so one
+/// Gauss-Newton step without the holds moves the calibration coordinates by `Σ_f H_h d`
+/// (`Σ_f` their marginal covariance if free): the free estimate lies `e = d + Σ_f H_h d` from
+/// the configured value — the score test of the hold. Each quantity reports `√(eᵀ Σ_f⁻¹ e)`
+/// over its own coordinates.
+///
+/// `None` when there are no calibration variables or the window's information is not positive
+/// definite. Camera 0's extrinsic speaks for the rig (the relative priors tie the others to it).
+fn free_views(
     built: &WindowProblem,
     lin: &Linearization,
     gates: CalibrationGates,
     config: &EstimatorConfig,
-) -> Option<FreeSigmas> {
+) -> Option<FreeViews> {
     // Coordinates: every camera's extrinsic `[δp, δθ]`, then td; camera 0 first. The holds'
     // information: what the prior the window was built with adds over the configured one.
     let mut coords = Vec::new();
     let mut held_info = Vec::new();
+    let mut offset = Vec::new();
     let (sigma_r, sigma_t) = gates.extrinsic_sigmas(config);
     let rotation = sigma_r.powi(-2) - config.extrinsic_prior_sigma_deg.to_radians().powi(-2);
     let translation = sigma_t.powi(-2) - config.extrinsic_prior_sigma_m.powi(-2);
     let extrinsics = built.variable_block(BlockRef::Extrinsic(0)).is_some();
-    for i in 0..config.cameras.len() {
+    for (i, camera) in config.cameras.iter().enumerate() {
         let Some(b) = built.variable_block(BlockRef::Extrinsic(i)) else {
             continue;
         };
         coords.extend((0..6).map(|k| (b, k)));
         held_info.extend([translation; 3]);
         held_info.extend([rotation; 3]);
+        let mut d = [0.0; 6];
+        PoseManifold.minus(built.problem.values(b), &camera.T_b_c.to_array(), &mut d);
+        offset.extend(d);
     }
     let td = built.variable_block(BlockRef::Td);
     if let Some(b) = td {
@@ -215,6 +327,7 @@ fn free_sigmas(
             Gate::Held => TD_HOLD_SIGMA_S.powi(-2),
             _ => 0.0,
         });
+        offset.push(built.problem.values(b)[0] - config.td_s);
     }
     let n = coords.len();
     if n == 0 {
@@ -233,93 +346,48 @@ fn free_sigmas(
         .eigenvalues
         .map(|v| 1.0 / v.max(top * 1e-14).max(1e-300));
     let free = &eig.eigenvectors * DMatrix::from_diagonal(&inv) * eig.eigenvectors.transpose();
-    let largest = |o: usize, k: usize| {
-        SymmetricEigen::new(free.view((o, o), (k, k)).into_owned())
+    let d = DVector::from_vec(offset);
+    let pull = DVector::from_iterator(n, held_info.iter().zip(d.iter()).map(|(h, d)| h * d));
+    let e = &d + &free * pull;
+    let view = |o: usize, k: usize, held: bool| {
+        let block = free.view((o, o), (k, k)).into_owned();
+        let sigma = SymmetricEigen::new(block.clone())
             .eigenvalues
             .iter()
             .fold(0.0f64, |m, v| m.max(*v))
-            .sqrt()
+            .sqrt();
+        let e = e.rows(o, k).into_owned();
+        let disagreement_sigmas = match block.cholesky() {
+            Some(c) if held => e.dot(&c.solve(&e)).max(0.0).sqrt(),
+            _ => 0.0,
+        };
+        FreeView {
+            sigma,
+            disagreement_sigmas,
+        }
     };
     // Quantities that are not variables are reported as known (σ 0): they are fixed.
-    let (translation_m, rotation_rad) = if extrinsics {
-        (largest(0, 3), largest(3, 3))
-    } else {
-        (0.0, 0.0)
+    let known = FreeView {
+        sigma: 0.0,
+        disagreement_sigmas: 0.0,
     };
-    Some(FreeSigmas {
-        translation_m,
-        rotation_rad,
-        td_s: if td.is_some() { largest(n - 1, 1) } else { 0.0 },
+    let (translation, rotation) = if extrinsics {
+        (
+            view(0, 3, gates.translation == Gate::Held),
+            view(3, 3, gates.rotation == Gate::Held),
+        )
+    } else {
+        (known, known)
+    };
+    Some(FreeViews {
+        rotation,
+        translation,
+        td: if td.is_some() {
+            view(n - 1, 1, gates.td == Gate::Held)
+        } else {
+            known
+        },
     })
-}
-
-impl Estimator {
-    /// Sets the gates from the configuration before a solve.
-    pub(super) fn configure_calibration(&mut self) {
-        let g = &mut self.window.calibration;
-        g.rotation.configure(self.config.estimate_extrinsics);
-        g.translation.configure(self.config.estimate_extrinsics);
-        g.td.configure(self.config.estimate_td);
-    }
-
-    /// After a solve of `built` (its kept linearization `lin`): releases every held quantity the
-    /// window now determines (see the module documentation), each with a
-    /// `CalibrationReleased` event. Only while tracking with the IMU and after the warm-up.
-    /// Returns the σ each quantity would have if free, where they were computed (while one is
-    /// held, after the warm-up).
-    pub(super) fn release_calibration(
-        &mut self,
-        t_ns: i64,
-        built: &WindowProblem,
-        lin: Option<&Linearization>,
-        imu_active: bool,
-    ) -> Option<FreeSigmas> {
-        let gates = self.window.calibration;
-        if !imu_active || self.status != Status::Tracking || !gates.any_held() {
-            return None;
-        }
-        let warmup_ns = (self.config.calibration_warmup_s * 1e9).round() as i64;
-        if self.tracking_since.is_none_or(|t0| t_ns - t0 < warmup_ns) {
-            return None;
-        }
-        let sigmas = lin.and_then(|lin| free_sigmas(built, lin, gates, &self.config))?;
-        let c = &self.config;
-        let checks = [
-            (
-                &mut self.window.calibration.rotation,
-                "rotation",
-                sigmas.rotation_rad.to_degrees(),
-                c.calibration_release_sigma_deg,
-                "°",
-            ),
-            (
-                &mut self.window.calibration.translation,
-                "translation",
-                sigmas.translation_m * 1e3,
-                c.calibration_release_sigma_m * 1e3,
-                " mm",
-            ),
-            (
-                &mut self.window.calibration.td,
-                "time offset",
-                sigmas.td_s * 1e3,
-                c.calibration_release_sigma_ms,
-                " ms",
-            ),
-        ];
-        for (gate, name, sigma, limit, unit) in checks {
-            if *gate == Gate::Held && sigma <= limit {
-                *gate = Gate::Free;
-                self.events.push(Event {
-                    t_ns,
-                    kind: EventKind::CalibrationReleased {
-                        detail: format!("{name} (σ {sigma:.3}{unit} if free)"),
-                    },
-                });
-            }
-        }
-        Some(sigmas)
-    }
 }
 
 #[cfg(test)]
@@ -360,8 +428,9 @@ mod tests {
 
     /// A window problem in miniature: a pose, both extrinsics and td, tied together by a random
     /// linear "data" factor of rank `rank` (fewer rows than coordinates leave directions the
-    /// data do not see), plus the calibration priors for `gates`.
-    fn built(gates: CalibrationGates, rank: usize, seed: u64) -> WindowProblem {
+    /// data do not see) whose residual at the configured values is `misfit` times a random
+    /// vector (0: the data agree with them), plus the calibration priors for `gates`.
+    fn built(gates: CalibrationGates, rank: usize, seed: u64, misfit: f64) -> WindowProblem {
         let config = config();
         let mut window = Window::new(config.cameras.iter().map(|c| c.T_b_c).collect(), 0.0);
         window.calibration = gates;
@@ -406,7 +475,10 @@ mod tests {
         let jac: Vec<f64> = (0..rank * 19)
             .map(|i| rng.random_range(-1.0..1.0) * scale(i % 19))
             .collect();
-        let data = PriorFactor::new(manifolds, points, jac, vec![0.0; rank]).unwrap();
+        let r0: Vec<f64> = (0..rank)
+            .map(|_| misfit * rng.random_range(-1.0..1.0))
+            .collect();
+        let data = PriorFactor::new(manifolds, points, jac, r0).unwrap();
         problem.add_factor(Arc::new(data), None, &blocks).unwrap();
         let mut built = WindowProblem::new(problem, refs, Vec::new());
         window.calibration.add_priors(&mut built, &config);
@@ -428,10 +500,10 @@ mod tests {
             td: Gate::Free,
         };
         for (rank, seed) in [(25, 1), (19, 2), (12, 3)] {
-            let mut b = built(held, rank, seed);
+            let mut b = built(held, rank, seed, 0.0);
             let (_, lin) = solve_keeping_linearization(&mut b.problem, &Default::default());
-            let got = free_sigmas(&b, &lin.unwrap(), held, &config()).unwrap();
-            let f = built(free, rank, seed);
+            let got = free_views(&b, &lin.unwrap(), held, &config()).unwrap();
+            let f = built(free, rank, seed, 0.0);
             let coords: Vec<_> = [BlockRef::Extrinsic(0), BlockRef::Td]
                 .iter()
                 .flat_map(|r| {
@@ -447,12 +519,72 @@ mod tests {
                     .sqrt()
             };
             let want = [largest(0, 3), largest(3, 3), largest(6, 1)];
-            let got = [got.translation_m, got.rotation_rad, got.td_s];
+            let got = [got.translation.sigma, got.rotation.sigma, got.td.sigma];
             for (g, w) in got.iter().zip(want) {
                 assert!(
                     (g - w).abs() <= 1e-6 * w,
                     "rank {rank}: {got:?} vs {want:?}"
                 );
+            }
+        }
+    }
+
+    /// The disagreement predicted from the held solve is the distance, in σ, between the
+    /// configured values and the estimate of the same problem solved without the holds; 0 when
+    /// the data agree with the configured values.
+    #[test]
+    fn disagreement_is_the_free_estimates_distance_from_the_configured_values() {
+        let held = CalibrationGates {
+            rotation: Gate::Held,
+            translation: Gate::Held,
+            td: Gate::Held,
+        };
+        let free = CalibrationGates {
+            rotation: Gate::Free,
+            translation: Gate::Free,
+            td: Gate::Free,
+        };
+        let config = config();
+        for (rank, seed, misfit) in [(25, 1, 3.0), (19, 2, 1.0), (30, 4, 0.0)] {
+            let mut h = built(held, rank, seed, misfit);
+            let (_, lin) = solve_keeping_linearization(&mut h.problem, &Default::default());
+            let got = free_views(&h, &lin.unwrap(), held, &config).unwrap();
+            let mut f = built(free, rank, seed, misfit);
+            solve_keeping_linearization(&mut f.problem, &Default::default());
+            let (e0, td) = (
+                f.block(BlockRef::Extrinsic(0)).unwrap(),
+                f.block(BlockRef::Td).unwrap(),
+            );
+            let coords: Vec<_> = (0..6).map(|k| (e0, k)).chain([(td, 0)]).collect();
+            let cov = marginal_covariance(&f.problem, &coords).unwrap();
+            let mut e = [0.0; 7];
+            PoseManifold.minus(
+                f.problem.values(e0),
+                &config.cameras[0].T_b_c.to_array(),
+                &mut e,
+            );
+            e[6] = f.problem.values(td)[0] - config.td_s;
+            let distance = |o: usize, k: usize| {
+                let e = DVector::from_column_slice(&e[o..o + k]);
+                let c = cov.view((o, o), (k, k)).into_owned().cholesky().unwrap();
+                e.dot(&c.solve(&e)).sqrt()
+            };
+            let want = [distance(0, 3), distance(3, 3), distance(6, 1)];
+            let got = [
+                got.translation.disagreement_sigmas,
+                got.rotation.disagreement_sigmas,
+                got.td.disagreement_sigmas,
+            ];
+            for (g, w) in got.iter().zip(want) {
+                assert!(
+                    (g - w).abs() <= 1e-3 * w.max(1.0),
+                    "rank {rank}, misfit {misfit}: {got:?} vs {want:?}"
+                );
+            }
+            if misfit == 0.0 {
+                assert!(got.iter().all(|g| *g < 1e-3), "{got:?}");
+            } else {
+                assert!(got.iter().any(|g| *g > 0.5), "{got:?}");
             }
         }
     }

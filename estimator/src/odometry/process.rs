@@ -96,7 +96,7 @@ impl Estimator {
         // The time offset's σ: while the solve held it, what the data alone give (σ if free);
         // the hold's own σ says nothing about how well the offset is known.
         let td_sigma_s = if td_held {
-            free.filter(|_| covariance.is_some()).map(|f| f.td_s)
+            free.filter(|_| covariance.is_some()).map(|f| f.td.sigma)
         } else {
             td_sigma_s
         };

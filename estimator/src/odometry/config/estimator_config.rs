@@ -151,6 +151,17 @@ pub struct EstimatorConfig {
     pub calibration_release_sigma_m: f64,
     /// A held time offset is released once, free, its marginal σ would be at most this (ms).
     pub calibration_release_sigma_ms: f64,
+    /// A held time offset is also released before it is determined to
+    /// `calibration_release_sigma_ms` once the window's data contradict its configured value:
+    /// the estimate it would have if free lies at least this many of that estimate's σ from
+    /// it (the score test of the hold, `calibration.rs`), and that σ is at most
+    /// `calibration_contradiction_sigma_ms`. So an offset the data agree with stays until they
+    /// determine it, and a wrong one goes once they can tell.
+    pub calibration_release_disagreement_sigmas: f64,
+    /// The largest σ if free (ms) at which a contradicted time offset is released: before, the
+    /// start-up transient makes the score test unreliable (a consumer-grade rig, seed 10, was
+    /// contradicted at 0.7 s with σ 14 ms and ran 82 ms away).
+    pub calibration_contradiction_sigma_ms: f64,
     /// Frames collected for the visual-inertial alignment before IMU factors are used (at most
     /// `window_size`).
     pub init_frames: usize,
@@ -387,7 +398,9 @@ impl EstimatorConfig {
             calibration_warmup_s: 0.0,
             calibration_release_sigma_deg: 0.5,
             calibration_release_sigma_m: 0.005,
-            calibration_release_sigma_ms: 5.0,
+            calibration_release_sigma_ms: 1.0,
+            calibration_release_disagreement_sigmas: 3.0,
+            calibration_contradiction_sigma_ms: 5.0,
             init_frames: 10,
             stereo_init_window_s: 0.4,
             init_td_search_s: 0.1,
@@ -661,6 +674,15 @@ impl EstimatorConfig {
         positive(
             "calibration_release_sigma_ms",
             self.calibration_release_sigma_ms,
+        )?;
+        positive(
+            "calibration_contradiction_sigma_ms",
+            self.calibration_contradiction_sigma_ms,
+        )?;
+        positive_or_infinite(
+            "calibration_release_disagreement_sigmas",
+            self.calibration_release_disagreement_sigmas,
+            "released only once determined",
         )?;
         positive(
             "extrinsic_relative_prior_sigma_deg",
