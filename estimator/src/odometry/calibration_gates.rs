@@ -485,20 +485,20 @@ mod tests {
         built
     }
 
+    /// Every quantity behind the same gate.
+    fn all(gate: Gate) -> CalibrationGates {
+        CalibrationGates {
+            rotation: gate,
+            translation: gate,
+            td: gate,
+        }
+    }
+
     /// The σ from the held solve's linearization, holds subtracted, equals the σ of the same
     /// problem built without the holds — also when the data leave directions unseen.
     #[test]
     fn free_sigmas_equal_a_build_without_the_holds() {
-        let held = CalibrationGates {
-            rotation: Gate::Held,
-            translation: Gate::Held,
-            td: Gate::Held,
-        };
-        let free = CalibrationGates {
-            rotation: Gate::Free,
-            translation: Gate::Free,
-            td: Gate::Free,
-        };
+        let (held, free) = (all(Gate::Held), all(Gate::Free));
         for (rank, seed) in [(25, 1), (19, 2), (12, 3)] {
             let mut b = built(held, rank, seed, 0.0);
             let (_, lin) = solve_keeping_linearization(&mut b.problem, &Default::default());
@@ -534,16 +534,7 @@ mod tests {
     /// the data agree with the configured values.
     #[test]
     fn disagreement_is_the_free_estimates_distance_from_the_configured_values() {
-        let held = CalibrationGates {
-            rotation: Gate::Held,
-            translation: Gate::Held,
-            td: Gate::Held,
-        };
-        let free = CalibrationGates {
-            rotation: Gate::Free,
-            translation: Gate::Free,
-            td: Gate::Free,
-        };
+        let (held, free) = (all(Gate::Held), all(Gate::Free));
         let config = config();
         for (rank, seed, misfit) in [(25, 1, 3.0), (19, 2, 1.0), (30, 4, 0.0)] {
             let mut h = built(held, rank, seed, misfit);
