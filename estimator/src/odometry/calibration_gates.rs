@@ -8,7 +8,11 @@
 //! configured priors hold it. A held quantity is released (for good, until a reset) once the
 //! warm-up is over and the window's data determine it: the marginal σ it would have if free —
 //! from the window's information with the configured priors but without the hold, landmarks
-//! eliminated — is below `calibration_release_sigma_*` in every direction.
+//! eliminated — is below `calibration_release_sigma_*` in every direction. The time offset is
+//! also released once the data contradict its configured value: the estimate it would have if
+//! free lies `calibration_release_disagreement_sigmas` of its σ or more from that value, with
+//! that σ at most `calibration_contradiction_sigma_ms` ([`FreeView`]). The extrinsics are
+//! released only once determined.
 //!
 //! Holding, rather than fixing, matters: a constant does not enter the marginalization prior, so
 //! the prior is built as if the configured value were the truth and keeps it after the release
@@ -220,15 +224,14 @@ impl Estimator {
         let views = lin.and_then(|lin| free_views(built, lin, gates, &self.config))?;
         let c = &self.config;
         // (gate, name, what the data say, released once σ ≤, released once contradicted while
-        // σ ≤, unit). The extrinsics go only once determined.
-        let rotation_limit = c.calibration_release_sigma_deg.to_radians();
+        // σ ≤ (never for the extrinsics), unit).
         let checks = [
             (
                 &mut self.window.calibration.rotation,
                 "rotation",
                 views.rotation,
-                rotation_limit,
-                rotation_limit,
+                c.calibration_release_sigma_deg.to_radians(),
+                None,
                 (1f64.to_degrees(), "°"),
             ),
             (
@@ -236,7 +239,7 @@ impl Estimator {
                 "translation",
                 views.translation,
                 c.calibration_release_sigma_m,
-                c.calibration_release_sigma_m,
+                None,
                 (1e3, " mm"),
             ),
             (
@@ -244,7 +247,7 @@ impl Estimator {
                 "time offset",
                 views.td,
                 c.calibration_release_sigma_ms * 1e-3,
-                c.calibration_contradiction_sigma_ms * 1e-3,
+                Some(c.calibration_contradiction_sigma_ms * 1e-3),
                 (1e3, " ms"),
             ),
         ];
@@ -255,7 +258,9 @@ impl Estimator {
             }
             let why = if view.sigma <= determined {
                 "determined"
-            } else if view.sigma <= contradiction && view.disagreement_sigmas >= contradicted {
+            } else if contradiction.is_some_and(|limit| view.sigma <= limit)
+                && view.disagreement_sigmas >= contradicted
+            {
                 "contradicted"
             } else {
                 continue;

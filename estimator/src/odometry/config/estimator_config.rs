@@ -103,9 +103,10 @@ pub struct EstimatorConfig {
     pub td_s: f64,
     /// Estimate `td` online (with the IMU), through image velocities the window's motion
     /// predicts (`time_offset.rs`); held at `td_s` until the window determines it to
-    /// `calibration_release_sigma_ms` (`calibration.rs`). Default figure-eight, seed 1, 60 s:
-    /// released at 3.5 s; a −10 ms error is within 1.0 ms after 30 s, −0.7 ms at the end; from
-    /// the true value within 1.0 ms after 20 s. On by default: a real rig's camera and IMU
+    /// `calibration_release_sigma_ms` or contradicts it (`calibration_gates.rs`). Default
+    /// figure-eight, seed 1, 60 s: from the true value, released as determined at 33.3 s and at
+    /// most 0.71 ms off after the first second; a −10 ms error is contradicted at 8.9 s, within
+    /// 1.3 ms after 30 s, −0.46 ms at the end. On by default: a real rig's camera and IMU
     /// clocks disagree by milliseconds, and an offset the window does not model breaks fast
     /// motions (EuRoC V1_01 with 10 ms: 23 IMU-χ² resets and 0.27 m held fixed, 0.0069 m
     /// estimated). It costs 0.15–0.4 ms per frame on the default motion (window bench).
@@ -118,7 +119,7 @@ pub struct EstimatorConfig {
     /// Estimate the camera extrinsics online (with the IMU), held near the configured values by
     /// `extrinsic_prior_sigma_*` and, between cameras, `extrinsic_relative_prior_sigma_*`. The
     /// rig's rotation and translation are each held at the configured values until the window
-    /// determines them to `calibration_release_sigma_deg` / `_m` (`calibration.rs`).
+    /// determines them to `calibration_release_sigma_deg` / `_m` (`calibration_gates.rs`).
     pub estimate_extrinsics: bool,
     /// Standard deviation of the configured extrinsic rotations when they are estimated (deg):
     /// a prior factor on each camera's `T_b_c`, applied in every solve and never marginalized
@@ -144,7 +145,7 @@ pub struct EstimatorConfig {
     /// nothing wrong into the prior but does cost accuracy while it is wrong.
     pub calibration_warmup_s: f64,
     /// A held extrinsic rotation is released once, free, its marginal σ would be at most this
-    /// (deg, largest direction; see `calibration.rs`).
+    /// (deg, largest direction; see `calibration_gates.rs`).
     pub calibration_release_sigma_deg: f64,
     /// A held extrinsic translation is released once, free, its marginal σ would be at most
     /// this (m, largest direction).
@@ -154,7 +155,7 @@ pub struct EstimatorConfig {
     /// A held time offset is also released before it is determined to
     /// `calibration_release_sigma_ms` once the window's data contradict its configured value:
     /// the estimate it would have if free lies at least this many of that estimate's σ from
-    /// it (the score test of the hold, `calibration.rs`), and that σ is at most
+    /// it (the score test of the hold, `calibration_gates.rs`), and that σ is at most
     /// `calibration_contradiction_sigma_ms`. So an offset the data agree with stays until they
     /// determine it, and a wrong one goes once they can tell.
     pub calibration_release_disagreement_sigmas: f64,
