@@ -110,7 +110,7 @@ pub fn marginalize(
         .ok_or(MarginalizationError::Evaluation)?;
     // 3. Remove the state blocks with an eigen-thresholded pseudo-inverse.
     let (h_star, g_star, c_star) = eliminate_leading(
-        &system.hessian,
+        system.hessian,
         &system.gradient,
         system.constant,
         nm,
@@ -157,8 +157,8 @@ pub fn marginalize(
     let factor = PriorFactor::from_information(
         manifolds,
         points,
-        h_star.as_slice().to_vec(),
-        g_star.as_slice().to_vec(),
+        h_star.data.into(),
+        g_star.data.into(),
         c_star,
     )?;
     Ok(MarginalPrior {

@@ -6,37 +6,50 @@ use faer::{Accum, MatMut, MatRef, Par};
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 
 use super::{PriorError, PriorFactor};
+use crate::problem::solver::mirror_upper;
 
 /// The quadratic `c + 2 gᵀd + dᵀH d` over the coordinates after the first `nm`, minimized over
 /// those: `H* = H_kk − H_km H_mm⁺ H_mk`, `g* = g_k − H_km H_mm⁺ g_m`, `c* = c − g_mᵀ H_mm⁺ g_m`.
 /// `H_mm⁺` is the pseudo-inverse over the eigenvalues of `H_mm` above `eigen_threshold`: a
 /// removed direction without information (a gauge direction) folds nothing in. `h` must be
-/// symmetric; `H*` comes out exactly symmetric.
+/// symmetric; `H*` comes out exactly symmetric, in `h`'s own buffer (`H_kk` moved to its
+/// front: no second `n × n` matrix).
 pub(crate) fn eliminate_leading(
-    h: &DMatrix<f64>,
+    h: DMatrix<f64>,
     g: &DVector<f64>,
     c: f64,
     nm: usize,
     eigen_threshold: f64,
 ) -> (DMatrix<f64>, DVector<f64>, f64) {
-    let nk = h.nrows() - nm;
-    let mut h_star = h.view((nm, nm), (nk, nk)).into_owned();
+    let n = h.nrows();
+    let nk = n - nm;
     let mut g_star = g.rows(nm, nk).into_owned();
     let mut c_star = c;
-    if nm > 0 {
+    // The thin factor `Λ^-½ Vᵀ H_mk` over the kept eigenvalues of `H_mm`:
+    // H_km H_mm⁺ H_mk = fᵀ f.
+    let f = (nm > 0).then(|| {
         let hmm = h.view((0, 0), (nm, nm));
         let hmk = h.view((0, nm), (nm, nk));
         let eig = SymmetricEigen::new(0.5 * (hmm + hmm.transpose()));
-        // H_km H_mm⁺ H_mk = (Λ^-½ Vᵀ H_mk)ᵀ (Λ^-½ Vᵀ H_mk) over the kept eigenvalues: one
-        // product of the thin factor with itself.
         let kept: Vec<usize> = (0..nm)
             .filter(|&i| eig.eigenvalues[i] > eigen_threshold)
             .collect();
         let scaled = DMatrix::from_fn(nm, kept.len(), |r, c| {
             eig.eigenvectors[(r, kept[c])] / eig.eigenvalues[kept[c]].sqrt()
         });
-        let f = scaled.transpose() * hmk;
         let fg = scaled.transpose() * g.rows(0, nm);
+        (scaled.transpose() * hmk, fg)
+    });
+    // `H_kk` to the front of the buffer, column by column (each moves towards the start, so no
+    // column is overwritten before it is read).
+    let mut data: Vec<f64> = h.data.into();
+    for j in 0..nk {
+        let src = (nm + j) * n + nm;
+        data.copy_within(src..src + nk, j * nk);
+    }
+    data.truncate(nk * nk);
+    let mut h_star = DMatrix::from_vec(nk, nk, data);
+    if let Some((f, fg)) = f {
         matmul(
             MatMut::from_column_major_slice_mut(h_star.as_mut_slice(), nk, nk),
             Accum::Add,
@@ -48,12 +61,9 @@ pub(crate) fn eliminate_leading(
         g_star.gemv_tr(-1.0, &f, &fg, 1.0);
         c_star -= fg.norm_squared();
     }
-    // Exactly symmetric (the blocked product need not be, in the last bit).
-    for j in 0..nk {
-        for i in j + 1..nk {
-            h_star[(j, i)] = h_star[(i, j)];
-        }
-    }
+    // Exactly symmetric (the blocked product need not be, in the last bit): the lower triangle
+    // of the column-major matrix is the upper one of the same buffer read row-major.
+    mirror_upper(h_star.as_mut_slice(), nk);
     (h_star, g_star, c_star)
 }
 
@@ -78,14 +88,13 @@ impl PriorFactor {
         cols.extend((0..nb).filter(|&k| !removing[k]).flat_map(block_cols));
         let h = DMatrix::from_fn(n, n, |i, j| self.hessian[cols[i] * n + cols[j]]);
         let g = DVector::from_fn(n, |i, _| self.gradient[cols[i]]);
-        let (h_star, g_star, c_star) =
-            eliminate_leading(&h, &g, self.constant, nm, min_information);
+        let (h_star, g_star, c_star) = eliminate_leading(h, &g, self.constant, nm, min_information);
         let kept = (0..nb).filter(|&k| !removing[k]);
         PriorFactor::from_information(
             kept.clone().map(|k| self.manifolds[k].clone()).collect(),
             kept.map(|k| self.linearization_points[k].clone()).collect(),
-            h_star.as_slice().to_vec(),
-            g_star.as_slice().to_vec(),
+            h_star.data.into(),
+            g_star.data.into(),
             c_star,
         )
     }

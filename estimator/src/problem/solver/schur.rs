@@ -347,8 +347,8 @@ impl NormalEquations {
         ) {
             return None;
         }
-        // The Cholesky reads the lower triangle: copy the upper (written above) onto it.
-        mirror_upper(&mut sys.a, n);
+        // The Cholesky reads the lower triangle of the column-major matrix: the upper one of
+        // this row-major buffer, which is what the copy and the elimination wrote.
         let mut dx = std::mem::take(&mut sys.rhs);
         sys.factored = false;
         if !dense_cholesky_solve(&mut sys.a, n, &mut dx, 1, &mut sys.scratch) {
@@ -461,7 +461,18 @@ impl NormalEquations {
     /// takes off the model's constant, `Σ g_lᵀ H_ll⁻¹ g_l`. A landmark without information folds
     /// nothing in.
     pub(crate) fn undamped_reduced(&self) -> (Vec<f64>, Vec<f64>, f64) {
-        let mut h = self.hxx.clone();
+        self.undamped_reduced_onto(self.hxx.clone())
+    }
+
+    /// [`Self::undamped_reduced`] of normal equations that are no longer needed: their `H_xx`
+    /// buffer becomes the result's (no copy of an `n × n` matrix).
+    pub(crate) fn into_undamped_reduced(mut self) -> (Vec<f64>, Vec<f64>, f64) {
+        let hxx = std::mem::take(&mut self.hxx);
+        self.undamped_reduced_onto(hxx)
+    }
+
+    /// The Schur complement onto `h`, which holds `H_xx`.
+    fn undamped_reduced_onto(&self, mut h: Vec<f64>) -> (Vec<f64>, Vec<f64>, f64) {
         let mut neg_g: Vec<f64> = self.gx.iter().map(|v| -v).collect();
         let mut cinv = vec![0.0; self.hll.len()];
         let mut valid = vec![false; self.num_landmarks()];
@@ -544,12 +555,13 @@ pub fn schur_complement_system(
     };
     let ids: Vec<usize> = residual_ids.iter().map(|r| r.0).collect();
     let eqs = linearize(problem, &layout, Some(&ids))?;
-    let (h, neg_g, eliminated) = eqs.undamped_reduced();
+    let constant = eqs.model_constant;
+    let (h, neg_g, eliminated) = eqs.into_undamped_reduced();
     // Mirrored, so exactly symmetric: the row-major buffer is the column-major one.
     Some(SchurComplementSystem {
         hessian: DMatrix::from_vec(n, n, h),
         gradient: DVector::from_iterator(n, neg_g.iter().map(|v| -v)),
-        constant: eqs.model_constant - eliminated,
+        constant: constant - eliminated,
     })
 }
 

@@ -52,10 +52,59 @@ pub(crate) fn scale(s: &Step, k: f64) -> Step {
 }
 
 /// Copies the upper triangle of a row-major square matrix onto its lower triangle.
+///
+/// Tile by tile (`MIRROR_TILE` square): a column of the lower triangle written in one sweep
+/// strides a whole row per element, one cache line each, which at the ~465 coordinates of a
+/// window with 100 persistent points cost more than the linearization's own arithmetic.
 pub(crate) fn mirror_upper(h: &mut [f64], n: usize) {
-    for i in 0..n {
-        for j in i + 1..n {
-            h[j * n + i] = h[i * n + j];
+    for i0 in (0..n).step_by(MIRROR_TILE) {
+        let i1 = (i0 + MIRROR_TILE).min(n);
+        for j0 in (i0..n).step_by(MIRROR_TILE) {
+            let j1 = (j0 + MIRROR_TILE).min(n);
+            for i in i0..i1 {
+                for j in j0.max(i + 1)..j1 {
+                    h[j * n + i] = h[i * n + j];
+                }
+            }
+        }
+    }
+}
+
+/// Side of the tiles [`mirror_upper`] copies: 32 × 32 doubles read and 32 rows of 256 bytes
+/// written stay in the first-level cache.
+const MIRROR_TILE: usize = 32;
+
+#[cfg(test)]
+mod tests {
+    use super::mirror_upper;
+
+    /// Tile by tile, the same matrix as the element-by-element copy: sizes below, at and
+    /// across the tile's, the upper triangle and diagonal untouched.
+    #[test]
+    fn the_tiled_mirror_is_the_elementwise_one() {
+        for n in [0, 1, 5, 31, 32, 33, 64, 70] {
+            let upper: Vec<f64> = (0..n * n)
+                .map(|k| {
+                    if k % n.max(1) >= k / n.max(1) {
+                        k as f64 + 0.5
+                    } else {
+                        -1.0
+                    }
+                })
+                .collect();
+            let mut expected = upper.clone();
+            for i in 0..n {
+                for j in i + 1..n {
+                    expected[j * n + i] = expected[i * n + j];
+                }
+            }
+            let mut h = upper.clone();
+            mirror_upper(&mut h, n);
+            assert_eq!(h, expected, "n = {n}");
+            assert!(
+                h.iter().all(|v| *v >= 0.0),
+                "n = {n}: every lower entry written"
+            );
         }
     }
 }
