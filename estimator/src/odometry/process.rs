@@ -93,6 +93,9 @@ impl Estimator {
         let free = self.release_calibration(t_ns, &built, linearization.as_ref(), imu_active);
         let (covariance, relative_pose, td_sigma_s) =
             self.newest_covariance(&built, linearization.as_ref());
+        if let Some(linearization) = linearization {
+            self.workspace.recycle(linearization);
+        }
         // The time offset's σ: while the solve held it, what the data alone give (σ if free);
         // the hold's own σ says nothing about how well the offset is known.
         let td_sigma_s = if td_held {

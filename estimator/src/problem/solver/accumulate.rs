@@ -3,11 +3,11 @@
 
 use super::normal_equations::NormalEquations;
 use super::plan::{NONE, ResidualPlan, Slot};
-use super::vector::{Step, mirror_upper};
+use super::vector::Step;
 use crate::problem::graph::Problem;
 
 /// `H[a, b] += Jaᵀ Jb` on a row-major `n × n` buffer (only the block with the smaller offset
-/// first is written; [`mirror_upper`] completes the matrix).
+/// first is written: `H_xx` is kept as its upper triangle).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn add_jtj(
@@ -56,8 +56,10 @@ fn add_jtj(
             if *a == 0.0 {
                 continue;
             }
-            let row = &mut h[(oa + i) * n + ob..(oa + i) * n + ob + tb];
-            for (hv, b) in row.iter_mut().zip(rb) {
+            // A diagonal block: its upper triangle.
+            let from = if oa == ob { i } else { 0 };
+            let row = &mut h[(oa + i) * n + ob + from..(oa + i) * n + ob + tb];
+            for (hv, b) in row.iter_mut().zip(&rb[from..]) {
                 *hv += a * b;
             }
         }
@@ -87,7 +89,10 @@ impl NormalEquations {
     ///
     /// Also sets [`Self::cost`], summed in the same order as [`Self::cost_at`].
     pub fn linearize(&mut self, problem: &Problem) -> bool {
-        self.hxx.fill(0.0);
+        let n = self.n;
+        for i in 0..n {
+            self.hxx[i * n + i..(i + 1) * n].fill(0.0);
+        }
         self.gx.fill(0.0);
         self.hll.fill(0.0);
         self.gl.fill(0.0);
@@ -131,7 +136,6 @@ impl NormalEquations {
             }
         }
         self.lm_res = plans;
-        mirror_upper(&mut self.hxx, self.n);
         self.cost = 0.5 * total;
         ok
     }
@@ -252,7 +256,7 @@ impl NormalEquations {
                 for ((g, x0), x1) in self.gx[oa..oa + ta].iter_mut().zip(a0).zip(a1) {
                     *g += x0 * r0 + x1 * r1;
                 }
-                // Diagonal block: upper triangle only (`mirror_upper` fills the rest).
+                // Diagonal block: upper triangle only.
                 if ta == 6 {
                     // Pose blocks: fixed sizes, unrolled.
                     let (b0, b1): (&[f64; 6], &[f64; 6]) =
@@ -398,8 +402,11 @@ impl NormalEquations {
                     let (ob, tb) = (sb.offset, sb.t);
                     if ob != NONE && ob >= oa {
                         for i in 0..ta {
-                            let src = &h[(la + i) * total + lb..(la + i) * total + lb + tb];
-                            let dst = &mut self.hxx[(oa + i) * n + ob..(oa + i) * n + ob + tb];
+                            // The diagonal block's upper triangle only.
+                            let from = if ob == oa { i } else { 0 };
+                            let src = &h[(la + i) * total + lb + from..(la + i) * total + lb + tb];
+                            let dst =
+                                &mut self.hxx[(oa + i) * n + ob + from..(oa + i) * n + ob + tb];
                             for (d, s) in dst.iter_mut().zip(src) {
                                 *d += s;
                             }

@@ -9,6 +9,7 @@ use nalgebra::{DMatrix, DVector};
 
 use super::normal_equations::linearize;
 use super::plan::{Layout, NONE};
+use super::vector::mirror_upper;
 use crate::problem::graph::{BlockId, Problem};
 
 /// The scratch of a factorization and solve of size `n` with `cols` right-hand sides, kept
@@ -99,7 +100,8 @@ pub fn dense_normal_equations(
     layout.landmarks.clear();
     layout.landmark_offset.clear();
     layout.n_landmark = 0;
-    let eqs = linearize(problem, &layout, None)?;
+    let mut eqs = linearize(problem, &layout, None)?;
+    mirror_upper(&mut eqs.hxx, n);
     Some((
         DMatrix::from_row_slice(n, n, &eqs.hxx),
         DVector::from_vec(eqs.gx),

@@ -23,6 +23,11 @@ impl Linearization {
         Self { eqs, layout }
     }
 
+    /// The buffer of its `H_xx`, for the next system (see [`super::SolverWorkspace::recycle`]).
+    pub(super) fn into_buffer(self) -> Vec<f64> {
+        self.eqs.hxx
+    }
+
     /// The joint covariance of the tangent coordinates `coords` (each `(block, index in its
     /// tangent)`): the matching part of the inverse of the information, with every landmark
     /// eliminated by the undamped Schur complement and the reduced system factored once by

@@ -12,7 +12,9 @@ use crate::problem::graph::Problem;
 pub(crate) struct NormalEquations {
     /// Size of the reduced system.
     pub n: usize,
-    /// Reduced-state block `H_xx` (row-major, full).
+    /// Reduced-state block `H_xx` (row-major), its upper triangle: the lower one is left as
+    /// it was (the Cholesky of the column-major view reads only this triangle; whoever needs
+    /// the full matrix mirrors it).
     pub hxx: Vec<f64>,
     /// Reduced-state gradient.
     pub gx: Vec<f64>,
@@ -66,6 +68,18 @@ impl NormalEquations {
     /// Plans the normal equations of `residual_ids` (all residuals if `None`) under `layout`
     /// and allocates every buffer; [`Self::linearize`] fills them.
     pub fn new(problem: &Problem, layout: &Layout, residual_ids: Option<&[usize]>) -> Self {
+        Self::new_in(problem, layout, residual_ids, Vec::new())
+    }
+
+    /// [`Self::new`] with `H_xx` in `hxx`, the buffer of an earlier system (its contents do
+    /// not matter: [`Self::linearize`] zeroes the triangle it fills), so that a solve per frame
+    /// does not allocate and fault in an `n × n` matrix each time.
+    pub fn new_in(
+        problem: &Problem,
+        layout: &Layout,
+        residual_ids: Option<&[usize]>,
+        mut hxx: Vec<f64>,
+    ) -> Self {
         let nl = layout.landmarks.len();
         let all: Vec<usize>;
         let ids = match residual_ids {
@@ -236,9 +250,10 @@ impl NormalEquations {
             hlen += t * t;
         }
         let n = layout.n;
+        hxx.resize(n * n, 0.0);
         Self {
             n,
-            hxx: vec![0.0; n * n],
+            hxx,
             gx: vec![0.0; n],
             cost: f64::NAN,
             model_constant: f64::NAN,
@@ -270,12 +285,13 @@ impl NormalEquations {
         self.lt.len()
     }
 
-    /// `vᵀ H v` for a full-space vector (undamped Hessian).
+    /// `vᵀ H v` for a full-space vector (undamped Hessian; `H_xx` from its upper triangle).
     pub(super) fn quadratic(&self, v: &Step) -> f64 {
         let n = self.n;
         let mut s = 0.0;
         for i in 0..n {
-            s += v.dx[i] * dot(&self.hxx[i * n..i * n + n], &v.dx);
+            let row = &self.hxx[i * n + i..i * n + n];
+            s += v.dx[i] * (row[0] * v.dx[i] + 2.0 * dot(&row[1..], &v.dx[i + 1..]));
         }
         for l in 0..self.lt.len() {
             let t = self.lt[l];

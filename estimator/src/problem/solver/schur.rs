@@ -17,7 +17,7 @@ use crate::problem::graph::{BlockId, Problem, ResidualId};
 
 impl NormalEquations {
     /// Eliminates landmark blocks from the reduced system by the Schur complement, in place:
-    /// `a ← a − W C⁻¹ Wᵀ` (upper block triangle; call [`mirror_upper`] after) and
+    /// `a ← a − W C⁻¹ Wᵀ` (upper block triangle; the lower one is not touched) and
     /// `rhs ← rhs + W C⁻¹ g_l`, with `C = H_ll + λ·diag(max(H_ll, min_diag))` per landmark.
     /// `rhs` is the negative gradient (the Gauss-Newton right-hand side `−g`). Writes each
     /// landmark's `C⁻¹` into `cinv` (laid out like `hll`) and whether it exists into `valid`.
@@ -92,7 +92,7 @@ impl NormalEquations {
                         for (r, w) in rhs[ca.offset..ca.offset + ca.t].iter_mut().zip(wa) {
                             *r += w * gs;
                         }
-                        // Diagonal block: upper triangle only (`mirror_upper` fills the rest).
+                        // Diagonal block: upper triangle only.
                         for (i, wi) in wa.iter().enumerate() {
                             let si = wi * ci;
                             let s = (ca.offset + i) * n + ca.offset;
@@ -325,8 +325,11 @@ impl NormalEquations {
         sys: &mut ReducedSystem,
     ) -> Option<Step> {
         let n = self.n;
-        sys.a.clear();
-        sys.a.extend_from_slice(&self.hxx);
+        // The upper triangle, row by row (the lower one is neither kept nor read).
+        sys.a.resize(n * n, 0.0);
+        for i in 0..n {
+            sys.a[i * n + i..(i + 1) * n].copy_from_slice(&self.hxx[i * n + i..(i + 1) * n]);
+        }
         sys.rhs.clear();
         sys.rhs.extend(self.gx.iter().map(|g| -g));
         for i in 0..n {
@@ -456,8 +459,8 @@ impl NormalEquations {
 }
 
 impl NormalEquations {
-    /// The undamped Schur complement onto the states: `H = H_xx − H_xl H_ll⁻¹ H_lx` (full,
-    /// row-major `n × n`), `−g = −g_x + H_xl H_ll⁻¹ g_l`, and what eliminating the landmarks
+    /// The undamped Schur complement onto the states: `H = H_xx − H_xl H_ll⁻¹ H_lx` (its upper
+    /// triangle, row-major `n × n`; the lower one is left as it was), `−g = −g_x + H_xl H_ll⁻¹ g_l`, and what eliminating the landmarks
     /// takes off the model's constant, `Σ g_lᵀ H_ll⁻¹ g_l`. A landmark without information folds
     /// nothing in.
     pub(crate) fn undamped_reduced(&self) -> (Vec<f64>, Vec<f64>, f64) {
@@ -486,7 +489,6 @@ impl NormalEquations {
             true,
             &mut SchurScratch::default(),
         );
-        mirror_upper(&mut h, self.n);
         let mut eliminated = 0.0;
         for (l, &t) in self.lt.iter().enumerate() {
             if !valid[l] {
@@ -556,8 +558,9 @@ pub fn schur_complement_system(
     let ids: Vec<usize> = residual_ids.iter().map(|r| r.0).collect();
     let eqs = linearize(problem, &layout, Some(&ids))?;
     let constant = eqs.model_constant;
-    let (h, neg_g, eliminated) = eqs.into_undamped_reduced();
+    let (mut h, neg_g, eliminated) = eqs.into_undamped_reduced();
     // Mirrored, so exactly symmetric: the row-major buffer is the column-major one.
+    mirror_upper(&mut h, n);
     Some(SchurComplementSystem {
         hessian: DMatrix::from_vec(n, n, h),
         gradient: DVector::from_iterator(n, neg_g.iter().map(|v| -v)),

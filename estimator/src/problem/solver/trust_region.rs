@@ -52,12 +52,22 @@ pub fn solve_keeping_linearization(
 }
 
 /// Scratch of the solver's reduced system (the damped Schur complement, its Cholesky
-/// workspace, the dense Schur product's columns), kept between solves so that a sliding window
-/// does not allocate and fault them in again every frame. It holds no state: a solve's result
-/// does not depend on the workspace it was given, and a clone is a fresh workspace.
+/// workspace, the dense Schur product's columns) and the `H_xx` buffer of a finished solve,
+/// kept between solves so that a sliding window does not allocate and fault them in again
+/// every frame. It holds no state: a solve's result does not depend on the workspace it was
+/// given, and a clone is a fresh workspace.
 #[derive(Default)]
 pub struct SolverWorkspace {
     sys: ReducedSystem,
+    hxx: Vec<f64>,
+}
+
+impl SolverWorkspace {
+    /// Takes back the buffers of a solve's kept linearization once it is no longer needed:
+    /// the next solve fills them instead of allocating its own.
+    pub fn recycle(&mut self, linearization: Linearization) {
+        self.hxx = linearization.into_buffer();
+    }
 }
 
 impl Clone for SolverWorkspace {
@@ -101,7 +111,7 @@ pub fn solve_keeping_linearization_in(
     }
     // The plan and every buffer of the linear system are built once and reused by each
     // linearization and step. The first linearization also gives the initial cost.
-    let mut e = NormalEquations::new(problem, &layout, None);
+    let mut e = NormalEquations::new_in(problem, &layout, None, std::mem::take(&mut workspace.hxx));
     if !e.linearize(problem) {
         summary.termination = Termination::InvalidInitialPoint;
         summary.time = start.elapsed();
