@@ -154,7 +154,7 @@ pub fn marginalize(
         .iter()
         .map(|b| problem.blocks[b.0].manifold.clone())
         .collect();
-    let factor = PriorFactor::from_information(
+    let factor = PriorFactor::from_symmetric_information(
         manifolds,
         points,
         h_star.data.into(),

@@ -12,7 +12,7 @@ use nalgebra::DMatrix;
 pub(crate) use marginal::eliminate_leading;
 use square_root::SquareRoot;
 
-use crate::problem::solver::dot;
+use crate::problem::solver::{dot, mirror_upper};
 use crate::problem::{Factor, Manifold};
 
 /// A linear(ized) prior over parameter blocks, the quadratic
@@ -140,14 +140,15 @@ impl PriorFactor {
                 Par::Seq,
             );
         }
-        for i in 0..n {
-            for j in 0..i {
-                hessian[i * n + j] = hessian[j * n + i];
-            }
-        }
+        mirror_upper(&mut hessian, n);
         let constant = r0.iter().map(|v| v * v).sum();
-        let mut prior =
-            Self::from_information(manifolds, linearization_points, hessian, gradient, constant)?;
+        let mut prior = Self::from_symmetric_information(
+            manifolds,
+            linearization_points,
+            hessian,
+            gradient,
+            constant,
+        )?;
         prior.rows = m;
         prior
             .root
@@ -168,6 +169,28 @@ impl PriorFactor {
         gradient: Vec<f64>,
         constant: f64,
     ) -> Result<Self, PriorError> {
+        let prior = Self::from_symmetric_information(
+            manifolds,
+            linearization_points,
+            hessian,
+            gradient,
+            constant,
+        )?;
+        if !is_symmetric(&prior.hessian, prior.tangent_dim()) {
+            return Err(PriorError::Dimension("the Hessian is not symmetric".into()));
+        }
+        Ok(prior)
+    }
+
+    /// [`Self::from_information`] for a Hessian that is exactly symmetric by construction (a
+    /// mirrored triangle: what marginalization makes), not checked again.
+    pub(crate) fn from_symmetric_information(
+        manifolds: Vec<Arc<dyn Manifold>>,
+        linearization_points: Vec<Vec<f64>>,
+        hessian: Vec<f64>,
+        gradient: Vec<f64>,
+        constant: f64,
+    ) -> Result<Self, PriorError> {
         let (sizes, tangents, offsets) = check_blocks(&manifolds, &linearization_points)?;
         let n: usize = tangents.iter().sum();
         if hessian.len() != n * n || gradient.len() != n {
@@ -177,11 +200,8 @@ impl PriorFactor {
                 gradient.len()
             )));
         }
-        if !hessian.iter().chain(&gradient).all(|v| v.is_finite()) || !constant.is_finite() {
+        if !all_finite(&hessian) || !all_finite(&gradient) || !constant.is_finite() {
             return Err(PriorError::NonFinite);
-        }
-        if !is_symmetric(&hessian, n) {
-            return Err(PriorError::Dimension("the Hessian is not symmetric".into()));
         }
         Ok(Self {
             manifolds,
@@ -276,7 +296,7 @@ impl PriorFactor {
             points[k] = x.to_vec();
         }
         let (constant, gradient) = self.quadratic_at(&step);
-        Self::from_information(
+        Self::from_symmetric_information(
             self.manifolds.clone(),
             points,
             self.hessian.clone(),
@@ -477,6 +497,13 @@ impl Factor for PriorFactor {
         }
         cost.is_finite().then_some(cost)
     }
+}
+
+/// Whether every entry is finite: each run of 64 entries tested without stopping early (a loop
+/// the compiler vectorizes), stopping at the first run with an infinity or a NaN.
+fn all_finite(v: &[f64]) -> bool {
+    v.chunks(64)
+        .all(|c| c.iter().fold(true, |ok, x| ok & x.is_finite()))
 }
 
 /// Whether the row-major `n × n` matrix `h` equals its transpose exactly, compared tile by

@@ -90,7 +90,7 @@ impl PriorFactor {
         let g = DVector::from_fn(n, |i, _| self.gradient[cols[i]]);
         let (h_star, g_star, c_star) = eliminate_leading(h, &g, self.constant, nm, min_information);
         let kept = (0..nb).filter(|&k| !removing[k]);
-        PriorFactor::from_information(
+        PriorFactor::from_symmetric_information(
             kept.clone().map(|k| self.manifolds[k].clone()).collect(),
             kept.map(|k| self.linearization_points[k].clone()).collect(),
             h_star.data.into(),

@@ -3,7 +3,6 @@
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt;
-use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::{MatMut, Par};
 use nalgebra::{DMatrix, DVector};
 
@@ -30,8 +29,9 @@ fn scratch_for(
 /// Solves `A X = B` in place for a symmetric positive-definite row-major `n × n` matrix and
 /// `cols` right-hand sides (`b` column-major, `n × cols`) by faer's blocked Cholesky
 /// factorization (single-threaded: `Par::Seq`), overwriting `a` with the factor and `b` with
-/// `X`. The row-major buffer of a symmetric matrix is also its column-major buffer. `false` if
-/// `A` is not positive definite.
+/// `X`. The row-major buffer of a symmetric matrix is also its column-major buffer, and the
+/// factorization reads only the lower triangle of the column-major view: the upper triangle of
+/// the row-major matrix. `false` if `A` is not positive definite.
 pub(crate) fn dense_cholesky_solve(
     a: &mut [f64],
     n: usize,
@@ -42,23 +42,31 @@ pub(crate) fn dense_cholesky_solve(
     if n == 0 {
         return true;
     }
-    let buf = scratch_for(scratch, n, cols);
-    let stack = MemStack::new(buf);
-    let mut l = MatMut::from_column_major_slice_mut(a, n, n);
-    if llt::factor::cholesky_in_place(
-        l.rb_mut(),
-        Default::default(),
-        Par::Seq,
-        stack,
-        Default::default(),
-    )
-    .is_err()
-    {
+    if !dense_cholesky_factor(a, n, scratch) {
         return false;
     }
+    let buf = scratch_for(scratch, n, cols);
+    let l = faer::MatRef::from_column_major_slice(a, n, n);
     let rhs = MatMut::from_column_major_slice_mut(b, n, cols);
-    llt::solve::solve_in_place(l.rb(), rhs, Par::Seq, MemStack::new(buf));
+    llt::solve::solve_in_place(l, rhs, Par::Seq, MemStack::new(buf));
     true
+}
+
+/// Factors the symmetric positive-definite `n × n` matrix `a` in place (see
+/// [`dense_cholesky_solve`]); `false` if it is not positive definite.
+pub(crate) fn dense_cholesky_factor(
+    a: &mut [f64],
+    n: usize,
+    scratch: &mut Option<((usize, usize), MemBuffer)>,
+) -> bool {
+    if n == 0 {
+        return true;
+    }
+    let buf = scratch_for(scratch, n, 1);
+    let stack = MemStack::new(buf);
+    let l = MatMut::from_column_major_slice_mut(a, n, n);
+    llt::factor::cholesky_in_place(l, Default::default(), Par::Seq, stack, Default::default())
+        .is_ok()
 }
 
 /// Solves `A x = b` in place with the factor `a` that [`dense_cholesky_solve`] left (one
@@ -119,14 +127,29 @@ pub(crate) fn covariance_of_picks(
     picks: &[(usize, usize)],
     m: usize,
 ) -> Option<DMatrix<f64>> {
+    let mut scratch = None;
+    dense_cholesky_factor(h, n, &mut scratch).then(|| covariance_from_factor(h, n, picks, m))
+}
+
+/// [`covariance_of_picks`] from the factor that [`dense_cholesky_factor`] left in `l`.
+pub(crate) fn covariance_from_factor(
+    l: &[f64],
+    n: usize,
+    picks: &[(usize, usize)],
+    m: usize,
+) -> DMatrix<f64> {
     // Unit columns of the picked coordinates, solved in place (column-major, n × picks).
     let k = picks.len();
     let mut x = vec![0.0; n * k];
     for (j, &(_, c)) in picks.iter().enumerate() {
         x[j * n + c] = 1.0;
     }
-    if !dense_cholesky_solve(h, n, &mut x, k, &mut None) {
-        return None;
+    if n > 0 {
+        let mut scratch = None;
+        let buf = scratch_for(&mut scratch, n, k);
+        let rhs = MatMut::from_column_major_slice_mut(&mut x, n, k);
+        let l = faer::MatRef::from_column_major_slice(l, n, n);
+        llt::solve::solve_in_place(l, rhs, Par::Seq, MemStack::new(buf));
     }
     // Symmetric by construction up to rounding.
     let mut cov = DMatrix::zeros(m, m);
@@ -135,5 +158,5 @@ pub(crate) fn covariance_of_picks(
             cov[(ri, rj)] = 0.5 * (x[j * n + ci] + x[i * n + cj]);
         }
     }
-    Some(cov)
+    cov
 }

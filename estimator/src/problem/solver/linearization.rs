@@ -1,9 +1,11 @@
 //! The normal equations of a solve's last linearization, kept for marginal covariances (what
 //! the window reports with every estimate) without linearizing the problem again.
 
+use std::cell::OnceCell;
+
 use nalgebra::DMatrix;
 
-use super::covariance_of_picks;
+use super::dense::{covariance_from_factor, dense_cholesky_factor};
 use super::normal_equations::NormalEquations;
 use super::plan::{Layout, NONE};
 use crate::problem::graph::BlockId;
@@ -16,16 +18,56 @@ use crate::problem::graph::BlockId;
 pub struct Linearization {
     eqs: NormalEquations,
     layout: Layout,
+    /// The Cholesky factor of the undamped reduced information (landmarks eliminated), made on
+    /// the first covariance asked for and shared by the others (`Err`: the buffer, not
+    /// positive definite).
+    factor: OnceCell<Result<Vec<f64>, Vec<f64>>>,
+    /// The buffer the factor is made in, until it is.
+    spare: std::cell::Cell<Vec<f64>>,
 }
 
 impl Linearization {
-    pub(super) fn new(eqs: NormalEquations, layout: Layout) -> Self {
-        Self { eqs, layout }
+    /// The normal equations of a solve's last linearization; `spare` is a buffer of an
+    /// earlier one for the factor (its contents do not matter).
+    pub(super) fn new(eqs: NormalEquations, layout: Layout, spare: Vec<f64>) -> Self {
+        Self {
+            eqs,
+            layout,
+            factor: OnceCell::new(),
+            spare: std::cell::Cell::new(spare),
+        }
     }
 
-    /// The buffer of its `H_xx`, for the next system (see [`super::SolverWorkspace::recycle`]).
-    pub(super) fn into_buffer(self) -> Vec<f64> {
-        self.eqs.hxx
+    /// Its buffers (`H_xx`, the factor's), for the next system (see
+    /// [`super::SolverWorkspace::recycle`]).
+    pub(super) fn into_buffers(self) -> (Vec<f64>, Vec<f64>) {
+        let factor = match self.factor.into_inner() {
+            Some(Ok(b) | Err(b)) => b,
+            None => self.spare.into_inner(),
+        };
+        (self.eqs.hxx, factor)
+    }
+
+    /// The factor of the undamped reduced information, made on first use; `None` if that
+    /// information is not positive definite.
+    fn factor(&self) -> Option<&[f64]> {
+        let made = self.factor.get_or_init(|| {
+            // `H_xx`'s upper triangle, row by row, into the spare buffer; the landmarks
+            // eliminated onto it; factored in place.
+            let n = self.eqs.n;
+            let mut h = self.spare.take();
+            h.resize(n * n, 0.0);
+            for i in 0..n {
+                h[i * n + i..(i + 1) * n].copy_from_slice(&self.eqs.hxx[i * n + i..(i + 1) * n]);
+            }
+            let (mut h, _, _) = self.eqs.undamped_reduced_onto(h);
+            if dense_cholesky_factor(&mut h, n, &mut None) {
+                Ok(h)
+            } else {
+                Err(h)
+            }
+        });
+        made.as_deref().ok()
     }
 
     /// The joint covariance of the tangent coordinates `coords` (each `(block, index in its
@@ -45,7 +87,7 @@ impl Linearization {
             return None;
         }
         let n = self.eqs.n;
-        let (mut h, _, _) = self.eqs.undamped_reduced();
+        let factor = self.factor()?;
         let picks: Vec<(usize, usize)> = coords
             .iter()
             .enumerate()
@@ -54,6 +96,6 @@ impl Linearization {
                 (o != NONE).then_some((r, o + i))
             })
             .collect();
-        covariance_of_picks(&mut h, n, &picks, coords.len())
+        Some(covariance_from_factor(factor, n, &picks, coords.len()))
     }
 }

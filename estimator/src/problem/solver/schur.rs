@@ -460,22 +460,17 @@ impl NormalEquations {
 
 impl NormalEquations {
     /// The undamped Schur complement onto the states: `H = H_xx − H_xl H_ll⁻¹ H_lx` (its upper
-    /// triangle, row-major `n × n`; the lower one is left as it was), `−g = −g_x + H_xl H_ll⁻¹ g_l`, and what eliminating the landmarks
-    /// takes off the model's constant, `Σ g_lᵀ H_ll⁻¹ g_l`. A landmark without information folds
-    /// nothing in.
-    pub(crate) fn undamped_reduced(&self) -> (Vec<f64>, Vec<f64>, f64) {
-        self.undamped_reduced_onto(self.hxx.clone())
-    }
-
-    /// [`Self::undamped_reduced`] of normal equations that are no longer needed: their `H_xx`
-    /// buffer becomes the result's (no copy of an `n × n` matrix).
+    /// triangle, row-major `n × n`; the lower one is left as it was),
+    /// `−g = −g_x + H_xl H_ll⁻¹ g_l`, and what eliminating the landmarks takes off the model's
+    /// constant, `Σ g_lᵀ H_ll⁻¹ g_l`. A landmark without information folds nothing in. Consumes
+    /// the normal equations: their `H_xx` buffer becomes the result's.
     pub(crate) fn into_undamped_reduced(mut self) -> (Vec<f64>, Vec<f64>, f64) {
         let hxx = std::mem::take(&mut self.hxx);
         self.undamped_reduced_onto(hxx)
     }
 
-    /// The Schur complement onto `h`, which holds `H_xx`.
-    fn undamped_reduced_onto(&self, mut h: Vec<f64>) -> (Vec<f64>, Vec<f64>, f64) {
+    /// The Schur complement onto `h`, which holds `H_xx`'s upper triangle.
+    pub(super) fn undamped_reduced_onto(&self, mut h: Vec<f64>) -> (Vec<f64>, Vec<f64>, f64) {
         let mut neg_g: Vec<f64> = self.gx.iter().map(|v| -v).collect();
         let mut cinv = vec![0.0; self.hll.len()];
         let mut valid = vec![false; self.num_landmarks()];

@@ -60,13 +60,14 @@ pub fn solve_keeping_linearization(
 pub struct SolverWorkspace {
     sys: ReducedSystem,
     hxx: Vec<f64>,
+    factor: Vec<f64>,
 }
 
 impl SolverWorkspace {
     /// Takes back the buffers of a solve's kept linearization once it is no longer needed:
     /// the next solve fills them instead of allocating its own.
     pub fn recycle(&mut self, linearization: Linearization) {
-        self.hxx = linearization.into_buffer();
+        (self.hxx, self.factor) = linearization.into_buffers();
     }
 }
 
@@ -131,7 +132,8 @@ pub fn solve_keeping_linearization_in(
     if e.gradient_max_norm() <= options.gradient_tolerance {
         summary.termination = Termination::Converged;
         summary.time = start.elapsed();
-        return (summary, Some(Linearization::new(e, layout)));
+        let spare = std::mem::take(&mut workspace.factor);
+        return (summary, Some(Linearization::new(e, layout, spare)));
     }
     // With modified steps: the gradient at the current values, when a step of the current
     // linearization reached them (evaluated with the cost that accepted the step).
@@ -257,7 +259,8 @@ pub fn solve_keeping_linearization_in(
     }
     summary.final_cost = cost;
     summary.time = start.elapsed();
-    (summary, Some(Linearization::new(e, layout)))
+    let spare = std::mem::take(&mut workspace.factor);
+    (summary, Some(Linearization::new(e, layout, spare)))
 }
 
 /// The trust-region acceptance test shared by full and modified steps: a step whose cost
