@@ -217,13 +217,7 @@ pub fn solve_keeping_linearization_in(
             Method::Dogleg => -(e.gradient_dot(&step) + 0.5 * e.quadratic(&step)),
         };
         apply_step(problem, &layout, &step, &mut candidate);
-        // The gradient only where a modified step may follow (the cap leaves room for one).
-        let with_gradient = modified && summary.iterations < options.max_iterations;
-        let new_cost = if with_gradient {
-            e.gradient_at(problem, &candidate, &mut gradient)
-        } else {
-            e.cost_at(problem, &candidate)
-        };
+        let new_cost = e.cost_at(problem, &candidate);
         let accepted = accept(
             problem,
             &mut candidate,
@@ -231,6 +225,14 @@ pub fn solve_keeping_linearization_in(
             new_cost,
             model_decrease,
         );
+        // The gradient only where a modified step follows: the step was taken, did not meet
+        // the cost tolerance, and the cap leaves room for one. (Most frames of a window stop
+        // at their first step, so its Jacobians are not evaluated for nothing; `gradient_at`'s
+        // cost equals `cost_at`'s bit for bit, so nothing else changes.)
+        let with_gradient = modified
+            && summary.iterations < options.max_iterations
+            && accepted.is_some_and(|(_, rel)| rel >= options.function_tolerance)
+            && e.gradient_at(problem, &problem.values, &mut gradient).is_some();
         if let Some((rho, rel)) = accepted {
             radius = match options.method {
                 Method::LevenbergMarquardt => {
