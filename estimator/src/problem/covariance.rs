@@ -135,20 +135,32 @@ mod tests {
     fn the_solves_linearization_gives_the_same_covariance_on_a_linear_problem() {
         // Linear factors: the information does not depend on the point, so the covariance of
         // the solve's last linearization equals the one at the solution.
-        let (mut p, states, lms) = random_problem();
-        let options = crate::problem::SolverOptions::default();
-        let (summary, lin) = crate::problem::solve_keeping_linearization(&mut p, &options);
-        assert!(summary.iterations >= 1);
-        let lin = lin.expect("linearized");
-        let mut coords: Vec<(BlockId, usize)> = (0..6).map(|i| (states[3], i)).collect();
-        coords.extend((0..6).map(|i| (states[1], i)));
-        coords.push((states[0], 4));
-        let kept = lin.marginal_covariance(&coords).unwrap();
-        let fresh = marginal_covariance(&p, &coords).unwrap();
-        let err = (&kept - &fresh).amax();
-        assert!(err <= 1e-9 * fresh.amax(), "{err:e}");
-        assert!(fresh.amax() > 0.0);
-        // Landmarks are eliminated in the kept system: their coordinates are refused.
-        assert!(lin.marginal_covariance(&[(lms[0], 0)]).is_none());
+        // Solved from a damping of 1e-4 (the undamped system is factored for the covariance),
+        // and of 1e-12 in one step (the solve's own factor stands for it, as in the window;
+        // a solve that linearizes again after its last step has none).
+        for (radius, max_iterations, own_factor) in [(1e4, 10, false), (1e12, 1, true)] {
+            let (mut p, states, lms) = random_problem();
+            let options = crate::problem::SolverOptions {
+                initial_trust_radius: radius,
+                max_iterations,
+                ..Default::default()
+            };
+            let (summary, lin) = crate::problem::solve_keeping_linearization(&mut p, &options);
+            assert!(summary.iterations >= 1);
+            let lin = lin.expect("linearized");
+            assert_eq!(lin.holds_a_factor(), own_factor, "radius {radius}");
+            let mut coords: Vec<(BlockId, usize)> = (0..6).map(|i| (states[3], i)).collect();
+            coords.extend((0..6).map(|i| (states[1], i)));
+            coords.push((states[0], 4));
+            let kept = lin.marginal_covariance(&coords).unwrap();
+            let fresh = marginal_covariance(&p, &coords).unwrap();
+            let err = (&kept - &fresh).amax();
+            assert!(err <= 1e-9 * fresh.amax(), "radius {radius}: {err:e}");
+            assert!(fresh.amax() > 0.0);
+            // A second request reads the same factor.
+            assert_eq!(lin.marginal_covariance(&coords).unwrap(), kept);
+            // Landmarks are eliminated in the kept system: their coordinates are refused.
+            assert!(lin.marginal_covariance(&[(lms[0], 0)]).is_none());
+        }
     }
 }

@@ -18,9 +18,9 @@ use crate::problem::graph::BlockId;
 pub struct Linearization {
     eqs: NormalEquations,
     layout: Layout,
-    /// The Cholesky factor of the undamped reduced information (landmarks eliminated), made on
-    /// the first covariance asked for and shared by the others (`Err`: the buffer, not
-    /// positive definite).
+    /// The Cholesky factor of the reduced information (landmarks eliminated): the solve's, or
+    /// made on the first covariance asked for; shared by every covariance (`Err`: the buffer,
+    /// not positive definite).
     factor: OnceCell<Result<Vec<f64>, Vec<f64>>>,
     /// The buffer the factor is made in, until it is.
     spare: std::cell::Cell<Vec<f64>>,
@@ -28,24 +28,37 @@ pub struct Linearization {
 
 impl Linearization {
     /// The normal equations of a solve's last linearization; `spare` is a buffer of an
-    /// earlier one for the factor (its contents do not matter).
-    pub(super) fn new(eqs: NormalEquations, layout: Layout, spare: Vec<f64>) -> Self {
+    /// earlier one for the factor (its contents do not matter); `factor`, the solve's own
+    /// Cholesky factor of this linearization's reduced system where its damping was
+    /// negligible.
+    pub(super) fn new(
+        eqs: NormalEquations,
+        layout: Layout,
+        spare: Vec<f64>,
+        factor: Option<Vec<f64>>,
+    ) -> Self {
         Self {
             eqs,
             layout,
-            factor: OnceCell::new(),
+            factor: factor.map(|f| OnceCell::from(Ok(f))).unwrap_or_default(),
             spare: std::cell::Cell::new(spare),
         }
     }
 
-    /// Its buffers (`H_xx`, the factor's), for the next system (see
+    /// Its buffers (`H_xx`, the factor's, the spare one), for the next system (see
     /// [`super::SolverWorkspace::recycle`]).
-    pub(super) fn into_buffers(self) -> (Vec<f64>, Vec<f64>) {
+    pub(super) fn into_buffers(self) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
         let factor = match self.factor.into_inner() {
             Some(Ok(b) | Err(b)) => b,
-            None => self.spare.into_inner(),
+            None => Vec::new(),
         };
-        (self.eqs.hxx, factor)
+        (self.eqs.hxx, factor, self.spare.into_inner())
+    }
+
+    /// Whether a factor is at hand (the solve's own, before any covariance was asked for).
+    #[cfg(test)]
+    pub(crate) fn holds_a_factor(&self) -> bool {
+        self.factor.get().is_some()
     }
 
     /// The factor of the undamped reduced information, made on first use; `None` if that
@@ -72,8 +85,11 @@ impl Linearization {
 
     /// The joint covariance of the tangent coordinates `coords` (each `(block, index in its
     /// tangent)`): the matching part of the inverse of the information, with every landmark
-    /// eliminated by the undamped Schur complement and the reduced system factored once by
-    /// Cholesky and solved for the requested columns. Coordinates of blocks outside the system
+    /// eliminated by the Schur complement and the reduced system factored once by Cholesky and
+    /// solved for the requested columns. The factor is the solve's own where its last step was
+    /// damped by `λ` ≤ 1e-10 (the window's are: its solves start at 1e-12), a relative change
+    /// of the information's diagonal far below the precision any covariance is read to;
+    /// otherwise the undamped system is factored on the first call. Coordinates of blocks outside the system
     /// (constant or untouched) get zero rows and columns. `None` if a coordinate belongs to a
     /// landmark block (eliminated: use [`crate::problem::marginal_covariance`]) or the reduced
     /// information is not positive definite.

@@ -309,9 +309,31 @@ pub(crate) struct ReducedSystem {
 }
 
 impl ReducedSystem {
-    /// Marks the buffers as holding no factorization (a new solve reuses them).
+    /// Marks the buffers as holding no factorization (a new solve or a new linearization).
     pub(crate) fn forget_factorization(&mut self) {
         self.factored = false;
+    }
+
+    /// The Cholesky factor of the last successful [`NormalEquations::solve_damped`] (the
+    /// damped reduced system, column-major lower triangle), taken out of the buffers, when its
+    /// damping `λ` was at most `max_lambda`; `None` otherwise.
+    pub(crate) fn take_factor(&mut self, max_lambda: f64) -> Option<Vec<f64>> {
+        if !self.factored || self.damping.0 > max_lambda {
+            return None;
+        }
+        self.factored = false;
+        Some(std::mem::take(&mut self.a))
+    }
+
+    /// Gives back a buffer [`Self::take_factor`] took (the next factorization fills it), or
+    /// returns it when the system already holds one.
+    pub(crate) fn give_back(&mut self, buffer: Vec<f64>) -> Option<Vec<f64>> {
+        if self.a.capacity() == 0 {
+            self.a = buffer;
+            None
+        } else {
+            Some(buffer)
+        }
     }
 }
 

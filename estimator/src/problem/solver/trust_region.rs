@@ -67,9 +67,21 @@ impl SolverWorkspace {
     /// Takes back the buffers of a solve's kept linearization once it is no longer needed:
     /// the next solve fills them instead of allocating its own.
     pub fn recycle(&mut self, linearization: Linearization) {
-        (self.hxx, self.factor) = linearization.into_buffers();
+        let (hxx, factor, spare) = linearization.into_buffers();
+        self.hxx = hxx;
+        for buffer in [factor, spare] {
+            if let Some(buffer) = self.sys.give_back(buffer) {
+                self.factor = buffer;
+            }
+        }
     }
 }
+
+/// The largest Levenberg–Marquardt damping `λ` whose factor a kept linearization uses as the
+/// factor of its undamped information (see [`Linearization::marginal_covariance`]): it changes
+/// the information by a relative 1e-10 of its diagonal at most, far below the precision any
+/// covariance is read to. The window's solves start at `λ` = 1e-12.
+const UNDAMPED_LAMBDA: f64 = 1e-10;
 
 impl Clone for SolverWorkspace {
     fn clone(&self) -> Self {
@@ -133,7 +145,7 @@ pub fn solve_keeping_linearization_in(
         summary.termination = Termination::Converged;
         summary.time = start.elapsed();
         let spare = std::mem::take(&mut workspace.factor);
-        return (summary, Some(Linearization::new(e, layout, spare)));
+        return (summary, Some(Linearization::new(e, layout, spare, None)));
     }
     // With modified steps: the gradient at the current values, when a step of the current
     // linearization reached them (evaluated with the cost that accepted the step).
@@ -186,6 +198,8 @@ pub fn solve_keeping_linearization_in(
                 return (summary, None);
             }
             linearized = true;
+            // The last factorization belongs to the previous linearization.
+            sys.forget_factorization();
             if e.gradient_max_norm() <= options.gradient_tolerance {
                 summary.termination = Termination::Converged;
                 break;
@@ -232,7 +246,8 @@ pub fn solve_keeping_linearization_in(
         let with_gradient = modified
             && summary.iterations < options.max_iterations
             && accepted.is_some_and(|(_, rel)| rel >= options.function_tolerance)
-            && e.gradient_at(problem, &problem.values, &mut gradient).is_some();
+            && e.gradient_at(problem, &problem.values, &mut gradient)
+                .is_some();
         if let Some((rho, rel)) = accepted {
             radius = match options.method {
                 Method::LevenbergMarquardt => {
@@ -261,8 +276,11 @@ pub fn solve_keeping_linearization_in(
     }
     summary.final_cost = cost;
     summary.time = start.elapsed();
+    // The last factorization, of this linearization (a relinearization forgets it), is the
+    // kept linearization's if it was as good as undamped.
+    let factor = workspace.sys.take_factor(UNDAMPED_LAMBDA);
     let spare = std::mem::take(&mut workspace.factor);
-    (summary, Some(Linearization::new(e, layout, spare)))
+    (summary, Some(Linearization::new(e, layout, spare, factor)))
 }
 
 /// The trust-region acceptance test shared by full and modified steps: a step whose cost
