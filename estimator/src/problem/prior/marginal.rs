@@ -86,7 +86,9 @@ impl PriorFactor {
             .collect();
         let nm = cols.len();
         cols.extend((0..nb).filter(|&k| !removing[k]).flat_map(block_cols));
-        let h = DMatrix::from_fn(n, n, |i, j| self.hessian[cols[i] * n + cols[j]]);
+        // Filled a column at a time: column j of the permuted matrix is row `cols[j]` of the
+        // (exactly symmetric) Hessian, read along the row.
+        let h = DMatrix::from_fn(n, n, |i, j| self.hessian[cols[j] * n + cols[i]]);
         let g = DVector::from_fn(n, |i, _| self.gradient[cols[i]]);
         let (h_star, g_star, c_star) = eliminate_leading(h, &g, self.constant, nm, min_information);
         let kept = (0..nb).filter(|&k| !removing[k]);
