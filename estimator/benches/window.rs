@@ -5,7 +5,9 @@
 //! README's "How many persistent points"). Each also as twenty consecutive frames in the
 //! window's steady state (`..._20_frames`: time / 20 is the mean cost of a frame). Before
 //! timing, each configuration prints its per-frame cost over 400 steady-state frames (median,
-//! mean, p90 of the estimator's own timing fields, and the solve / marginalization split).
+//! mean, p90 of the estimator's own timing fields, and the solve / marginalization split) and
+//! the size of its problem (landmarks, the reduced system's coordinates, iterations per
+//! solve).
 //!
 //! `cargo bench -p estimator --bench window`
 
@@ -76,14 +78,19 @@ fn bench_update(c: &mut Criterion, name: &str, edit: impl Fn(&mut EstimatorConfi
     let median = |f: &dyn Fn(&Estimate) -> f64| sorted(f)[rows.len() / 2];
     let total = sorted(&|e| e.backend_s * 1e3);
     eprintln!(
-        "{name}: breakdown over {} frames from 8 s (ms): total median {:.3}, mean {:.3}, p90 {:.3}; median solve {:.3}, marginalization {:.3}; landmarks {:.0}",
+        "{name}: breakdown over {} frames from 8 s (ms): total median {:.3}, mean {:.3}, p90 {:.3}; median solve {:.3}, marginalization {:.3}; landmarks {:.0}, reduced system {:.0} coordinates, {:.2} iterations per solve",
         rows.len(),
         total[total.len() / 2],
         total.iter().sum::<f64>() / total.len() as f64,
         total[total.len() * 9 / 10],
         median(&|e| e.solve_s) * 1e3,
         median(&|e| e.marginalization_s) * 1e3,
-        median(&|e| e.landmarks as f64)
+        median(&|e| e.landmarks as f64),
+        median(&|e| e.solver.as_ref().map_or(0.0, |s| s.reduced_size as f64)),
+        rows.iter()
+            .filter_map(|e| e.solver.as_ref().map(|s| s.iterations as f64))
+            .sum::<f64>()
+            / rows.iter().filter(|e| e.solver.is_some()).count().max(1) as f64
     );
 
     // The next frame's IMU samples go in during setup; the measured calls are push_frame and
