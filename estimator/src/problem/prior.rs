@@ -12,7 +12,7 @@ use nalgebra::DMatrix;
 pub(crate) use marginal::eliminate_leading;
 use square_root::SquareRoot;
 
-use crate::problem::solver::{dot, mirror_upper};
+use crate::problem::solver::{dot, is_symmetric, mirror_upper};
 use crate::problem::{Factor, Manifold};
 
 /// A linear(ized) prior over parameter blocks, the quadratic
@@ -504,18 +504,6 @@ impl Factor for PriorFactor {
 fn all_finite(v: &[f64]) -> bool {
     v.chunks(64)
         .all(|c| c.iter().fold(true, |ok, x| ok & x.is_finite()))
-}
-
-/// Whether the row-major `n × n` matrix `h` equals its transpose exactly, compared tile by
-/// tile (a column swept whole strides a row per element).
-fn is_symmetric(h: &[f64], n: usize) -> bool {
-    const TILE: usize = 32;
-    (0..n).step_by(TILE).all(|i0| {
-        (0..=i0).step_by(TILE).all(|j0| {
-            (i0..(i0 + TILE).min(n))
-                .all(|i| (j0..(j0 + TILE).min(i)).all(|j| h[i * n + j] == h[j * n + i]))
-        })
-    })
 }
 
 #[cfg(test)]

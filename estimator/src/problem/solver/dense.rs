@@ -26,34 +26,27 @@ fn scratch_for(
     &mut scratch.as_mut().expect("allocated above").1
 }
 
-/// Solves `A X = B` in place for a symmetric positive-definite row-major `n × n` matrix and
-/// `cols` right-hand sides (`b` column-major, `n × cols`) by faer's blocked Cholesky
-/// factorization (single-threaded: `Par::Seq`), overwriting `a` with the factor and `b` with
-/// `X`. The row-major buffer of a symmetric matrix is also its column-major buffer, and the
-/// factorization reads only the lower triangle of the column-major view: the upper triangle of
-/// the row-major matrix. `false` if `A` is not positive definite.
+/// Solves `A x = b` in place for a symmetric positive-definite row-major `n × n` matrix by
+/// faer's blocked Cholesky factorization (single-threaded: `Par::Seq`), overwriting `a` with
+/// the factor ([`dense_cholesky_factor`]) and `b` with `x` ([`dense_cholesky_resolve`]).
+/// `false` if `A` is not positive definite.
 pub(crate) fn dense_cholesky_solve(
     a: &mut [f64],
     n: usize,
     b: &mut [f64],
-    cols: usize,
     scratch: &mut Option<((usize, usize), MemBuffer)>,
 ) -> bool {
-    if n == 0 {
-        return true;
-    }
     if !dense_cholesky_factor(a, n, scratch) {
         return false;
     }
-    let buf = scratch_for(scratch, n, cols);
-    let l = faer::MatRef::from_column_major_slice(a, n, n);
-    let rhs = MatMut::from_column_major_slice_mut(b, n, cols);
-    llt::solve::solve_in_place(l, rhs, Par::Seq, MemStack::new(buf));
+    dense_cholesky_resolve(a, n, b, scratch);
     true
 }
 
-/// Factors the symmetric positive-definite `n × n` matrix `a` in place (see
-/// [`dense_cholesky_solve`]); `false` if it is not positive definite.
+/// Factors the symmetric positive-definite `n × n` matrix `a` in place; `false` if it is not
+/// positive definite. The row-major buffer of a symmetric matrix is also its column-major
+/// buffer, and the factorization reads only the lower triangle of the column-major view: the
+/// upper triangle of the row-major matrix.
 pub(crate) fn dense_cholesky_factor(
     a: &mut [f64],
     n: usize,
@@ -69,7 +62,7 @@ pub(crate) fn dense_cholesky_factor(
         .is_ok()
 }
 
-/// Solves `A x = b` in place with the factor `a` that [`dense_cholesky_solve`] left (one
+/// Solves `A x = b` in place with the factor `a` that [`dense_cholesky_factor`] left (one
 /// right-hand side, the same `scratch`).
 pub(crate) fn dense_cholesky_resolve(
     a: &[f64],

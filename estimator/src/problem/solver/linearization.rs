@@ -1,13 +1,14 @@
 //! The normal equations of a solve's last linearization, kept for marginal covariances (what
 //! the window reports with every estimate) without linearizing the problem again.
 
-use std::cell::OnceCell;
+use std::cell::{Cell, OnceCell};
 
 use nalgebra::DMatrix;
 
 use super::dense::{covariance_from_factor, dense_cholesky_factor};
 use super::normal_equations::NormalEquations;
 use super::plan::{Layout, NONE};
+use super::vector::copy_upper;
 use crate::problem::graph::BlockId;
 
 /// The Gauss-Newton information of a problem at the point of a solve's last linearization,
@@ -23,7 +24,7 @@ pub struct Linearization {
     /// not positive definite).
     factor: OnceCell<Result<Vec<f64>, Vec<f64>>>,
     /// The buffer the factor is made in, until it is.
-    spare: std::cell::Cell<Vec<f64>>,
+    spare: Cell<Vec<f64>>,
 }
 
 impl Linearization {
@@ -41,7 +42,7 @@ impl Linearization {
             eqs,
             layout,
             factor: factor.map(|f| OnceCell::from(Ok(f))).unwrap_or_default(),
-            spare: std::cell::Cell::new(spare),
+            spare: Cell::new(spare),
         }
     }
 
@@ -69,10 +70,7 @@ impl Linearization {
             // eliminated onto it; factored in place.
             let n = self.eqs.n;
             let mut h = self.spare.take();
-            h.resize(n * n, 0.0);
-            for i in 0..n {
-                h[i * n + i..(i + 1) * n].copy_from_slice(&self.eqs.hxx[i * n + i..(i + 1) * n]);
-            }
+            copy_upper(&mut h, &self.eqs.hxx, n);
             let (mut h, _, _) = self.eqs.undamped_reduced_onto(h);
             if dense_cholesky_factor(&mut h, n, &mut None) {
                 Ok(h)

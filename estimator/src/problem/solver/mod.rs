@@ -30,4 +30,4 @@ pub use schur::{SchurComplementSystem, schur_complement_system};
 pub use trust_region::{
     SolverWorkspace, solve, solve_keeping_linearization, solve_keeping_linearization_in,
 };
-pub(crate) use vector::{dot, mirror_upper};
+pub(crate) use vector::{dot, is_symmetric, mirror_upper};

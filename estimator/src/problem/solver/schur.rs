@@ -12,7 +12,7 @@ use nalgebra::{DMatrix, DVector};
 use super::dense::{dense_cholesky_resolve, dense_cholesky_solve};
 use super::normal_equations::{NormalEquations, linearize};
 use super::plan::{Layout, NONE};
-use super::vector::{Step, dot, mirror_upper, split_dot};
+use super::vector::{Step, copy_upper, dot, mirror_upper, split_dot};
 use crate::problem::graph::{BlockId, Problem, ResidualId};
 
 impl NormalEquations {
@@ -347,11 +347,8 @@ impl NormalEquations {
         sys: &mut ReducedSystem,
     ) -> Option<Step> {
         let n = self.n;
-        // The upper triangle, row by row (the lower one is neither kept nor read).
-        sys.a.resize(n * n, 0.0);
-        for i in 0..n {
-            sys.a[i * n + i..(i + 1) * n].copy_from_slice(&self.hxx[i * n + i..(i + 1) * n]);
-        }
+        // The upper triangle (the lower one is neither kept nor read).
+        copy_upper(&mut sys.a, &self.hxx, n);
         sys.rhs.clear();
         sys.rhs.extend(self.gx.iter().map(|g| -g));
         for i in 0..n {
@@ -376,7 +373,7 @@ impl NormalEquations {
         // this row-major buffer, which is what the copy and the elimination wrote.
         let mut dx = std::mem::take(&mut sys.rhs);
         sys.factored = false;
-        if !dense_cholesky_solve(&mut sys.a, n, &mut dx, 1, &mut sys.scratch) {
+        if !dense_cholesky_solve(&mut sys.a, n, &mut dx, &mut sys.scratch) {
             return None;
         }
         sys.factored = true;

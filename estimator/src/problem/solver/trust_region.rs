@@ -148,7 +148,8 @@ pub fn solve_keeping_linearization_in(
         return (summary, Some(Linearization::new(e, layout, spare, None)));
     }
     // With modified steps: the gradient at the current values, when a step of the current
-    // linearization reached them (evaluated with the cost that accepted the step).
+    // linearization reached them (evaluated once the step is taken, only if a modified step
+    // follows).
     let modified = options.modified_newton && options.method == Method::LevenbergMarquardt;
     let mut gradient = Step {
         dx: Vec::new(),

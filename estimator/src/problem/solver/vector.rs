@@ -53,14 +53,14 @@ pub(crate) fn scale(s: &Step, k: f64) -> Step {
 
 /// Copies the upper triangle of a row-major square matrix onto its lower triangle.
 ///
-/// Tile by tile (`MIRROR_TILE` square): a column of the lower triangle written in one sweep
+/// Tile by tile (`TILE` square): a column of the lower triangle written in one sweep
 /// strides a whole row per element, one cache line each, which at the ~465 coordinates of a
 /// window with 100 persistent points cost more than the linearization's own arithmetic.
 pub(crate) fn mirror_upper(h: &mut [f64], n: usize) {
-    for i0 in (0..n).step_by(MIRROR_TILE) {
-        let i1 = (i0 + MIRROR_TILE).min(n);
-        for j0 in (i0..n).step_by(MIRROR_TILE) {
-            let j1 = (j0 + MIRROR_TILE).min(n);
+    for i0 in (0..n).step_by(TILE) {
+        let i1 = (i0 + TILE).min(n);
+        for j0 in (i0..n).step_by(TILE) {
+            let j1 = (j0 + TILE).min(n);
             for i in i0..i1 {
                 for j in j0.max(i + 1)..j1 {
                     h[j * n + i] = h[i * n + j];
@@ -70,13 +70,33 @@ pub(crate) fn mirror_upper(h: &mut [f64], n: usize) {
     }
 }
 
-/// Side of the tiles [`mirror_upper`] copies: 32 × 32 doubles read and 32 rows of 256 bytes
-/// written stay in the first-level cache.
-const MIRROR_TILE: usize = 32;
+/// Whether the row-major `n × n` matrix `h` equals its transpose exactly, compared tile by
+/// tile as [`mirror_upper`] copies.
+pub(crate) fn is_symmetric(h: &[f64], n: usize) -> bool {
+    (0..n).step_by(TILE).all(|i0| {
+        (0..=i0).step_by(TILE).all(|j0| {
+            (i0..(i0 + TILE).min(n))
+                .all(|i| (j0..(j0 + TILE).min(i)).all(|j| h[i * n + j] == h[j * n + i]))
+        })
+    })
+}
+
+/// Side of the tiles [`mirror_upper`] and [`is_symmetric`] sweep: 32 × 32 doubles read and 32
+/// rows of 256 bytes written stay in the first-level cache.
+const TILE: usize = 32;
+
+/// `dst` (resized to `n × n`) takes the upper triangle of the row-major `src`, row by row; its
+/// lower triangle is left as it was (whoever reads these matrices reads only the upper one).
+pub(crate) fn copy_upper(dst: &mut Vec<f64>, src: &[f64], n: usize) {
+    dst.resize(n * n, 0.0);
+    for i in 0..n {
+        dst[i * n + i..(i + 1) * n].copy_from_slice(&src[i * n + i..(i + 1) * n]);
+    }
+}
 
 #[cfg(test)]
 mod tests {
-    use super::mirror_upper;
+    use super::{copy_upper, is_symmetric, mirror_upper};
 
     /// Tile by tile, the same matrix as the element-by-element copy: sizes below, at and
     /// across the tile's, the upper triangle and diagonal untouched.
@@ -105,6 +125,34 @@ mod tests {
                 h.iter().all(|v| *v >= 0.0),
                 "n = {n}: every lower entry written"
             );
+        }
+    }
+
+    /// The tiled symmetry check finds one asymmetric pair wherever it lies, and the upper
+    /// copy takes exactly the upper triangle (a fresh destination keeps zeros below it).
+    #[test]
+    fn symmetry_check_and_upper_copy_see_every_entry() {
+        for n in [2, 31, 33, 70] {
+            let h: Vec<f64> = (0..n * n)
+                .map(|k| ((k / n) * (k % n)) as f64 + 1.0)
+                .collect();
+            assert!(is_symmetric(&h, n), "n = {n}");
+            for (i, j) in [(n - 1, 0), (n / 2, n / 3), (n - 1, n - 2)] {
+                if i == j {
+                    continue;
+                }
+                let mut g = h.clone();
+                g[i * n + j] += 1.0;
+                assert!(!is_symmetric(&g, n), "n = {n}: ({i}, {j})");
+            }
+            let mut dst = Vec::new();
+            copy_upper(&mut dst, &h, n);
+            for i in 0..n {
+                for j in 0..n {
+                    let want = if j >= i { h[i * n + j] } else { 0.0 };
+                    assert_eq!(dst[i * n + j], want, "n = {n}: ({i}, {j})");
+                }
+            }
         }
     }
 }
