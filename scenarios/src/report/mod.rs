@@ -35,7 +35,8 @@
 //! - `trajectory.png`: top view of ground truth vs the aligned estimate, and the position error
 //!   over time ([`crate::plot`]);
 //! - with `--batch-reference`, `batch.tum` (the batch solution over the keyframes) and
-//!   `window.tum` (every frame's pose as it left the window), unaligned like `estimate.tum`.
+//!   `window.tum` (every frame's pose as it left the window), unaligned like `estimate.tum`;
+//!   `filter.tum`, the full-information filter's estimate of each checkpoint's newest frame.
 //!
 //! The TUM files are written by [`crate::dataset::write_tum`].
 

@@ -66,12 +66,13 @@ pub fn plot_data(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> PlotDa
 /// Every file a run may write into its output folder. Each run first removes those of them a
 /// previous run left there (and nothing else), so a folder never mixes two runs' outputs: a
 /// plain run after a `--batch-reference` one no longer leaves the old `batch.tum` beside it.
-pub const RUN_OUTPUT_FILES: [&str; 10] = [
+pub const RUN_OUTPUT_FILES: [&str; 11] = [
     "estimate.tum",
     "estimate_source_time.tum",
     "groundtruth.tum",
     "batch.tum",
     "window.tum",
+    "filter.tum",
     "report.json",
     "trajectory.png",
     "calibration.png",
@@ -143,6 +144,18 @@ pub fn write_outputs(
             .map_err(|e| e.to_string())?;
         dataset::write_tum(dir.join("window.tum"), &stamped(&reference.finalized))
             .map_err(|e| e.to_string())?;
+    }
+    // The full-information filter's estimate of each checkpoint's newest frame (the window's
+    // own estimates of those frames are in `estimate.tum`).
+    if let Some(reference) = run.batch_reference.as_ref() {
+        if !reference.checkpoints.is_empty() {
+            let filter: Vec<StampedPose> = reference
+                .checkpoints
+                .iter()
+                .map(|c| StampedPose::new(c.t_ns, c.filter.pose))
+                .collect();
+            dataset::write_tum(dir.join("filter.tum"), &filter).map_err(|e| e.to_string())?;
+        }
     }
     let write = |name: &str, text: &str| {
         let p = dir.join(name);

@@ -251,9 +251,9 @@ fn unknown_scenario_name_exits_2() {
     assert!(stderr.contains("no_such_scenario") && stderr.contains("room_figure8_stereo_imu"));
 }
 
-/// `--batch-reference` writes the batch and the frames as they left the window as TUM files in
-/// time order (frames leave out of order), and a run that never tracked has no batch instead
-/// of a panic.
+/// `--batch-reference` writes the batch, the frames as they left the window and the filter's
+/// checkpoints as TUM files in time order (frames leave out of order), and a run that never
+/// tracked has no batch instead of a panic.
 #[test]
 fn batch_reference_writes_its_trajectories() {
     let dir = scratch("batch");
@@ -281,13 +281,21 @@ fn batch_reference_writes_its_trajectories() {
     for t in [&batch, &window] {
         assert!(t.windows(2).all(|w| w[0] < w[1]), "{t:?}");
     }
+    // The filter's checkpoints (every 0.3 s of a 3 s run once tracking): frames the window
+    // estimated too, in time order.
+    let (filter, estimate) = (stamps("filter.tum"), stamps("estimate.tum"));
+    assert!(filter.len() >= 5, "{filter:?}");
+    assert!(filter.windows(2).all(|w| w[0] < w[1]), "{filter:?}");
+    assert!(filter.iter().all(|t| estimate.contains(t)), "{filter:?}");
     // A plain run into the same folder leaves none of the earlier run's files behind, and
     // keeps a file of the user's.
     std::fs::write(out_dir.join("notes.txt"), "mine").unwrap();
     let out = run_file(&file, &out_dir, &[]);
     assert_eq!(out.status.code(), Some(0), "{out:?}");
     assert!(out_dir.join("estimate.tum").exists());
-    assert!(!out_dir.join("batch.tum").exists() && !out_dir.join("window.tum").exists());
+    for name in ["batch.tum", "window.tum", "filter.tum"] {
+        assert!(!out_dir.join(name).exists(), "{name}");
+    }
     assert!(out_dir.join("notes.txt").exists());
     // Initialization takes 0.45 s: 0.3 s never tracks, and the batch reference is absent.
     let never = write(dir, "never.toml", &default_text(0.3));
