@@ -147,15 +147,17 @@ pub fn write_outputs(
     }
     // The full-information filter's estimate of each checkpoint's newest frame (the window's
     // own estimates of those frames are in `estimate.tum`).
-    if let Some(reference) = run.batch_reference.as_ref() {
-        if !reference.checkpoints.is_empty() {
-            let filter: Vec<StampedPose> = reference
-                .checkpoints
-                .iter()
-                .map(|c| StampedPose::new(c.t_ns, c.filter.pose))
-                .collect();
-            dataset::write_tum(dir.join("filter.tum"), &filter).map_err(|e| e.to_string())?;
-        }
+    if let Some(reference) = run
+        .batch_reference
+        .as_ref()
+        .filter(|r| !r.checkpoints.is_empty())
+    {
+        let filter: Vec<StampedPose> = reference
+            .checkpoints
+            .iter()
+            .map(|c| StampedPose::new(c.t_ns, c.filter.pose))
+            .collect();
+        dataset::write_tum(dir.join("filter.tum"), &filter).map_err(|e| e.to_string())?;
     }
     let write = |name: &str, text: &str| {
         let p = dir.join(name);
