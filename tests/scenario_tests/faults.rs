@@ -194,7 +194,10 @@ fn a_run_that_never_tracks_fails_on_the_default_expectations() {
     let done = common::run_scenario(scenario, Some(20.0));
     let r = &done.report;
     let metrics: Vec<&str> = r.expectations.iter().map(|e| e.metric).collect();
-    assert_eq!(metrics, ["ate_rmse_m", "tracking_fraction"]);
+    assert_eq!(
+        metrics,
+        ["ate_rmse_m", "ate_rot_rmse_deg", "tracking_fraction"]
+    );
     assert_eq!(r.tracking_fraction, 0.0);
     assert!(!r.passed);
     // Expecting the refusal (`tracking_fraction = { max = 0 }`) passes, with no ATE bound.

@@ -44,14 +44,20 @@ pub fn error_at(errors: &[(f64, f64)], t_s: f64) -> Option<f64> {
         .map(|(_, e)| *e)
 }
 
+/// The default bound on the rotation ATE (deg), over eight times the largest bound a catalog
+/// scenario states (1.2°).
+pub const DEFAULT_ROTATION_DEG: f64 = 10.0;
+
 /// The default bounds a scenario with the bounds `stated` gets on top of them: for each of these
-/// metrics it sets no bound on, the ATE within `max(0.5 m, 2 % of the ground-truth path)` and
-/// tracking on at least half of the frames. They catch divergence (metres of error, a lost
-/// track), not precision; a scenario states its own bounds for that. A scenario that expects no
-/// tracking (`tracking_fraction = { max = 0 }`: the estimator must refuse to start) gets no ATE
-/// bound: there is no trajectory. A static run (`static_trajectory`: a ground truth that does not
-/// determine the alignment) has its position drift from the first pose bounded instead of the
-/// ATE.
+/// metrics it sets no bound on, the ATE within `max(0.5 m, 2 % of the ground-truth path)`, the
+/// rotation ATE within [`DEFAULT_ROTATION_DEG`] and tracking on at least half of the frames.
+/// They catch divergence (metres of error, a turned-around attitude, a lost track), not
+/// precision; a scenario states its own bounds for that. (A long path allows metres of
+/// position error: an attitude that went 21° wrong on an 87 m Lissajous stayed under its 1.7 m.)
+/// A scenario that expects no tracking (`tracking_fraction = { max = 0 }`: the estimator must
+/// refuse to start) gets no ATE bounds: there is no trajectory. A static run
+/// (`static_trajectory`: a ground truth that does not determine the alignment) has its position
+/// drift from the first pose bounded instead of the ATE, and no rotation bound.
 pub fn default_bounds(
     path_length_m: f64,
     stated: &[(&'static str, Bound)],
@@ -68,14 +74,25 @@ pub fn default_bounds(
         min: Some(0.5),
         max: None,
     };
+    let rotation = Bound {
+        min: None,
+        max: Some(DEFAULT_ROTATION_DEG),
+    };
     let position = if static_run {
         "position_drift_m"
     } else {
         "ate_rmse_m"
     };
-    [(position, ate), ("tracking_fraction", tracking)]
+    let mut bounds = vec![(position, ate)];
+    if !static_run {
+        bounds.push(("ate_rot_rmse_deg", rotation));
+    }
+    bounds.push(("tracking_fraction", tracking));
+    bounds
         .into_iter()
-        .filter(|(metric, _)| !(expects_no_track && *metric == position))
+        .filter(|(metric, _)| {
+            !(expects_no_track && (*metric == position || *metric == "ate_rot_rmse_deg"))
+        })
         .filter(|(metric, _)| stated.iter().all(|(m, _)| m != metric))
         .collect()
 }
@@ -104,5 +121,37 @@ mod tests {
         assert_eq!(back_after(&death, 20.0, f64::INFINITY), None);
         assert_eq!(error_at(&[(1.0, 0.1), (2.0, 0.2)], 1.5), Some(0.2));
         assert_eq!(error_at(&[(1.0, 0.1)], 5.0), None);
+    }
+
+    #[test]
+    fn default_bounds_cover_what_the_scenario_leaves_open() {
+        let names =
+            |b: Vec<(&'static str, Bound)>| b.into_iter().map(|(m, _)| m).collect::<Vec<_>>();
+        let max = |v| Bound {
+            min: None,
+            max: Some(v),
+        };
+        let moving = default_bounds(100.0, &[], false);
+        assert_eq!(
+            names(moving.clone()),
+            ["ate_rmse_m", "ate_rot_rmse_deg", "tracking_fraction"]
+        );
+        assert_eq!(moving[0].1.max, Some(2.0));
+        assert_eq!(moving[1].1.max, Some(DEFAULT_ROTATION_DEG));
+        assert_eq!(default_bounds(1.0, &[], false)[0].1.max, Some(0.5));
+        // A stated bound is kept, not doubled.
+        let stated = [("ate_rot_rmse_deg", max(0.5))];
+        assert_eq!(
+            names(default_bounds(100.0, &stated, false)),
+            ["ate_rmse_m", "tracking_fraction"]
+        );
+        // At rest: the drift instead of the ATE, no rotation bound.
+        assert_eq!(
+            names(default_bounds(0.0, &[], true)),
+            ["position_drift_m", "tracking_fraction"]
+        );
+        // Expected to refuse to start: no trajectory to bound.
+        let refuse = [("tracking_fraction", max(0.0))];
+        assert!(default_bounds(100.0, &refuse, false).is_empty());
     }
 }
