@@ -243,26 +243,28 @@ impl ImuSim {
             ),
             ImuWindow::Forward => ((t_ns, t_ns + self.period_ns), 0),
         };
-        // Step j's values over [t_j − shift, t_j + h − shift], weighted by their overlap with
-        // [a, b].
-        let mut average = |shift: i64, pick: fn(Vector3<f64>, Vector3<f64>) -> Vector3<f64>| {
-            let mut tj = truth.step_at_or_before(a + shift);
-            let mut sum = Vector3::zeros();
-            while tj - shift < b {
-                let lo = (tj - shift).max(a);
-                let hi = (tj + h - shift).min(b);
-                let s0 = truth
-                    .state_at(tj)
-                    .expect("IMU window precedes the buffered ground truth");
-                let s1 = truth.state_at(tj + h).expect("physics step missing");
-                let (fj, wj) = ideal_imu(&s0, &s1);
-                sum += pick(fj, wj) * ((hi - lo) as f64 / (b - a) as f64);
-                tj += h;
+        // Step j's rate over [t_j, t_j + h] and its specific force over
+        // [t_j − shift, t_j + h − shift], each weighted by its overlap with [a, b]; one pass over
+        // the steps either touches.
+        let weight = |lo: i64, hi: i64| (hi.min(b) - lo.max(a)) as f64 / (b - a) as f64;
+        let mut tj = truth.step_at_or_before(a);
+        let mut f = Vector3::zeros();
+        let mut w = Vector3::zeros();
+        while tj < b + accel_shift {
+            let s0 = truth
+                .state_at(tj)
+                .expect("IMU window precedes the buffered ground truth");
+            let s1 = truth.state_at(tj + h).expect("physics step missing");
+            let (fj, wj) = ideal_imu(&s0, &s1);
+            let (f_lo, f_hi) = (tj - accel_shift, tj + h - accel_shift);
+            if f_hi > a && f_lo < b {
+                f += fj * weight(f_lo, f_hi);
             }
-            sum
-        };
-        let f = average(accel_shift, |f, _| f);
-        let w = average(0, |_, w| w);
+            if tj < b {
+                w += wj * weight(tj, tj + h);
+            }
+            tj += h;
+        }
         (f, w)
     }
 

@@ -83,18 +83,16 @@ pub fn default_bounds(
     } else {
         "ate_rmse_m"
     };
-    let mut bounds = vec![(position, ate)];
-    if !static_run {
-        bounds.push(("ate_rot_rmse_deg", rotation));
+    let mut bounds = Vec::new();
+    if !expects_no_track {
+        bounds.push((position, ate));
+        if !static_run {
+            bounds.push(("ate_rot_rmse_deg", rotation));
+        }
     }
     bounds.push(("tracking_fraction", tracking));
+    bounds.retain(|(metric, _)| stated.iter().all(|(m, _)| m != metric));
     bounds
-        .into_iter()
-        .filter(|(metric, _)| {
-            !(expects_no_track && (*metric == position || *metric == "ate_rot_rmse_deg"))
-        })
-        .filter(|(metric, _)| stated.iter().all(|(m, _)| m != metric))
-        .collect()
 }
 
 #[cfg(test)]
