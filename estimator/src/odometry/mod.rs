@@ -457,8 +457,8 @@ impl Estimator {
     }
 
     /// Poses of frames that have left the window since the last call, as last estimated inside
-    /// it (fixed-lag smoothed: keyframes after `window_size` keyframes, non-keyframes after one
-    /// frame), in the order they left.
+    /// it (fixed-lag smoothed: keyframes after `window_size` keyframes, or
+    /// `startup_window_size` early on, non-keyframes after one frame), in the order they left.
     pub fn take_finalized(&mut self) -> Vec<(i64, Pose)> {
         std::mem::take(&mut self.finalized)
     }

@@ -10,6 +10,7 @@ use nalgebra::{DMatrix, UnitQuaternion, Vector3};
 use super::calibration_gates::Gate;
 use super::frame::WindowFrame;
 use super::health::FailureReason;
+use super::sliding::Leaving;
 use super::window_information::{self, RelativePose};
 use super::window_problem::WindowProblem;
 use super::{
@@ -306,23 +307,18 @@ impl Estimator {
     /// the calibration gates are set, GNSS fixes screened (a moved receiver frame drops the
     /// alignment), drifted states relinearized, image velocities predicted for the time offset.
     fn prepare_solve(&mut self, keyframe: bool, imu_active: bool, t_ns: i64) {
-        if imu_active
-            && keyframe
-            && self.window.frames.len() > self.config.window_size
-            && self.window.prior.is_some()
-            && !self.config.reuse_marginalized_tracks
-        {
-            // The oldest keyframe leaves after this solve: its live tracks continue as
-            // persistent points instead of ending with it.
-            self.window.promote_to_points(&self.config);
-        }
-        // Calibration: held at the configured values until the window determines it (see
-        // `calibration_gates.rs`).
+        // Tracking time: the calibration warm-up and the start-up window count from here.
         if self.status == Status::Tracking {
             self.tracking_since.get_or_insert(t_ns);
         } else {
             self.tracking_since = None;
         }
+        if self.leaving(keyframe, t_ns, imu_active) == Some(Leaving::Oldest) {
+            // The oldest keyframe leaves after this solve.
+            self.promote_leaving_tracks(imu_active);
+        }
+        // Calibration: held at the configured values until the window determines it (see
+        // `calibration_gates.rs`).
         self.configure_calibration();
         let window = &mut self.window;
         if imu_active && window.aiding.screen_fixes(&window.frames, &self.config) {

@@ -60,9 +60,47 @@ impl Estimator {
         }
     }
 
-    /// Slides a full window after the solve `built`: the oldest frame leaves into the prior
-    /// when the second-newest is a keyframe, the second-newest leaves otherwise (its IMU
-    /// interval merges into the newest's); the frame that left is finalized.
+    /// The keyframes the window keeps at frame time `t_ns`: `startup_window_size` for the
+    /// first `startup_window_s` of tracking with the IMU, `window_size` otherwise.
+    fn window_capacity(&self, t_ns: i64, imu_active: bool) -> usize {
+        let c = &self.config;
+        let startup_ns = (c.startup_window_s * 1e9).round() as i64;
+        let in_startup = imu_active
+            && self.status == Status::Tracking
+            && self
+                .tracking_since
+                .is_some_and(|t0| t_ns.saturating_sub(t0) < startup_ns);
+        if in_startup {
+            c.startup_window_size.max(c.window_size)
+        } else {
+            c.window_size
+        }
+    }
+
+    /// Which frame leaves the window after the solve of the frame at `t_ns` (`keyframe`: the
+    /// second-newest is one): none while the window has room; the oldest when the
+    /// second-newest is a keyframe, or when the window holds more than a full window (the
+    /// start-up phase just ended: it shrinks by one keyframe a frame); the second-newest
+    /// otherwise.
+    pub(super) fn leaving(&self, keyframe: bool, t_ns: i64, imu_active: bool) -> Option<Leaving> {
+        let (len, capacity) = (
+            self.window.frames.len(),
+            self.window_capacity(t_ns, imu_active),
+        );
+        if len <= capacity {
+            None
+        } else if keyframe || len > capacity + 1 {
+            Some(Leaving::Oldest)
+        } else {
+            Some(Leaving::SecondNewest)
+        }
+    }
+
+    /// Slides the window after the solve `built` (see [`Self::leaving`]): the oldest frame
+    /// leaves into the prior, or the second-newest leaves (its IMU interval merges into the
+    /// newest's); the frame that left is finalized. A window past a full one (the start-up
+    /// phase just ended) loses a second frame by the same rule, from the window rebuilt
+    /// without the first, so that it shrinks by one frame per frame.
     pub(super) fn slide(
         &mut self,
         built: &WindowProblem,
@@ -70,10 +108,41 @@ impl Estimator {
         imu_active: bool,
         t_ns: i64,
     ) {
-        let window_full = self.window.frames.len() > self.config.window_size;
-        if window_full {
-            let had_prior = self.window.prior.is_some();
-            let removed = if keyframe {
+        let Some(leaving) = self.leaving(keyframe, t_ns, imu_active) else {
+            return;
+        };
+        self.remove_frame(built, leaving, imu_active, t_ns);
+        if self.window.frames.len() > self.window_capacity(t_ns, imu_active)
+            && let Some(leaving) = self.leaving(keyframe, t_ns, imu_active)
+        {
+            if leaving == Leaving::Oldest {
+                self.promote_leaving_tracks(imu_active);
+            }
+            let rebuilt = self.window.build(&self.problem_settings(), imu_active);
+            self.remove_frame(&rebuilt, leaving, imu_active, t_ns);
+        }
+    }
+
+    /// Live tracks of the oldest keyframe continue as persistent points instead of ending with
+    /// it, when it is about to leave into a prior (with the IMU, by default).
+    pub(super) fn promote_leaving_tracks(&mut self, imu_active: bool) {
+        if imu_active && self.window.prior.is_some() && !self.config.reuse_marginalized_tracks {
+            self.window.promote_to_points(&self.config);
+        }
+    }
+
+    /// Removes the frame `leaving` names from the window solved as `built`, leaving its
+    /// information in the prior, and finalizes it.
+    fn remove_frame(
+        &mut self,
+        built: &WindowProblem,
+        leaving: Leaving,
+        imu_active: bool,
+        t_ns: i64,
+    ) {
+        let had_prior = self.window.prior.is_some();
+        let removed = match leaving {
+            Leaving::Oldest => {
                 self.window.prior =
                     marginalization_policy::prior_without_oldest(&self.window, built, imu_active);
                 // With a prior, the oldest frame's anchored landmarks and all their observations
@@ -85,23 +154,33 @@ impl Estimator {
                     && self.window.prior.is_some()
                     && !self.config.reuse_marginalized_tracks;
                 self.window.remove_oldest(in_prior, &self.config)
-            } else {
+            }
+            Leaving::SecondNewest => {
                 self.window.prior =
                     marginalization_policy::prior_without_second_newest(&self.window, built);
                 self.window.remove_second_newest()
-            };
-            if self.status == Status::Tracking {
-                self.finalized.push((removed.t_ns, removed.pose));
-                if let Some(h) = self.history.as_mut().filter(|_| keyframe) {
-                    h.keyframes.push(removed.clone());
-                }
             }
-            if had_prior && imu_active && self.window.prior.is_none() {
-                self.events.push(Event {
-                    t_ns,
-                    kind: EventKind::PriorDropped,
-                });
+        };
+        if self.status == Status::Tracking {
+            self.finalized.push((removed.t_ns, removed.pose));
+            if let Some(h) = self.history.as_mut().filter(|_| leaving == Leaving::Oldest) {
+                h.keyframes.push(removed.clone());
             }
         }
+        if had_prior && imu_active && self.window.prior.is_none() {
+            self.events.push(Event {
+                t_ns,
+                kind: EventKind::PriorDropped,
+            });
+        }
     }
+}
+
+/// The frame that leaves a full window ([`Estimator::leaving`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Leaving {
+    /// The oldest keyframe, marginalized into the prior.
+    Oldest,
+    /// The second-newest frame, not a keyframe: dropped, its IMU interval merged forward.
+    SecondNewest,
 }

@@ -322,3 +322,56 @@ fn rejections_before_the_alignment_do_not_reset_the_tracking_window() {
     let ate = ate(&out);
     assert!(ate < 0.026, "ATE {ate} m");
 }
+
+/// The start-up window: for `startup_window_s` of tracking the window keeps up to
+/// `startup_window_size` keyframes, then shrinks back to `window_size` (one keyframe a frame)
+/// and stays there (seed 1: 16 frames at most while it lasts, 10 from a second after it ends;
+/// a window that shrank by marginalizing one frame per frame, as a full one does, stayed at 16).
+#[test]
+fn startup_window_holds_more_keyframes_then_shrinks_back() {
+    let mut world = World::new(1, 3000, 1.0);
+    let mut config = world.config(Suite::StereoImu);
+    config.startup_window_size = 16;
+    config.startup_window_s = 1.5;
+    let window_size = config.window_size;
+    let mut est = Estimator::new(config).unwrap();
+    let (mut t_imu, mut t_frame) = (0, 0);
+    let mut sizes = Vec::new();
+    let mut out = Vec::new();
+    while t_frame <= 4_000_000_000 {
+        while t_imu <= t_frame {
+            out.extend(est.push_imu(world.imu(t_imu)).unwrap());
+            t_imu += IMU_NS;
+        }
+        out.extend(est.push_frame(world.frame(t_frame)).unwrap());
+        sizes.push((t_frame, est.window_poses().len()));
+        t_frame += FRAME_NS;
+    }
+    let tracked_at = out
+        .iter()
+        .find(|e| e.status.initialized())
+        .expect("tracks")
+        .t_ns;
+    let end_ns = tracked_at + 1_500_000_000;
+    let largest = |from: i64, to: i64| {
+        sizes
+            .iter()
+            .filter(|(t, _)| (from..to).contains(t))
+            .map(|&(_, n)| n)
+            .max()
+            .unwrap()
+    };
+    let during = largest(0, end_ns + FRAME_NS);
+    let after = largest(end_ns + 1_000_000_000, i64::MAX);
+    println!("tracking from {tracked_at} ns: at most {during} frames, then {after}");
+    assert_eq!(
+        during, 16,
+        "the start-up window held at most {during} frames"
+    );
+    assert!(
+        after <= window_size,
+        "{after} frames a second after the start-up phase (window_size {window_size})"
+    );
+    let ate = ate(&out);
+    assert!(ate < 0.03, "ATE {ate}");
+}

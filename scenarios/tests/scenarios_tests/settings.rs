@@ -108,6 +108,16 @@ fn estimator_errors_name_the_key_and_line() {
             "unknown field `windows_size`",
         ),
         ("td_s = nan", "estimator.td_s", "NaN"),
+        (
+            "startup_window_size = 101",
+            "estimator.startup_window_size",
+            "3 to 100",
+        ),
+        (
+            "startup_window_s = -1.0",
+            "estimator.startup_window_s",
+            "≥ 0",
+        ),
         ("gauge_sigma = -1.0", "estimator.gauge_sigma", "> 0"),
         (
             "min_depth_m = 50.0\nmax_depth_m = 10.0",
