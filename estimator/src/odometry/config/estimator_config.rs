@@ -83,9 +83,9 @@ pub struct EstimatorConfig {
     /// or fewer: no start-up phase). Just after the alignment the tilt and the
     /// biases are poorly known, and what a keyframe leaves in the prior is linearized there for
     /// good; a longer window keeps those keyframes until the estimates have settled, then
-    /// shrinks back one frame per frame (`sliding.rs`). Off by default (10): on the default
-    /// figure-eight 25 keyframes for 5 s improve the first 20 s (seeds 1–30: 6.15 → 5.37 mm)
-    /// but not 60 s (seeds 1–10: 6.66 → 7.04 mm); book, Window against batch.
+    /// shrinks back one frame per frame (`sliding.rs`). Off by default (10): 25 keyframes for
+    /// 5 s improve the figure-eight (seeds 1–30: 6.15 → 5.37 mm over 20 s, 6.94 → 6.53 mm over
+    /// 60 s) but cost rotation on the circles and the replays (9–14 %); book, Window against batch.
     pub startup_window_size: usize,
     /// Seconds of tracking with the IMU (from the first tracked frame, again after every
     /// reset) that the window keeps `startup_window_size` keyframes.
