@@ -112,9 +112,7 @@ impl Estimator {
             return;
         };
         self.remove_frame(built, leaving, imu_active, t_ns);
-        if self.window.frames.len() > self.window_capacity(t_ns, imu_active)
-            && let Some(leaving) = self.leaving(keyframe, t_ns, imu_active)
-        {
+        if let Some(leaving) = self.leaving(keyframe, t_ns, imu_active) {
             if leaving == Leaving::Oldest {
                 self.promote_leaving_tracks(imu_active);
             }

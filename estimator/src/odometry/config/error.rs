@@ -56,3 +56,22 @@ pub(super) fn non_negative(field: &str, v: f64) -> Result<(), ConfigError> {
         ))
     }
 }
+
+/// `Ok` if the count `v` lies in `lo..=hi`; else an error naming `field`, in `unit` (" frames",
+/// or "" for a bare count).
+pub(super) fn count_in(
+    field: &str,
+    v: usize,
+    lo: usize,
+    hi: usize,
+    unit: &str,
+) -> Result<(), ConfigError> {
+    if (lo..=hi).contains(&v) {
+        Ok(())
+    } else {
+        Err(ConfigError::new(
+            field,
+            format!("expected {lo} to {hi}{unit}, got {v}"),
+        ))
+    }
+}

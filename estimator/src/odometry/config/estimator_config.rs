@@ -2,7 +2,7 @@
 
 use std::sync::Arc;
 
-use super::error::{ConfigError, non_negative, positive, positive_or_infinite};
+use super::error::{ConfigError, count_in, non_negative, positive, positive_or_infinite};
 use super::{GnssConfig, HealthLimits, WheelConfig, ZeroVelocityConfig};
 use crate::camera::{CameraModel, RollingShutter};
 use crate::geometry::Pose;
@@ -519,37 +519,31 @@ impl EstimatorConfig {
     /// the resources a setting commits (the dense window system grows with the cube of its
     /// size); the error names the field as it is serialized (`solver.max_iterations`).
     pub fn validate_settings(&self) -> Result<(), ConfigError> {
-        if !(3..=MAX_WINDOW_SIZE).contains(&self.window_size) {
-            return Err(ConfigError::new(
-                "window_size",
-                format!(
-                    "expected 3 to {MAX_WINDOW_SIZE} keyframes, got {}",
-                    self.window_size
-                ),
-            ));
-        }
-        if !(3..=MAX_WINDOW_SIZE).contains(&self.startup_window_size) {
-            return Err(ConfigError::new(
-                "startup_window_size",
-                format!(
-                    "expected 3 to {MAX_WINDOW_SIZE} keyframes, got {}",
-                    self.startup_window_size
-                ),
-            ));
-        }
+        count_in(
+            "window_size",
+            self.window_size,
+            3,
+            MAX_WINDOW_SIZE,
+            " keyframes",
+        )?;
+        count_in(
+            "startup_window_size",
+            self.startup_window_size,
+            3,
+            MAX_WINDOW_SIZE,
+            " keyframes",
+        )?;
         non_negative("startup_window_s", self.startup_window_s)?;
         if let Some(p) = self.pixel_sigma_px {
             positive("pixel_sigma_px", p)?;
         }
-        if !(4..=MAX_WINDOW_SIZE).contains(&self.init_frames) {
-            return Err(ConfigError::new(
-                "init_frames",
-                format!(
-                    "expected 4 to {MAX_WINDOW_SIZE} frames, got {}",
-                    self.init_frames
-                ),
-            ));
-        }
+        count_in(
+            "init_frames",
+            self.init_frames,
+            4,
+            MAX_WINDOW_SIZE,
+            " frames",
+        )?;
         // The initialization waits for `init_frames` frames in the window: a smaller window
         // never holds them, and nothing would ever be tracked.
         if self.window_size < self.init_frames {
@@ -562,12 +556,13 @@ impl EstimatorConfig {
                 ),
             ));
         }
-        if !(1..=1000).contains(&self.solver.max_iterations) {
-            return Err(ConfigError::new(
-                "solver.max_iterations",
-                format!("expected 1 to 1000, got {}", self.solver.max_iterations),
-            ));
-        }
+        count_in(
+            "solver.max_iterations",
+            self.solver.max_iterations,
+            1,
+            1000,
+            "",
+        )?;
         if !(0.0..=1.0).contains(&self.solver.function_tolerance) {
             return Err(ConfigError::new(
                 "solver.function_tolerance",
@@ -746,19 +741,21 @@ impl EstimatorConfig {
             "health.max_time_offset_deviation_s",
             h.max_time_offset_deviation_s,
         )?;
-        if !(1..=1000).contains(&h.imu_chi2_solves) {
-            return Err(ConfigError::new(
-                "health.imu_chi2_solves",
-                format!("expected 1 to 1000 solves, got {}", h.imu_chi2_solves),
-            ));
-        }
+        count_in(
+            "health.imu_chi2_solves",
+            h.imu_chi2_solves,
+            1,
+            1000,
+            " solves",
+        )?;
         // Infinite: the IMU χ² test is off.
-        if !(1..=1000).contains(&h.rejected_solves) {
-            return Err(ConfigError::new(
-                "health.rejected_solves",
-                format!("expected 1 to 1000 solves, got {}", h.rejected_solves),
-            ));
-        }
+        count_in(
+            "health.rejected_solves",
+            h.rejected_solves,
+            1,
+            1000,
+            " solves",
+        )?;
         positive_or_infinite(
             "health.max_rejected_fraction",
             h.max_rejected_fraction,
