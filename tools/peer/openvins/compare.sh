@@ -9,6 +9,7 @@
 # 2. `vio euroc` runs our estimator on that folder's tracks, with the scenario's settings;
 # 3. `ov_feature_driver` (build.sh) runs OpenVINS on the same tracks and IMU samples, with
 #    estimator_config.yaml beside this script (the pixel σ: PIXEL_SIGMA, default 1);
+#    its log ($run/openvins.log) ends with its timing and its final camera-IMU time offset;
 # 4. `vio eval` scores both against the same ground truth with SE(3) alignment (evo's `-a`) on
 #    the frames both produced.
 # Prints one line and appends it, as CSV, to $OUT_ROOT/results.csv (header written once).

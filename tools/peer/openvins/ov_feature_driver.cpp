@@ -235,6 +235,9 @@ public:
                   q.w());
     return true;
   }
+
+  // The filter's camera-IMU time offset (s), 0 before initialization.
+  double time_offset() { return initialized() ? state->_calib_dt_CAMtoIMU->value()(0) : 0.0; }
 };
 
 double percentile(std::vector<double> v, double p) {
@@ -306,8 +309,9 @@ int main(int argc, char **argv) {
     mean += x / (double)after_init.size();
   }
   std::printf("ov_feature_driver: %zu frames, %zu IMU samples; initialized at %.3f s; %zu estimates; per frame "
-              "after initialization: median %.3f ms, mean %.3f ms, p99 %.3f ms\n",
+              "after initialization: median %.3f ms, mean %.3f ms, p99 %.3f ms; final time offset %.4f ms\n",
               frames.size(), imu.size(), init_time - frames.front().t_ns * 1e-9, estimates,
-              1e3 * percentile(after_init, 0.5), 1e3 * mean, 1e3 * percentile(after_init, 0.99));
+              1e3 * percentile(after_init, 0.5), 1e3 * mean, 1e3 * percentile(after_init, 0.99),
+              1e3 * vio.time_offset());
   return estimates > 0 ? 0 : 1;
 }
