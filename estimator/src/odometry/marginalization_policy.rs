@@ -13,11 +13,13 @@ use crate::problem::{BlockId, ResidualId};
 /// The new prior when the oldest frame leaves with the IMU active: its pose and speed-bias, the
 /// landmarks anchored in it, and every factor touching them (the IMU factor to the next frame,
 /// its zero-velocity, GNSS and wheel factors, the old prior, those landmarks' reprojections) are marginalized. Without the IMU there is no
-/// prior (vision only: the oldest remaining pose fixes the gauge).
+/// prior (vision only: the oldest remaining pose fixes the gauge). The persistent points
+/// `lost` (keys; [`lost_points`]) leave too, with every observation of theirs.
 pub(super) fn prior_without_oldest(
     window: &Window,
     built: &WindowProblem,
     imu_active: bool,
+    lost: &[u64],
 ) -> Option<Prior> {
     if !imu_active {
         return None;
@@ -67,11 +69,21 @@ pub(super) fn prior_without_oldest(
         oldest,
         held,
     ));
+    let lost_blocks = built
+        .points
+        .iter()
+        .filter(|(k, _)| lost.binary_search(k).is_ok())
+        .map(|(_, b)| *b);
+    for b in lost_blocks {
+        if !remove.contains(&b) {
+            remove.push(b);
+        }
+    }
     residuals.extend(
         built
             .point_obs
             .iter()
-            .filter(|(_, _, seq)| *seq == oldest)
+            .filter(|(_, key, seq)| *seq == oldest || lost.binary_search(key).is_ok())
             .map(|(r, _, _)| *r),
     );
     if let Some(r) = built.prior
@@ -83,6 +95,51 @@ pub(super) fn prior_without_oldest(
     }
     residuals.sort();
     prior_from(built, &residuals, &remove)
+}
+
+/// The persistent points whose tracks the newest frame lost (keys, sorted): points the solve
+/// `built` holds that the newest frame does not observe, provided there is something to
+/// marginalize — an observation in the window, or a place in the prior. A track the front end
+/// lost does not come back (its feature returns under a new id), so such a point only waits
+/// for its last observation to leave the window; marginalized at once, with its observations,
+/// it gives its place to a live track.
+pub(super) fn lost_points(window: &Window, built: &WindowProblem) -> Vec<u64> {
+    let Some(newest) = window.frames.back().map(|f| f.seq) else {
+        return Vec::new();
+    };
+    let held = |b: &BlockId| {
+        built
+            .prior
+            .is_some_and(|r| built.problem.residual_blocks(r).contains(b))
+    };
+    points_lost(&built.points, &built.point_obs, newest, held)
+}
+
+/// [`lost_points`] over the solve's persistent points (`points`: key and block, sorted by key)
+/// and their observations (`point_obs`: residual, point key, frame seq): the keys of those not
+/// observed in frame `newest` that are observed in some other frame or held by the prior
+/// (`held`).
+fn points_lost(
+    points: &[(u64, BlockId)],
+    point_obs: &[(ResidualId, u64, u64)],
+    newest: u64,
+    held: impl Fn(&BlockId) -> bool,
+) -> Vec<u64> {
+    debug_assert!(points.windows(2).all(|w| w[0].0 < w[1].0));
+    // Per point: (observed in the window, observed in the newest frame).
+    let mut seen = vec![(false, false); points.len()];
+    for (_, key, seq) in point_obs {
+        if let Ok(i) = points.binary_search_by_key(key, |(k, _)| *k) {
+            seen[i].0 = true;
+            seen[i].1 |= *seq == newest;
+        }
+    }
+    points
+        .iter()
+        .zip(seen)
+        .filter(|((_, b), (observed, in_newest))| !in_newest && (*observed || held(b)))
+        .map(|((k, _), _)| *k)
+        .collect()
 }
 
 /// The persistent points (`points`: key and block, sorted by key) that leave with the oldest
@@ -237,5 +294,32 @@ mod tests {
             points_leaving(&points, &obs, 7, |_| false),
             vec![BlockId(10)]
         );
+    }
+
+    /// Points 1–4 against newest frame 9: 1 is seen there (live), 2 only earlier (lost), 3
+    /// nowhere but in the prior (lost: the prior holds it), 4 nowhere and not in the prior
+    /// (left out: nothing to marginalize), 5 earlier and in the newest frame (live).
+    #[test]
+    fn lost_points_are_those_the_newest_frame_does_not_see() {
+        let points = [
+            (1, BlockId(10)),
+            (2, BlockId(11)),
+            (3, BlockId(12)),
+            (4, BlockId(13)),
+            (5, BlockId(14)),
+        ];
+        let obs = [
+            (ResidualId(0), 1, 9),
+            (ResidualId(1), 2, 7),
+            (ResidualId(2), 2, 8),
+            (ResidualId(3), 5, 8),
+            (ResidualId(4), 5, 9),
+            (ResidualId(5), 6, 8),
+        ];
+        let held = |b: &BlockId| *b == BlockId(12);
+        assert_eq!(points_lost(&points, &obs, 9, held), vec![2, 3]);
+        assert_eq!(points_lost(&points, &obs, 9, |_| false), vec![2]);
+        // Every point is live in a frame that sees them all.
+        assert!(points_lost(&points[..1], &obs, 9, held).is_empty());
     }
 }

@@ -141,8 +141,21 @@ impl Estimator {
         let had_prior = self.window.prior.is_some();
         let removed = match leaving {
             Leaving::Oldest => {
-                self.window.prior =
-                    marginalization_policy::prior_without_oldest(&self.window, built, imu_active);
+                let lost = if imu_active && self.config.marginalize_lost_points {
+                    marginalization_policy::lost_points(&self.window, built)
+                } else {
+                    Vec::new()
+                };
+                self.window.prior = marginalization_policy::prior_without_oldest(
+                    &self.window,
+                    built,
+                    imu_active,
+                    &lost,
+                );
+                if self.window.prior.is_some() {
+                    // Their observations are in the prior now.
+                    self.window.forget_points(&lost);
+                }
                 // With a prior, the oldest frame's anchored landmarks and all their observations
                 // are now in it, so by default those tracks end here; re-anchoring and re-using
                 // the observations (VINS-Fusion's choice, `reuse_marginalized_tracks`) counts

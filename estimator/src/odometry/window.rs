@@ -469,6 +469,19 @@ impl Window {
         }
     }
 
+    /// Forgets the persistent points `keys` (sorted) and their tracks, every observation of
+    /// which the prior now holds.
+    pub fn forget_points(&mut self, keys: &[u64]) {
+        if keys.is_empty() {
+            return;
+        }
+        let lost = |k: &u64| keys.binary_search(k).is_ok();
+        self.features
+            .tracks
+            .retain(|_, t| !t.point.as_ref().is_some_and(lost));
+        self.points.retain(|k, _| !lost(k));
+    }
+
     /// Forgets persistent points that no track carries and no prior holds.
     pub fn drop_unused_points(&mut self) {
         let carried: Vec<u64> = self

@@ -272,6 +272,12 @@ pub struct EstimatorConfig {
     /// places: spread over the view (`point_selection`; the figure-eight's mean ATE over seeds
     /// 1–30 8.0 → 7.4 mm against the longest tracks first, 2026-11-27).
     pub max_persistent_points: usize,
+    /// Marginalize a persistent point as soon as the newest frame no longer observes it (its
+    /// track is lost and does not come back), with every observation of it still in the
+    /// window, instead of when its last observation leaves the window: its place in
+    /// `max_persistent_points` goes to a live track, and the solve carries three coordinates
+    /// fewer.
+    pub marginalize_lost_points: bool,
     /// First-estimate Jacobians: every factor's Jacobians with respect to a state in the
     /// marginalization prior are evaluated at the prior's linearization point of that state
     /// (residuals at the current estimate), and marginalization keeps those points. The
@@ -429,6 +435,7 @@ impl EstimatorConfig {
             gauge_sigma: 1e-4,
             reuse_marginalized_tracks: false,
             max_persistent_points: 30,
+            marginalize_lost_points: false,
             min_track_frames: 1,
             first_estimate_jacobians: true,
             first_estimate_points: true,
