@@ -296,7 +296,7 @@ mod tests {
         );
     }
 
-    /// Points 1–4 against newest frame 9: 1 is seen there (live), 2 only earlier (lost), 3
+    /// Points 1–5 against newest frame 9: 1 is seen there (live), 2 only earlier (lost), 3
     /// nowhere but in the prior (lost: the prior holds it), 4 nowhere and not in the prior
     /// (left out: nothing to marginalize), 5 earlier and in the newest frame (live).
     #[test]
@@ -319,7 +319,7 @@ mod tests {
         let held = |b: &BlockId| *b == BlockId(12);
         assert_eq!(points_lost(&points, &obs, 9, held), vec![2, 3]);
         assert_eq!(points_lost(&points, &obs, 9, |_| false), vec![2]);
-        // Every point is live in a frame that sees them all.
+        // Point 1 alone: nothing is lost.
         assert!(points_lost(&points[..1], &obs, 9, held).is_empty());
     }
 }

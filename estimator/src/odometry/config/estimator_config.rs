@@ -275,8 +275,10 @@ pub struct EstimatorConfig {
     /// Marginalize a persistent point as soon as the newest frame no longer observes it (its
     /// track is lost and does not come back), with every observation of it still in the
     /// window, instead of when its last observation leaves the window: its place in
-    /// `max_persistent_points` goes to a live track, and the solve carries three coordinates
-    /// fewer.
+    /// `max_persistent_points` goes to a live track. At 100 points on the figure-eight (60 s,
+    /// seeds 1–10) the window/filter ATE ratio goes from median 1.05, max 1.49 to 1.06, 1.16
+    /// and the mean ATE from 5.51 to 4.94 mm; at 30 points it changes nothing measurable (seeds
+    /// 1–30: 6.94 → 6.96 mm), hence off by default (book, "Window against batch").
     pub marginalize_lost_points: bool,
     /// First-estimate Jacobians: every factor's Jacobians with respect to a state in the
     /// marginalization prior are evaluated at the prior's linearization point of that state
