@@ -58,16 +58,11 @@ pub(super) fn prior_without_oldest(
             .map(|(r, _)| *r),
     );
     // Persistent points: their observations in the oldest frame go into the prior.
-    let held = |b: &BlockId| {
-        built
-            .prior
-            .is_some_and(|r| built.problem.residual_blocks(r).contains(b))
-    };
     remove.extend(points_leaving(
         &built.points,
         &built.point_obs,
         oldest,
-        held,
+        held_by_prior(built),
     ));
     let lost_blocks = built
         .points
@@ -107,12 +102,43 @@ pub(super) fn lost_points(window: &Window, built: &WindowProblem) -> Vec<u64> {
     let Some(newest) = window.frames.back().map(|f| f.seq) else {
         return Vec::new();
     };
-    let held = |b: &BlockId| {
+    points_lost(
+        &built.points,
+        &built.point_obs,
+        newest,
+        held_by_prior(built),
+    )
+}
+
+/// Whether the prior of the solve `built` holds a block.
+fn held_by_prior(built: &WindowProblem) -> impl Fn(&BlockId) -> bool + '_ {
+    |b| {
         built
             .prior
             .is_some_and(|r| built.problem.residual_blocks(r).contains(b))
-    };
-    points_lost(&built.points, &built.point_obs, newest, held)
+    }
+}
+
+/// Per persistent point (`points`: key and block, sorted by key), from its observations
+/// (`point_obs`: residual, point key, frame seq): whether frame `seq` observes it, and whether
+/// another window frame does.
+fn sightings(
+    points: &[(u64, BlockId)],
+    point_obs: &[(ResidualId, u64, u64)],
+    seq: u64,
+) -> Vec<(bool, bool)> {
+    debug_assert!(points.windows(2).all(|w| w[0].0 < w[1].0));
+    let mut seen = vec![(false, false); points.len()];
+    for (_, key, s) in point_obs {
+        if let Ok(i) = points.binary_search_by_key(key, |(k, _)| *k) {
+            if *s == seq {
+                seen[i].0 = true;
+            } else {
+                seen[i].1 = true;
+            }
+        }
+    }
+    seen
 }
 
 /// [`lost_points`] over the solve's persistent points (`points`: key and block, sorted by key)
@@ -125,19 +151,10 @@ fn points_lost(
     newest: u64,
     held: impl Fn(&BlockId) -> bool,
 ) -> Vec<u64> {
-    debug_assert!(points.windows(2).all(|w| w[0].0 < w[1].0));
-    // Per point: (observed in the window, observed in the newest frame).
-    let mut seen = vec![(false, false); points.len()];
-    for (_, key, seq) in point_obs {
-        if let Ok(i) = points.binary_search_by_key(key, |(k, _)| *k) {
-            seen[i].0 = true;
-            seen[i].1 |= *seq == newest;
-        }
-    }
     points
         .iter()
-        .zip(seen)
-        .filter(|((_, b), (observed, in_newest))| !in_newest && (*observed || held(b)))
+        .zip(sightings(points, point_obs, newest))
+        .filter(|((_, b), (in_newest, elsewhere))| !in_newest && (*elsewhere || held(b)))
         .map(|((k, _), _)| *k)
         .collect()
 }
@@ -154,21 +171,9 @@ fn points_leaving(
     oldest: u64,
     held: impl Fn(&BlockId) -> bool,
 ) -> Vec<BlockId> {
-    debug_assert!(points.windows(2).all(|w| w[0].0 < w[1].0));
-    // Per point: (observed in the oldest frame, observed later).
-    let mut seen = vec![(false, false); points.len()];
-    for (_, key, seq) in point_obs {
-        if let Ok(i) = points.binary_search_by_key(key, |(k, _)| *k) {
-            if *seq == oldest {
-                seen[i].0 = true;
-            } else {
-                seen[i].1 = true;
-            }
-        }
-    }
     points
         .iter()
-        .zip(seen)
+        .zip(sightings(points, point_obs, oldest))
         .filter(|((_, b), (here, later))| !later && (*here || held(b)))
         .map(|((_, b), _)| *b)
         .collect()

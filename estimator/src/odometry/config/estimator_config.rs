@@ -757,7 +757,6 @@ impl EstimatorConfig {
             1000,
             " solves",
         )?;
-        // Infinite: the IMU χ² test is off.
         count_in(
             "health.rejected_solves",
             h.rejected_solves,
@@ -770,6 +769,7 @@ impl EstimatorConfig {
             h.max_rejected_fraction,
             "no rejection test",
         )?;
+        // Infinite: the IMU χ² test is off.
         if h.imu_chi2_z.is_nan() || h.imu_chi2_z <= 0.0 {
             return Err(ConfigError::new(
                 "health.imu_chi2_z",
