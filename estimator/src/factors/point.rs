@@ -3,6 +3,7 @@
 
 use nalgebra::{Matrix2x3, Matrix3, Vector2, Vector3};
 
+use super::point_form::PointForm;
 use super::reprojection::{FeatureMeasurement, write_pose};
 use crate::geometry::{Pose, skew};
 use crate::problem::{Factor, write_row_major};
@@ -82,15 +83,19 @@ impl Factor for PointProjection {
 /// form of a landmark that outlives its anchor keyframe and is carried through
 /// marginalization (every view, the first included, is a residual, as in [`PointProjection`]).
 /// `r = weight · (π(R_b_cᵀ (R_w_bᵀ (X_w − p_w_b) − p_b_c)) − z(td))` with `z(td)` the
-/// measurement shifted to the time offset along its image velocity.
+/// measurement shifted to the time offset along its image velocity; `X_w` is given by the
+/// point's coordinates `c` in its [`PointForm`] (the projection is evaluated on the ray
+/// scaled by the form's positive scale, so a point at infinity stays finite).
 ///
-/// Parameter blocks: `T_w_b` (7/6), `T_b_c` (7/6), `X_w` (3/3), `td` (1/1).
+/// Parameter blocks: `T_w_b` (7/6), `T_b_c` (7/6), `c` (3/3), `td` (1/1).
 #[derive(Clone, Debug)]
 pub struct WorldPointProjection {
     /// The observation.
     pub obs: FeatureMeasurement,
     /// Square-root information on the normalized plane (focal / pixel σ).
     pub weight: f64,
+    /// What the point block's coordinates are.
+    pub form: PointForm,
 }
 
 impl Factor for WorldPointProjection {
@@ -121,7 +126,7 @@ impl Factor for WorldPointProjection {
     ) -> bool {
         let t_w_b = Pose::from_slice(params[0]);
         let t_b_c = Pose::from_slice(params[1]);
-        let x_w = Vector3::new(params[2][0], params[2][1], params[2][2]);
+        let c = Vector3::new(params[2][0], params[2][1], params[2][2]);
         let td = params[3][0];
         let rotation = |k: usize, pose: &Pose| match rotations.get(k).copied().flatten() {
             Some(r) => *r,
@@ -129,8 +134,11 @@ impl Factor for WorldPointProjection {
         };
         let rb_t: Matrix3<f64> = rotation(0, &t_w_b).transpose();
         let rc_t: Matrix3<f64> = rotation(1, &t_b_c).transpose();
-        let p_b = rb_t * (x_w - t_w_b.p);
-        let p_c = rc_t * (p_b - t_b_c.p);
+        // `s·p_b` and `s·p_c` with the form's scale `s > 0`: the projection needs only their
+        // direction.
+        let ray = self.form.ray_from(&c, &t_w_b.p);
+        let p_b = rb_t * ray.h;
+        let p_c = rc_t * (p_b - t_b_c.p * ray.scale);
         if !(p_c.z.is_finite() && p_c.z > 1e-9) {
             return false;
         }
@@ -140,16 +148,23 @@ impl Factor for WorldPointProjection {
         residuals[1] = self.weight * (p_c.y * z_inv - z.y);
         if let Some(jac) = jacobians {
             let d = weighted_projection_derivative(&p_c, self.weight);
-            // ∂r/∂p_b, then p_b = Exp(−δθ_b) R_bᵀ(X − p − δp), p_c = Exp(−δθ_c) R_cᵀ(p_b − t − δt).
+            // ∂r/∂(s·p_b), then s·p_b = Exp(−δθ_b) R_bᵀ s(X − p − δp),
+            // s·p_c = Exp(−δθ_c) R_cᵀ(s·p_b − s(t + δt)).
             let d_b = d * rc_t;
             if let Some(j) = jac[0].as_deref_mut() {
-                write_pose(j, &(-d_b * rb_t), &(d_b * skew(&p_b)));
+                write_pose(j, &(-d_b * rb_t * ray.scale), &(d_b * skew(&p_b)));
             }
             if let Some(j) = jac[1].as_deref_mut() {
-                write_pose(j, &(-d_b), &(d * skew(&p_c)));
+                write_pose(j, &(-d_b * ray.scale), &(d * skew(&p_c)));
             }
             if let Some(j) = jac[2].as_deref_mut() {
-                write_row_major(&(d_b * rb_t), j);
+                let d_c = match self.form {
+                    PointForm::World => d_b * rb_t,
+                    PointForm::InverseDistance { .. } => {
+                        d_b * (rb_t * ray.dh - t_b_c.p * ray.dscale)
+                    }
+                };
+                write_row_major(&d_c, j);
             }
             if let Some(j) = jac[3].as_deref_mut() {
                 j[0] = self.weight * self.obs.velocity.x;

@@ -580,6 +580,7 @@ mod tests {
                 Box::new(crate::factors::WorldPointProjection {
                     obs: obs_j,
                     weight: 300.0,
+                    form: crate::factors::PointForm::World,
                 }),
                 vec![pose(0.1), ea, vec![0.4, 0.3, 2.5], vec![0.002]],
             ),

@@ -25,6 +25,7 @@ pub mod health;
 mod imu_buffer;
 mod init;
 mod marginalization_policy;
+mod persistent_point;
 mod point_selection;
 mod process;
 mod relinearization;
@@ -47,7 +48,7 @@ use batch_reference::History;
 pub use chi2::chi2_quantile;
 pub use config::{
     CameraConfig, ConfigError, EstimatorConfig, GnssConfig, HealthLimits, MAX_PERSISTENT_POINTS,
-    MAX_WINDOW_SIZE, Suite, WheelConfig, ZeroVelocityConfig,
+    MAX_WINDOW_SIZE, PointCoordinates, Suite, WheelConfig, ZeroVelocityConfig,
 };
 pub use events::{Event, EventKind, LiveSuite};
 use frame::WindowFrame;
@@ -336,7 +337,7 @@ impl Estimator {
 
     /// The window's persistent points (world frame), in id order.
     pub fn window_points(&self) -> Vec<Vector3<f64>> {
-        self.window.points.values().copied().collect()
+        self.window.points.values().map(|p| p.world()).collect()
     }
 
     /// The sensors in use.

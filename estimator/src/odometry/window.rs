@@ -15,6 +15,7 @@ use super::calibration_gates::CalibrationGates;
 use super::config::EstimatorConfig;
 use super::features::{FeatureManager, Track};
 use super::frame::{BlockRef, Prior, WindowFrame};
+use super::persistent_point::PersistentPoint;
 use super::point_selection;
 use super::stationary::Rest;
 use super::window_problem::{ProblemSettings, WindowProblem};
@@ -56,11 +57,11 @@ pub(super) struct Window {
     pub extrinsics: Vec<Pose>,
     /// Camera-IMU time offset (s).
     pub td: f64,
-    /// Persistent landmarks: world points `X_w` of tracks that outlived their anchor keyframe
-    /// (see [`Window::promote_to_points`]), by key. They are states carried through
+    /// Persistent landmarks: points of tracks that outlived their anchor keyframe (see
+    /// [`Window::promote_to_points`]), by key. They are states carried through
     /// marginalization, so a long track keeps contributing without any observation being
     /// counted twice; a point leaves (into the prior) with its last observing keyframe.
-    pub points: BTreeMap<u64, Vector3<f64>>,
+    pub points: BTreeMap<u64, PersistentPoint>,
     next_point: u64,
     /// Frames detected at rest (by seq) and what the IMU read there: each gets a
     /// [`ZeroVelocityFactor`](crate::factors::ZeroVelocityFactor).
@@ -103,7 +104,7 @@ impl Window {
     pub fn track_world_point(&self, id: u64) -> Option<Vector3<f64>> {
         let t = self.features.tracks.get(&id)?;
         if let Some(k) = t.point {
-            return self.points.get(&k).copied();
+            return self.points.get(&k).map(PersistentPoint::world);
         }
         let d = t.inv_depth?;
         let m = t.anchor_measurement()?.point + t.bearing;
@@ -155,7 +156,7 @@ impl Window {
         for (k, x) in &self.points {
             // States, not eliminated landmarks: the prior couples them to the frames.
             let b = problem
-                .add_block(x.as_slice(), point_m.clone(), BlockKind::State)
+                .add_block(x.coords.as_slice(), point_m.clone(), BlockKind::State)
                 .expect("finite");
             refs.push((BlockRef::Point(*k), b));
             points.push((*k, b));
@@ -384,12 +385,14 @@ impl Window {
         ex: &[BlockId],
         td_block: BlockId,
     ) {
-        let Some(pb) = built
-            .points
-            .iter()
-            .find(|(k, _)| *k == key)
-            .map(|(_, b)| *b)
-        else {
+        let (Some(pb), Some(point)) = (
+            built
+                .points
+                .iter()
+                .find(|(k, _)| *k == key)
+                .map(|(_, b)| *b),
+            self.points.get(&key),
+        ) else {
             return;
         };
         for o in &track.obs {
@@ -401,6 +404,7 @@ impl Window {
                 let f = WorldPointProjection {
                     obs,
                     weight: o.weight[c],
+                    form: point.form,
                 };
                 let r = built
                     .problem
@@ -462,9 +466,15 @@ impl Window {
             let Some(x) = self.track_world_point(id) else {
                 continue;
             };
+            // Inverse-distance points are anchored at the camera their track was anchored in.
+            let t = &self.features.tracks[&id];
+            let anchor = self.camera_pose(0, t.anchor_cam);
             let key = self.next_point;
             self.next_point += 1;
-            self.points.insert(key, x);
+            self.points.insert(
+                key,
+                PersistentPoint::new(config.point_coordinates, x, &anchor),
+            );
             self.features.tracks.get_mut(&id).expect("candidate").point = Some(key);
         }
     }
@@ -522,7 +532,7 @@ impl Window {
         for (k, b) in &built.points {
             if let Some(x) = self.points.get_mut(k) {
                 let v = built.problem.values(*b);
-                *x = Vector3::new(v[0], v[1], v[2]);
+                x.coords = Vector3::new(v[0], v[1], v[2]);
             }
         }
         for (id, b) in &built.landmarks {

@@ -8,8 +8,9 @@ use std::sync::Arc;
 use common::{check, pose, rotation, small_rotation, speed_bias, vec3};
 use estimator::camera::{ReadoutDirection, RollingShutter};
 use estimator::factors::{
-    AnchorBearing, FeatureMeasurement, ImuFactor, PointProjection, ProjectionOneFrameTwoCam,
-    ProjectionTwoFrameOneCam, ProjectionTwoFrameTwoCam, WorldPointProjection,
+    AnchorBearing, FeatureMeasurement, ImuFactor, PointForm, PointProjection,
+    ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam, ProjectionTwoFrameTwoCam,
+    WorldPointProjection,
 };
 use estimator::geometry::Pose;
 use estimator::imu::{ImuNoise, ImuSample, Preintegration};
@@ -160,11 +161,40 @@ proptest! {
         let factor = WorldPointProjection {
             obs: measurement(Vector2::new(x, y) + noise.xy(), vel.xy(), 0.004),
             weight: 460.0 / 1.5,
+            form: PointForm::World,
         };
         let params = vec![
             t_w_b.to_array().to_vec(),
             ex.to_array().to_vec(),
             x_w.as_slice().to_vec(),
+            vec![td],
+        ];
+        check(&factor, &params, &[&POSE, &POSE, &R3, &R1]);
+    }
+
+    #[test]
+    fn inverse_distance_point_projection_jacobians(
+        t_w_b in pose(10.0), ex in pose(0.2), anchor in pose(10.0), x in -0.85..0.85f64,
+        y in -0.55..0.55f64, depth in 0.3..200.0f64, vel in vec3(2.0), td in -0.03..0.03f64,
+        noise in vec3(0.01),
+    ) {
+        // A point in front of the camera, anchored at another camera that sees it in front.
+        let x_w = t_w_b.compose(&ex).transform(&(Vector3::new(x, y, 1.0) * depth));
+        let frame = anchor.q.to_rotation_matrix().into_inner();
+        let m = frame.transpose() * (x_w - anchor.p);
+        let flip = if m.z > 0.0 { 1.0 } else { -1.0 };
+        let frame = frame * nalgebra::Matrix3::from_diagonal(&Vector3::new(flip, 1.0, flip));
+        prop_assume!((frame.transpose() * (x_w - anchor.p)).z > 0.1);
+        let (form, c) = PointForm::anchored(anchor.p, frame, &x_w).expect("in front");
+        let factor = WorldPointProjection {
+            obs: measurement(Vector2::new(x, y) + noise.xy(), vel.xy(), 0.004),
+            weight: 460.0 / 1.5,
+            form,
+        };
+        let params = vec![
+            t_w_b.to_array().to_vec(),
+            ex.to_array().to_vec(),
+            c.as_slice().to_vec(),
             vec![td],
         ];
         check(&factor, &params, &[&POSE, &POSE, &R3, &R1]);

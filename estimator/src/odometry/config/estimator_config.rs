@@ -22,6 +22,17 @@ pub enum Suite {
     MonoImu,
 }
 
+/// What a persistent point's coordinates are ([`EstimatorConfig::point_coordinates`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PointCoordinates {
+    /// The world point `X_w`.
+    #[default]
+    World,
+    /// Inverse distance about a fixed anchor.
+    InverseDistance,
+}
+
 impl Suite {
     /// Whether IMU factors are used.
     pub fn uses_imu(self) -> bool {
@@ -280,6 +291,12 @@ pub struct EstimatorConfig {
     /// and the mean ATE from 5.51 to 4.94 mm; at 30 points it changes nothing measurable (seeds
     /// 1–30: 6.94 → 6.96 mm), hence off by default (book, "Window against batch").
     pub marginalize_lost_points: bool,
+    /// What a persistent point's three coordinates are: the world point (`world`), or the
+    /// normalized coordinates and inverse distance in the frame of the camera it was anchored
+    /// in when it was made, that frame then frozen as a constant (`inverse_distance`; the
+    /// projection stays nearly linear over a far point's long distance uncertainty, which a
+    /// prior holds for as long as the point lives: [`crate::factors::PointForm`]).
+    pub point_coordinates: PointCoordinates,
     /// First-estimate Jacobians: every factor's Jacobians with respect to a state in the
     /// marginalization prior are evaluated at the prior's linearization point of that state
     /// (residuals at the current estimate), and marginalization keeps those points. The
@@ -304,7 +321,7 @@ pub struct EstimatorConfig {
     /// left-camera death 0.0289 → 0.0109 m (seeds 2, 3: 0.0069 / 0.0080, unchanged), left-camera
     /// freeze 0.0235 → 0.0081 m, default figure-eight and circle unchanged (no point moves that
     /// far), mono+IMU 0.0187 m either way; 0.05 and 0.2 gave the same within 10 %.
-    /// Infinite: never.
+    /// Infinite: never. Points in inverse distance (`point_coordinates`) are never moved.
     pub point_relinearize_fraction: f64,
     /// With `first_estimate_jacobians`, while the IMU is in the window: a frame held by the
     /// prior whose position has moved from its first estimate by more than this fraction of
@@ -438,6 +455,7 @@ impl EstimatorConfig {
             reuse_marginalized_tracks: false,
             max_persistent_points: 30,
             marginalize_lost_points: false,
+            point_coordinates: PointCoordinates::World,
             min_track_frames: 1,
             first_estimate_jacobians: true,
             first_estimate_points: true,

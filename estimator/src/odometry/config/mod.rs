@@ -10,7 +10,7 @@ mod zero_velocity;
 
 pub use error::ConfigError;
 pub use estimator_config::{
-    CameraConfig, EstimatorConfig, MAX_PERSISTENT_POINTS, MAX_WINDOW_SIZE, Suite,
+    CameraConfig, EstimatorConfig, MAX_PERSISTENT_POINTS, MAX_WINDOW_SIZE, PointCoordinates, Suite,
 };
 pub use gnss_wheel::{GnssConfig, WheelConfig};
 pub use health_limits::HealthLimits;
