@@ -6,6 +6,7 @@ use nalgebra::{DMatrix, Matrix3, Matrix6, SMatrix};
 use super::Estimator;
 use super::frame::{BlockRef, WindowFrame};
 use super::window_problem::WindowProblem;
+use crate::factors::PointForm;
 use crate::geometry::{Pose, skew};
 use crate::problem::{BlockId, Linearization, Problem};
 
@@ -139,8 +140,10 @@ pub struct WindowSystem {
     pub speed_biases: Vec<BlockId>,
     /// Landmark (inverse-depth) blocks.
     pub landmarks: Vec<BlockId>,
-    /// Persistent world-point blocks (states: the prior may hold them).
+    /// Persistent point blocks (states: the prior may hold them).
     pub points: Vec<BlockId>,
+    /// What each of `points`' coordinates are.
+    pub point_forms: Vec<PointForm>,
 }
 
 impl Estimator {
@@ -162,12 +165,23 @@ impl Estimator {
             .collect();
         let landmarks = built.landmarks.iter().map(|(_, b)| *b).collect();
         let points = built.points.iter().map(|(_, b)| *b).collect();
+        let point_forms = built
+            .points
+            .iter()
+            .map(|(k, _)| {
+                self.window
+                    .points
+                    .get(k)
+                    .map_or(PointForm::World, |p| p.form)
+            })
+            .collect();
         Some(WindowSystem {
             problem: built.problem,
             poses,
             speed_biases,
             landmarks,
             points,
+            point_forms,
         })
     }
 }
