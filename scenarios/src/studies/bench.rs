@@ -57,6 +57,15 @@ pub const SCENARIOS: &[BenchCase] = &[
         estimator: "max_persistent_points = 100",
         ..case("room_figure8_stereo_imu", "features", 30.0, 8.0)
     },
+    // The same budget as a default would have it: lost points marginalized at once, points in
+    // inverse distance about their anchors (book: "Window against batch", "Far points in
+    // inverse distance").
+    BenchCase {
+        name: "room_figure8_stereo_imu_100_inverse_distance",
+        estimator: "max_persistent_points = 100\nmarginalize_lost_points = true\n\
+                    point_coordinates = \"inverse_distance\"",
+        ..case("room_figure8_stereo_imu", "features", 30.0, 8.0)
+    },
     case("room_figure8_mono_imu", "features", 30.0, 8.0),
     case("room_figure8_stereo", "features", 30.0, 8.0),
     case("room_replay_v2_02_stereo_imu", "features", 20.0, 8.0),
