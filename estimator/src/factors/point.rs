@@ -158,6 +158,7 @@ impl Factor for WorldPointProjection {
                 write_pose(j, &(-d_b * ray.scale), &(d * skew(&p_c)));
             }
             if let Some(j) = jac[2].as_deref_mut() {
+                // World coordinates: the general form with ∂h/∂c = I and ∂s/∂c = 0.
                 let d_c = match self.form {
                     PointForm::World => d_b * rb_t,
                     PointForm::InverseDistance { .. } => {

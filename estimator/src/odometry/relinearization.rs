@@ -84,17 +84,13 @@ impl Window {
             .enumerate()
             .filter_map(|(k, r)| match r {
                 BlockRef::Point(key) => {
-                    // Compared in the world; the linearization point moves to the coordinates.
-                    // Inverse-distance points keep theirs (module doc).
-                    let point = self
+                    // Inverse-distance points keep their first estimates (module doc).
+                    let x = self
                         .points
                         .get(key)
-                        .filter(|p| p.form == PointForm::World)?;
-                    let x0 = &factor.linearization_points()[k];
-                    let x = point.world();
-                    let drift = (x - point.form.world(&Vector3::new(x0[0], x0[1], x0[2]))).norm();
-                    (drift > point_fraction * (x - p_w_b).norm())
-                        .then(|| (k, point.coords.as_slice().to_vec()))
+                        .filter(|p| p.form == PointForm::World)?
+                        .coords;
+                    moved_to(k, &x, point_fraction * (x - p_w_b).norm())
                 }
                 BlockRef::Pose(seq) => {
                     let p = frame(seq)?.pose.p;
@@ -120,7 +116,7 @@ impl Window {
         let Ok(moved) = factor.relinearized(&borrowed) else {
             return 0;
         };
-        let form_of = |key: u64| self.points.get(&key).map_or(PointForm::World, |p| p.form);
+        let form_of = |key: u64| self.point_form(key);
         // A GNSS alignment in the prior makes the global frame observable: nothing to keep.
         let moved = match (
             gauge_directions(factor, refs, &form_of),

@@ -20,8 +20,8 @@ use super::point_selection;
 use super::stationary::Rest;
 use super::window_problem::{ProblemSettings, WindowProblem};
 use crate::factors::{
-    AnchorBearing, ImuFactor, LANDMARK_SIZE, ProjectionOneFrameTwoCam, ProjectionTwoFrameOneCam,
-    ProjectionTwoFrameTwoCam, WorldPointProjection,
+    AnchorBearing, ImuFactor, LANDMARK_SIZE, PointForm, ProjectionOneFrameTwoCam,
+    ProjectionTwoFrameOneCam, ProjectionTwoFrameTwoCam, WorldPointProjection,
 };
 use crate::geometry::Pose;
 use crate::imu::ImuNoise;
@@ -93,6 +93,11 @@ impl Window {
     /// Index in the window of frame `seq`.
     pub fn frame_index(&self, seq: u64) -> Option<usize> {
         self.frames.iter().position(|f| f.seq == seq)
+    }
+
+    /// What persistent point `key`'s coordinates are (world coordinates for a key not held).
+    pub fn point_form(&self, key: u64) -> PointForm {
+        self.points.get(&key).map_or(PointForm::World, |p| p.form)
     }
 
     /// `T_w_c` of camera `cam` at window frame `idx`.

@@ -168,12 +168,7 @@ impl Estimator {
         let point_forms = built
             .points
             .iter()
-            .map(|(k, _)| {
-                self.window
-                    .points
-                    .get(k)
-                    .map_or(PointForm::World, |p| p.form)
-            })
+            .map(|(k, _)| self.window.point_form(*k))
             .collect();
         Some(WindowSystem {
             problem: built.problem,
