@@ -303,21 +303,29 @@ impl Estimator {
     }
 
     /// Discards the failed window and restarts from `last_good` (the newest state that passed
-    /// the checks; not after [`FailureReason::TracksRejected`]), keeping the world frame: the
+    /// the checks; not after [`FailureReason::TracksRejected`], nor when the window restarted
+    /// from such a state fails within `restart_trial_s`), keeping the world frame: the
     /// next frame starts at that pose, velocity and biases with the initial prior around them,
     /// the way [`Estimator::start_from`] does. Without a good state (a rejected initialization)
     /// the estimator initializes again from the data. Records a [`EventKind::Reset`] at `t_ns`.
     pub(super) fn reset(&mut self, t_ns: i64, reason: FailureReason) {
         self.imu_chi2_failures = 0;
         self.rejections.clear();
-        // A window its cameras contradict drifted there over many solves, so the state that
-        // last passed is suspect too: the estimator initializes again from the data.
+        // A window its cameras contradict drifted there over many solves, and a restarted
+        // window that fails again at once started from a failing state: either way the state
+        // that last passed is suspect too, and the estimator initializes again from the data.
         let drifted = matches!(reason, FailureReason::TracksRejected { .. });
-        let reason = match self.last_good.take_if(|_| drifted) {
+        let trial_ns = (self.config.health.restart_trial_s * 1e9) as i64;
+        let relapsed = self.restarted_at.is_some_and(|t| t_ns - t < trial_ns);
+        let reason = match self.last_good.take_if(|_| drifted || relapsed) {
+            Some(_) if relapsed => {
+                format!("{reason} again after the restart: initializing again")
+            }
             Some(_) => format!("{reason}: initializing again"),
             None if self.last_good.is_some() => reason.to_string(),
             None => format!("{reason}; no state passed the checks: initializing again"),
         };
+        self.restarted_at = self.last_good.as_ref().map(|_| t_ns);
         self.events.push(Event {
             t_ns,
             kind: EventKind::Reset { reason },

@@ -187,6 +187,9 @@ pub struct Estimator {
     pending_bias_prior: bool,
     /// The newest state that passed the health checks (where a reset restarts).
     last_good: Option<WindowFrame>,
+    /// When the last reset restarted from `last_good` (IMU time, ns): a failure soon after
+    /// makes the next reset initialize again (`HealthLimits::restart_trial_s`).
+    restarted_at: Option<i64>,
     /// Sensor monitors: the last time (ns, IMU clock) each camera delivered features, and the
     /// last IMU sample.
     last_features_t: [Option<i64>; 2],
@@ -272,6 +275,7 @@ impl Estimator {
             known_start: None,
             pending_bias_prior: false,
             last_good: None,
+            restarted_at: None,
             last_features_t: [None; 2],
             last_imu_t: None,
             first_t: None,
