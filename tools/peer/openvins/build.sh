@@ -29,6 +29,7 @@ if ((${#missing[@]})); then
   DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
 
+mkdir -p "$work"
 src=${OPENVINS_SRC:-$work/src}
 if [ -z "${OPENVINS_SRC:-}" ]; then
   if [ ! -d "$src/.git" ]; then
