@@ -1,8 +1,9 @@
 //! One full window update (solve + marginalization) of the stereo+IMU estimator with ~150
 //! tracked features, on the synthetic room of the window tests; and the same update with the
 //! newest state's marginal covariance (`compute_covariance`, what `vio nees` runs with); and
-//! the update with 100 persistent points (`max_persistent_points`, the accuracy study of the
-//! README's "How many persistent points"). Each also as twenty consecutive frames in the
+//! the update at the persistent-point budget that was the default until 2026-11-28 (30 points
+//! in world coordinates, kept until their last observation leaves; the default is 100 in
+//! inverse distance, lost points marginalized: book, "Window against batch"). Each also as twenty consecutive frames in the
 //! window's steady state (`..._20_frames`: time / 20 is the mean cost of a frame). Before
 //! timing, each configuration prints its per-frame cost over 400 steady-state frames (median,
 //! mean, p90 of the estimator's own timing fields, and the solve / marginalization split) and
@@ -28,8 +29,10 @@ fn window_update(c: &mut Criterion) {
     bench_update(c, "stereo_imu_window_update_with_covariance", |config| {
         config.compute_covariance = true;
     });
-    bench_update(c, "stereo_imu_window_update_100_points", |config| {
-        config.max_persistent_points = 100;
+    bench_update(c, "stereo_imu_window_update_30_world_points", |config| {
+        config.max_persistent_points = 30;
+        config.marginalize_lost_points = false;
+        config.point_coordinates = estimator::PointCoordinates::World;
     });
 }
 

@@ -29,11 +29,14 @@ fn run_with_td(true_td_s: f64) -> Report {
 #[test]
 fn td_estimation_converges_and_stays_at_the_truth() {
     // Measured (seed 1): the offset is held at its configured value until the window alone
-    // determines it to 1 ms (33.3 s), or until the data contradict the configured value (the
+    // determines it to 0.67 ms (38.8 s), or until the data contradict the configured value (the
     // free estimate 3 σ from it, σ at most 5 ms). From the truth: never contradicted, at most
-    // 0.71 ms off after the first second (1.0 σ, mean squared 0.09), final −0.51 ms, ATE
-    // 0.0058 m. From a −10 ms error: contradicted at 8.9 s (σ 2.5 ms), at most 1.29 ms off after
-    // 30 s, final −0.46 ms, ATE 0.0090 m.
+    // 1.12 ms off after the first second (1.67 σ, mean squared 0.57), final −0.56 ms, ATE
+    // 0.0049 m. From a −10 ms error: contradicted at 5.6 s (σ 2.5 ms), at most 2.14 ms off
+    // after 30 s (31.0 s, 2.8 σ; seeds 2 / 3: 1.54 / 0.69 ms), final −0.80 ms, ATE 0.0060 m.
+    // At 30 world points (the default until 2026-11-28) it was contradicted at 8.9 s and at
+    // most 1.29 ms off after 30 s: the 100 points' longer memory of the states solved under the
+    // wrong offset pulls the released estimate back longer (−2.0 to −2.6 ms from 14 to 34 s).
     let released = |r: &Report| {
         r.events
             .iter()
@@ -47,12 +50,15 @@ fn td_estimation_converges_and_stays_at_the_truth() {
     assert!(from_truth.ate_rmse_m.unwrap() < 0.008);
     // The bound: a true offset of 0 strays less than 2 ms and 3 σ after the first
     // second (σ if free while held, marginal after). With the offset released at σ 5 ms it
-    // strayed 4.7 ms (seed 1) to 11.7 ms (seed 2, 3.4 σ); seeds 1–10 now 0.48–1.50 ms, at most
-    // 1.5 σ.
+    // strayed 4.7 ms (seed 1) to 11.7 ms (seed 2, 3.4 σ); released at 1 ms, 0.48–1.50 ms over
+    // seeds 1–10 at 30 points, but 1.20–2.11 ms over seeds 1–5 at 100 (the window determines
+    // the offset to 1 ms at 19–20 s instead of 33–37 s, and strays right after, where 2 ms is
+    // 2 σ); released at 0.67 ms (2 ms / 3 σ), seeds 1–5: 0.29–1.12 ms, at most 1.67 σ. The
+    // mean squared error in σ is 1 for a consistent estimate; seeds 1–5 0.01–0.57.
     let x = c.td_excursion.expect("an excursion");
     assert!(x.max_error_ms < 2.0, "{x:?}");
     assert!(x.max_error_sigmas.unwrap() < 2.0, "{x:?}");
-    assert!(x.mean_squared_sigmas.unwrap() < 0.5, "{x:?}");
+    assert!(x.mean_squared_sigmas.unwrap() < 1.0, "{x:?}");
     let events = released(&from_truth);
     assert_eq!(events.len(), 1, "{events:?}");
     assert!(
@@ -73,7 +79,7 @@ fn td_estimation_converges_and_stays_at_the_truth() {
         "{events:?}"
     );
     for s in c.history.iter().filter(|s| s.t_s >= 30.0) {
-        assert!(s.td_error_ms.abs() < 2.0, "{s:?}");
+        assert!(s.td_error_ms.abs() < 2.5, "{s:?}");
     }
     assert!(
         c.td_error_ms.abs() < 1.0,
@@ -82,11 +88,12 @@ fn td_estimation_converges_and_stays_at_the_truth() {
     );
     assert!(from_error.ate_rmse_m.unwrap() < 0.011);
     // Held at the wrong value until the data contradict it: the error reaches 4.0 σ of the σ
-    // the offset would have if free (the free estimate, 7.5 ms from the configured value, is 3 σ
-    // from it at the release); mean squared 2.09 (seeds 1–10: 2.8–6.1 σ).
+    // the offset would have if free (the free estimate is 3.1 σ from the configured value at
+    // the release); mean squared 4.11, the slow pull back above included (at 30 world points:
+    // 4.0 σ, 2.09; seeds 1–10 there 2.8–6.1 σ).
     let x = c.td_excursion.expect("an excursion");
     assert!(x.max_error_sigmas.unwrap() < 4.5, "{x:?}");
-    assert!(x.mean_squared_sigmas.unwrap() < 3.0, "{x:?}");
+    assert!(x.mean_squared_sigmas.unwrap() < 5.0, "{x:?}");
 }
 
 #[test]

@@ -27,9 +27,9 @@ pub enum Suite {
 #[serde(rename_all = "snake_case")]
 pub enum PointCoordinates {
     /// The world point `X_w`.
-    #[default]
     World,
     /// Inverse distance about a fixed anchor.
+    #[default]
     InverseDistance,
 }
 
@@ -126,9 +126,9 @@ pub struct EstimatorConfig {
     /// Estimate `td` online (with the IMU), through image velocities the window's motion
     /// predicts (`time_offset.rs`); held at `td_s` until the window determines it to
     /// `calibration_release_sigma_ms` or contradicts it (`calibration_gates.rs`). Default
-    /// figure-eight, seed 1, 60 s: from the true value, released as determined at 33.3 s and at
-    /// most 0.71 ms off after the first second; a −10 ms error is contradicted at 8.9 s, within
-    /// 1.3 ms after 30 s, −0.46 ms at the end. On by default: a real rig's camera and IMU
+    /// figure-eight, seed 1, 60 s: from the true value, released as determined at 38.8 s and at
+    /// most 1.12 ms off after the first second; a −10 ms error is contradicted at 5.6 s, within
+    /// 2.2 ms after 30 s, −0.80 ms at the end. On by default: a real rig's camera and IMU
     /// clocks disagree by milliseconds, and an offset the window does not model breaks fast
     /// motions (EuRoC V1_01 with 10 ms: 23 IMU-χ² resets and 0.27 m held fixed, 0.0069 m
     /// estimated). It costs 0.15–0.4 ms per frame on the default motion (window bench).
@@ -173,6 +173,9 @@ pub struct EstimatorConfig {
     /// this (m, largest direction).
     pub calibration_release_sigma_m: f64,
     /// A held time offset is released once, free, its marginal σ would be at most this (ms).
+    /// 0.67 by default: right after its release the offset strays up to about 2 σ, so 2/3 ms
+    /// keeps it within 2 ms and 3 σ (released at 1 ms, the default figure-eight at 100 points
+    /// strayed 1.20–2.11 ms over seeds 1–5; at 0.67 ms, 0.29–1.12 ms).
     pub calibration_release_sigma_ms: f64,
     /// A held time offset is also released before it is determined to
     /// `calibration_release_sigma_ms` once the window's data contradict its configured value:
@@ -264,24 +267,18 @@ pub struct EstimatorConfig {
     /// (20 s) velocity / ba / bg / roll-pitch 5.4 / 4.7 / 7.2 / 3.7 with reuse, 3.9 / 3.5 /
     /// 3.2 / 2.4 without (3, 3, 3, 2 expected).
     pub reuse_marginalized_tracks: bool,
-    /// Live tracks anchored in a keyframe about to be marginalized become persistent world
-    /// points (states carried through marginalization, as OKVIS and Basalt keep landmarks and
+    /// Live tracks anchored in a keyframe about to be marginalized become persistent points
+    /// (states carried through marginalization, as OKVIS and Basalt keep landmarks and
     /// OpenVINS its SLAM features), up to this many in the window; the rest end with their
-    /// anchor. Each point adds 3 coordinates to the dense reduced system. 0: none. Measured
-    /// on the default figure-eight (60 s, seeds 1 / 2 / 3, 2026-11-25): 30 window/batch ATE
-    /// ratio 2.11 / 3.24 / 1.26 at 2.8–3.0 ms per frame; 50: 1.10 / 1.77 / 1.38 at 2.8–2.9 ms
-    /// (3.5 ms in the window bench, whose world fills all 50); 100: 1.17 / 1.24 / 1.30 at
-    /// 4.7–5.1 ms (book, "Window against batch"). Seeds 1–10 of the figure-eight and of the
-    /// V2_02 replay (2026-11-27, `vio sweep` over 30 / 40 / 50 / 60 / 100): mean ATE 8.4 /
-    /// 7.4 / 7.2 / 6.9 / 5.5 mm on the figure-eight (worst seed 12.1 / 10.0 / 13.4 / 11.3 /
-    /// 7.4 mm), 4.9 / 4.7 / 4.5 / 4.5 / 3.9 mm on the replay. With the prior in information
-    /// form 100 points cost 8.4–9.0 ms per frame against 5.5–5.6 ms at 30 (60 s, seed 1). Still
-    /// 30: at 60 the time offset wanders further (−1.54 ms at 22 s on the figure-eight, seed 1),
-    /// the extrinsic rotation's start-up excursion reaches 0.76°, a modelled rolling shutter
-    /// costs seed 2 1.37× the global shutter's ATE and the 1 cm-baseline divergence reaches the
-    /// time offset's limit only at 6.65 s (book, "Window against batch"). Which tracks take the
-    /// places: spread over the view (`point_selection`; the figure-eight's mean ATE over seeds
-    /// 1–30 8.0 → 7.4 mm against the longest tracks first, 2026-11-27).
+    /// anchor. Each point adds 3 coordinates to the dense reduced system. 0: none. Default 100,
+    /// with `marginalize_lost_points` and points in inverse distance (2026-11-28; 30 world
+    /// points before): the figure-eight's window/filter ATE ratio over seeds 1–10 median 1.05,
+    /// max 1.20 (30 world points: 1.29, 1.62), mean ATE 6.8 → 5.2 mm over seeds 1–6, the four
+    /// outdoor scenarios at 0.60–0.76 of their ATE, for 1.6× the back end's cost per frame
+    /// (`vio bench`); the catalog, the scenes that lose and the costs in the book ("Window
+    /// against batch", "Benchmarks"). Which tracks take the places: spread over the view
+    /// (`point_selection`; the figure-eight's mean ATE over seeds 1–30 8.0 → 7.4 mm against
+    /// the longest tracks first at 30 points, 2026-11-27).
     pub max_persistent_points: usize,
     /// Marginalize a persistent point as soon as the newest frame no longer observes it (its
     /// track is lost and does not come back), with every observation of it still in the
@@ -289,13 +286,16 @@ pub struct EstimatorConfig {
     /// `max_persistent_points` goes to a live track. At 100 points on the figure-eight (60 s,
     /// seeds 1–10) the window/filter ATE ratio goes from median 1.05, max 1.49 to 1.06, 1.16
     /// and the mean ATE from 5.51 to 4.94 mm; at 30 points it changes nothing measurable (seeds
-    /// 1–30: 6.94 → 6.96 mm), hence off by default (book, "Window against batch").
+    /// 1–30: 6.94 → 6.96 mm). Default on (book, "Window against batch").
     pub marginalize_lost_points: bool,
     /// What a persistent point's three coordinates are: the world point (`world`), or the
     /// normalized coordinates and inverse distance in the frame of the camera it was anchored
     /// in when it was made, that frame then frozen as a constant (`inverse_distance`; the
     /// projection stays nearly linear over a far point's long distance uncertainty, which a
-    /// prior holds for as long as the point lives: [`crate::factors::PointForm`]).
+    /// prior holds for as long as the point lives: [`crate::factors::PointForm`]). Default
+    /// inverse distance: at 100 points the outdoor figure-eight with a GNSS outage, seeds 1–4,
+    /// mean ATE 117 mm in world coordinates, 57 mm in inverse distance (book, "Far points in
+    /// inverse distance").
     pub point_coordinates: PointCoordinates,
     /// First-estimate Jacobians: every factor's Jacobians with respect to a state in the
     /// marginalization prior are evaluated at the prior's linearization point of that state
@@ -437,7 +437,7 @@ impl EstimatorConfig {
             calibration_warmup_s: 0.0,
             calibration_release_sigma_deg: 0.5,
             calibration_release_sigma_m: 0.005,
-            calibration_release_sigma_ms: 1.0,
+            calibration_release_sigma_ms: 0.67,
             calibration_release_disagreement_sigmas: 3.0,
             calibration_contradiction_sigma_ms: 5.0,
             init_frames: 10,
@@ -453,9 +453,9 @@ impl EstimatorConfig {
             initial_bg_sigma: 0.01,
             gauge_sigma: 1e-4,
             reuse_marginalized_tracks: false,
-            max_persistent_points: 30,
-            marginalize_lost_points: false,
-            point_coordinates: PointCoordinates::World,
+            max_persistent_points: 100,
+            marginalize_lost_points: true,
+            point_coordinates: PointCoordinates::InverseDistance,
             min_track_frames: 1,
             first_estimate_jacobians: true,
             first_estimate_points: true,
@@ -782,6 +782,12 @@ impl EstimatorConfig {
             1000,
             " solves",
         )?;
+        if !(h.restart_trial_s >= 0.0 && h.restart_trial_s.is_finite()) {
+            return Err(ConfigError::new(
+                "health.restart_trial_s",
+                format!("expected a time ≥ 0 s, got {}", h.restart_trial_s),
+            ));
+        }
         positive_or_infinite(
             "health.max_rejected_fraction",
             h.max_rejected_fraction,
