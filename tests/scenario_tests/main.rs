@@ -16,6 +16,7 @@ mod euroc;
 mod faults;
 mod frontend;
 mod imu_fidelity;
+mod persistent_points;
 mod recorded_imu;
 mod reliability;
 mod rendered;

@@ -338,9 +338,11 @@ impl Estimator {
             } else {
                 f64::INFINITY
             };
-            self.points_relinearized += self
-                .window
-                .relinearize_drifted_states(points, self.config.frame_relinearize_fraction);
+            self.points_relinearized += self.window.relinearize_drifted_states(
+                points,
+                self.config.frame_relinearize_fraction,
+                self.config.release_drifted_points,
+            );
         }
         // The image velocities the time-offset model shifts along: needed when `td` moves, and
         // for rolling-shutter rows, which are shifted to their frame's time even with `td` fixed.

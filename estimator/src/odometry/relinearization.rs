@@ -39,16 +39,28 @@
 //! 100 points with `marginalize_lost_points` (outdoor figure-eight without GNSS, 60 s, seeds
 //! 1–4): relinearized 0.7181 / 0.1461 / 0.1430 / 0.1142 m (seed 1 drifts 2.6° in yaw), kept
 //! 0.0466 / 0.0676 / 0.1391 / 0.0921 m.
+//!
+//! Kept, a poor first distance stays in every Jacobian of the point for as long as it lives.
+//! With `release_drifted_points` such a point instead leaves the prior: its block is
+//! marginalized out of the prior alone (exact, as the prior is linear in it, and a Schur
+//! complement keeps the prior's nullspace), the prior keeping what its old observations said
+//! about the frames, and the point goes on as a state the window's own observations alone
+//! determine, linearized where it is, until its next observation leaves into the prior. No
+//! observation is counted twice; what is lost is the link between its old and new ones.
 
 use std::sync::Arc;
 
 use nalgebra::Vector3;
 
-use super::frame::BlockRef;
+use super::frame::{BlockRef, Prior};
 use super::window::Window;
 use crate::factors::PointForm;
 use crate::geometry::Pose;
 use crate::problem::{Factor, PriorFactor};
+
+/// A released point's directions with at most this much information carry none (the
+/// general marginalization's eigenvalue threshold).
+const RELEASE_MIN_INFORMATION: f64 = 1e-8;
 
 impl Window {
     /// Gives the states held by the prior whose estimates have moved far from the prior's
@@ -64,6 +76,7 @@ impl Window {
         &mut self,
         point_fraction: f64,
         frame_fraction: f64,
+        release_points: bool,
     ) -> usize {
         let (Some((factor, refs)), Some(newest)) = (&self.prior, self.frames.back()) else {
             return 0;
@@ -108,8 +121,51 @@ impl Window {
             .iter()
             .filter(|(k, _)| matches!(refs[*k], BlockRef::Point(_)))
             .count();
+        // With `release_points`, inverse-distance points that drifted as far leave the prior
+        // instead (module doc): those the window still observes from three frames or more.
+        let released: Vec<usize> = refs
+            .iter()
+            .enumerate()
+            .filter_map(|(k, r)| match r {
+                BlockRef::Point(key) if release_points => {
+                    let point = self
+                        .points
+                        .get(key)
+                        .filter(|p| p.form != PointForm::World)?;
+                    let seen = self
+                        .features
+                        .tracks
+                        .values()
+                        .find(|t| t.point == Some(*key))
+                        .map_or(0, |t| t.obs.len());
+                    let x0 = &factor.linearization_points()[k];
+                    let x = point.world();
+                    let drift = (x - point.form.world(&Vector3::new(x0[0], x0[1], x0[2]))).norm();
+                    (seen >= 3 && drift > point_fraction * (x - p_w_b).norm()).then_some(k)
+                }
+                _ => None,
+            })
+            .collect();
+        // The prior without the released points: their blocks marginalized out of it alone.
+        let release = |prior: &PriorFactor| -> Option<Prior> {
+            let marginal = prior
+                .marginalized(&released, RELEASE_MIN_INFORMATION)
+                .ok()?;
+            let kept = (0..refs.len())
+                .filter(|k| !released.contains(k))
+                .map(|k| refs[k])
+                .collect();
+            Some((Arc::new(marginal), kept))
+        };
         if moves.is_empty() {
-            return 0;
+            if released.is_empty() {
+                return 0;
+            }
+            let Some(prior) = release(factor) else {
+                return 0;
+            };
+            self.prior = Some(prior);
+            return released.len();
         }
         let borrowed: Vec<(usize, &[f64])> =
             moves.iter().map(|(k, x)| (*k, x.as_slice())).collect();
@@ -131,6 +187,13 @@ impl Window {
             }
             _ => moved,
         };
+        if !released.is_empty() {
+            let Some(prior) = release(&moved) else {
+                return 0;
+            };
+            self.prior = Some(prior);
+            return points_moved + released.len();
+        }
         let refs = refs.clone();
         self.prior = Some((Arc::new(moved), refs));
         points_moved
