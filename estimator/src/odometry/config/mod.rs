@@ -6,6 +6,7 @@ mod error;
 mod estimator_config;
 mod gnss_wheel;
 mod health_limits;
+mod validation;
 mod zero_velocity;
 
 pub use error::ConfigError;
