@@ -52,15 +52,12 @@ use std::sync::Arc;
 
 use nalgebra::Vector3;
 
-use super::frame::{BlockRef, Prior};
+use super::frame::BlockRef;
 use super::window::Window;
 use crate::factors::PointForm;
 use crate::geometry::Pose;
+use crate::problem::marginalization::MarginalizationOptions;
 use crate::problem::{Factor, PriorFactor};
-
-/// A released point's directions with at most this much information carry none (the
-/// general marginalization's eigenvalue threshold).
-const RELEASE_MIN_INFORMATION: f64 = 1e-8;
 
 impl Window {
     /// Gives the states held by the prior whose estimates have moved far from the prior's
@@ -132,71 +129,81 @@ impl Window {
                         .points
                         .get(key)
                         .filter(|p| p.form != PointForm::World)?;
-                    let seen = self
-                        .features
-                        .tracks
-                        .values()
-                        .find(|t| t.point == Some(*key))
-                        .map_or(0, |t| t.obs.len());
                     let x0 = &factor.linearization_points()[k];
                     let x = point.world();
                     let drift = (x - point.form.world(&Vector3::new(x0[0], x0[1], x0[2]))).norm();
-                    (seen >= 3 && drift > point_fraction * (x - p_w_b).norm()).then_some(k)
+                    if drift <= point_fraction * (x - p_w_b).norm() {
+                        return None;
+                    }
+                    let track = self
+                        .features
+                        .tracks
+                        .values()
+                        .find(|t| t.point == Some(*key));
+                    track.is_some_and(|t| t.obs.len() >= 3).then_some(k)
                 }
                 _ => None,
             })
             .collect();
-        // The prior without the released points: their blocks marginalized out of it alone.
-        let release = |prior: &PriorFactor| -> Option<Prior> {
-            let marginal = prior
-                .marginalized(&released, RELEASE_MIN_INFORMATION)
-                .ok()?;
+        if moves.is_empty() && released.is_empty() {
+            return 0;
+        }
+        let moved = if moves.is_empty() {
+            None
+        } else {
+            let Some(moved) = self.moved_prior(factor, refs, &moves) else {
+                return 0;
+            };
+            Some(moved)
+        };
+        let prior = if released.is_empty() {
+            // Not empty: something moved.
+            let Some(moved) = moved else { return 0 };
+            (Arc::new(moved), refs.clone())
+        } else {
+            // The prior without the released points: their blocks marginalized out of it alone.
+            let threshold = MarginalizationOptions::default().eigen_threshold;
+            let Ok(marginal) = moved
+                .as_ref()
+                .unwrap_or(factor)
+                .marginalized(&released, threshold)
+            else {
+                return 0;
+            };
             let kept = (0..refs.len())
                 .filter(|k| !released.contains(k))
                 .map(|k| refs[k])
                 .collect();
-            Some((Arc::new(marginal), kept))
+            (Arc::new(marginal), kept)
         };
-        if moves.is_empty() {
-            if released.is_empty() {
-                return 0;
-            }
-            let Some(prior) = release(factor) else {
-                return 0;
-            };
-            self.prior = Some(prior);
-            return released.len();
-        }
+        self.prior = Some(prior);
+        points_moved + released.len()
+    }
+
+    /// `prior` with the blocks `moves` names at their new linearization points and, while the
+    /// window's nullspace is unobservable, its Jacobian carrying the four unobservable
+    /// directions along (module doc); `None` when either step fails.
+    fn moved_prior(
+        &self,
+        prior: &PriorFactor,
+        refs: &[BlockRef],
+        moves: &[(usize, Vec<f64>)],
+    ) -> Option<PriorFactor> {
         let borrowed: Vec<(usize, &[f64])> =
             moves.iter().map(|(k, x)| (*k, x.as_slice())).collect();
-        let Ok(moved) = factor.relinearized(&borrowed) else {
-            return 0;
-        };
+        let moved = prior.relinearized(&borrowed).ok()?;
         let form_of = |key: u64| self.point_form(key);
         // A GNSS alignment in the prior makes the global frame observable: nothing to keep.
-        let moved = match (
-            gauge_directions(factor, refs, &form_of),
+        match (
+            gauge_directions(prior, refs, &form_of),
             gauge_directions(&moved, refs, &form_of),
         ) {
             (Some(from), Some(to)) => {
-                let columns = geometry_columns(&moved, refs, &moves);
-                match moved.with_directions_moved(&from, &to, &columns) {
-                    Ok(f) => f,
-                    Err(_) => return 0,
-                }
+                let columns = geometry_columns(&moved, refs, moves);
+                moved.with_directions_moved(&from, &to, &columns).ok()
             }
-            _ => moved,
-        };
-        if !released.is_empty() {
-            let Some(prior) = release(&moved) else {
-                return 0;
-            };
-            self.prior = Some(prior);
-            return points_moved + released.len();
+            _ => Some(moved),
         }
-        let refs = refs.clone();
-        self.prior = Some((Arc::new(moved), refs));
-        points_moved
     }
 }
 

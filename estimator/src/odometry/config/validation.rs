@@ -303,12 +303,7 @@ impl EstimatorConfig {
             1000,
             " solves",
         )?;
-        if !(h.restart_trial_s >= 0.0 && h.restart_trial_s.is_finite()) {
-            return Err(ConfigError::new(
-                "health.restart_trial_s",
-                format!("expected a time ≥ 0 s, got {}", h.restart_trial_s),
-            ));
-        }
+        non_negative("health.restart_trial_s", h.restart_trial_s)?;
         positive_or_infinite(
             "health.max_rejected_fraction",
             h.max_rejected_fraction,
