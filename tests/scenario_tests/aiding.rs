@@ -92,14 +92,17 @@ fn a_bias_jump_is_rejected_and_the_alignment_found_again_without_dragging_the_od
 
 #[test]
 fn wheel_odometry_lowers_the_drift_of_a_ground_vehicle() {
-    let with = run_catalog("hall_ground_vehicle_wheel_stereo_imu", Some(40.0));
-    let without = run_catalog("hall_ground_vehicle_stereo_imu", Some(40.0));
+    let with = run_catalog("hall_ground_vehicle_wheel_stereo_imu", None);
+    let without = run_catalog("hall_ground_vehicle_stereo_imu", None);
     let (a, b) = (
         with.report.ate_rmse_m.unwrap(),
         without.report.ate_rmse_m.unwrap(),
     );
-    // One loop, 40 s: 0.0151 m with the wheels, 0.0185 m without (seeds 2, 3: 0.0171 against
-    // 0.0203 and 0.0202). Asserted: at least 10 % lower.
+    // Three loops, 120 s: 0.0235 m with the wheels, 0.0288 m without (0.82×; seeds 2, 3:
+    // 0.0177 against 0.0193, 0.0237 against 0.0269). Over the first loop alone (40 s) the
+    // difference is within the seeds' spread since drifted points leave the prior (seeds 1–3:
+    // 0.0137 / 0.0131 / 0.0138 against 0.0166 / 0.0127 / 0.0145 m; 0.0151 against 0.0185 m
+    // before). Asserted: at least 10 % lower.
     assert!(a < 0.9 * b, "with {a}, without {b}");
     assert_eq!(with.report.resets + without.report.resets, 0);
 }
@@ -110,8 +113,8 @@ fn wheel_odometry_gives_the_scale_of_a_monocular_ground_vehicle() {
     let without = run_catalog("hall_ground_vehicle_mono_imu", None);
     // On level ground at near-constant speed the accelerometer barely sees the scale; the
     // wheels measure it, in the initial visual-inertial alignment too. With them (seed 1,
-    // 60 s): initialized at 3.3 s (94.6 % of the frames tracking), ATE 0.0384 m (seeds 2, 3:
-    // 0.0318 / 0.0630). Without them the scale never passes the initialization's 3 % gate and
+    // 60 s): initialized at 3.3 s (94.6 % of the frames tracking), ATE 0.0274 m (seeds 2, 3:
+    // 0.0273 / 0.0250; 0.0182 / 0.0400 / 0.0770 with drifted points kept in the prior). Without them the scale never passes the initialization's 3 % gate and
     // the estimator does not start (it started at 21.6 s into 0.31 m with a 5 % gate).
     let a = with.report.ate_rmse_m.unwrap();
     assert!(a < 0.05, "with the wheels {a}");
