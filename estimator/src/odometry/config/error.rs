@@ -57,6 +57,24 @@ pub(super) fn non_negative(field: &str, v: f64) -> Result<(), ConfigError> {
     }
 }
 
+/// `Ok` if `v` is finite and lies in `lo..=hi`; else an error naming `field`, in `unit` (" s").
+pub(super) fn value_in(
+    field: &str,
+    v: f64,
+    lo: f64,
+    hi: f64,
+    unit: &str,
+) -> Result<(), ConfigError> {
+    if v.is_finite() && (lo..=hi).contains(&v) {
+        Ok(())
+    } else {
+        Err(ConfigError::new(
+            field,
+            format!("expected {lo} to {hi}{unit}, got {v}"),
+        ))
+    }
+}
+
 /// `Ok` if the count `v` lies in `lo..=hi`; else an error naming `field`, in `unit` (" frames",
 /// or "" for a bare count).
 pub(super) fn count_in(

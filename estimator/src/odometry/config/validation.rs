@@ -1,7 +1,7 @@
 //! The range checks of an [`EstimatorConfig`]: every setting, and the rig against the suite;
 //! each error names its field.
 
-use super::error::{ConfigError, count_in, non_negative, positive, positive_or_infinite};
+use super::error::{ConfigError, count_in, non_negative, positive, positive_or_infinite, value_in};
 use super::estimator_config::{EstimatorConfig, MAX_PERSISTENT_POINTS, MAX_WINDOW_SIZE};
 
 impl EstimatorConfig {
@@ -164,12 +164,7 @@ impl EstimatorConfig {
             ));
         }
         non_negative("stereo_init_window_s", self.stereo_init_window_s)?;
-        if !(self.init_td_search_s.is_finite() && (0.0..=1.0).contains(&self.init_td_search_s)) {
-            return Err(ConfigError::new(
-                "init_td_search_s",
-                format!("expected 0 to 1 s, got {}", self.init_td_search_s),
-            ));
-        }
+        value_in("init_td_search_s", self.init_td_search_s, 0.0, 1.0, " s")?;
         positive("mono_init_parallax_px", self.mono_init_parallax_px)?;
         positive("mono_init_window_s", self.mono_init_window_s)?;
         positive("mono_init_max_scale_sigma", self.mono_init_max_scale_sigma)?;
@@ -259,12 +254,13 @@ impl EstimatorConfig {
             "extrinsic_relative_prior_sigma_m",
             self.extrinsic_relative_prior_sigma_m,
         )?;
-        if !(self.calibration_warmup_s >= 0.0 && self.calibration_warmup_s <= 3600.0) {
-            return Err(ConfigError::new(
-                "calibration_warmup_s",
-                format!("expected 0 to 3600 s, got {}", self.calibration_warmup_s),
-            ));
-        }
+        value_in(
+            "calibration_warmup_s",
+            self.calibration_warmup_s,
+            0.0,
+            3600.0,
+            " s",
+        )?;
         let z = &self.zero_velocity;
         positive("zero_velocity.window_s", z.window_s)?;
         if z.window_s > 10.0 {
