@@ -95,6 +95,69 @@ fn eval_prints_evo_ate() {
     assert_eq!(out.status.code(), Some(0));
 }
 
+/// `--gt` also reads a EuRoC ground-truth file (`state_groundtruth_estimate0/data.csv`, as
+/// `vio export` and the EuRoC datasets write it): the same poses give the same printed metrics
+/// as their TUM file, and a bad row is refused with its file and line.
+#[test]
+fn eval_reads_euroc_ground_truth_as_its_tum_twin() {
+    use scenarios::dataset::{GroundTruthState, read_tum, write_groundtruth_csv};
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("scenarios-cli-euroc-gt");
+    std::fs::create_dir_all(&dir).unwrap();
+    let (gt_tum, est) = (
+        evo_dir("synthetic").join("gt.tum"),
+        evo_dir("synthetic").join("est.tum"),
+    );
+    let states: Vec<GroundTruthState> = read_tum(&gt_tum)
+        .unwrap()
+        .into_iter()
+        .map(|p| GroundTruthState {
+            t_ns: p.t_ns,
+            pose: p.pose,
+            velocity: Default::default(),
+            gyro_bias: Default::default(),
+            accel_bias: Default::default(),
+        })
+        .collect();
+    let gt_csv = dir.join("data.csv");
+    write_groundtruth_csv(&gt_csv, &states).unwrap();
+    let printed = |gt: &Path| {
+        let out = vio(&[
+            "eval",
+            "--gt",
+            gt.to_str().unwrap(),
+            "--est",
+            est.to_str().unwrap(),
+        ]);
+        assert_eq!(out.status.code(), Some(0));
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let (from_tum, from_csv) = (printed(&gt_tum), printed(&gt_csv));
+    let metrics = |s: &str| -> Vec<String> {
+        s.lines()
+            .filter(|l| l.starts_with("ATE") || l.starts_with("RPE"))
+            .map(String::from)
+            .collect()
+    };
+    assert!(!metrics(&from_tum).is_empty(), "{from_tum}");
+    assert_eq!(metrics(&from_tum), metrics(&from_csv));
+
+    let text = std::fs::read_to_string(&gt_csv).unwrap();
+    let bad = dir.join("bad.csv");
+    let mut lines: Vec<&str> = text.lines().collect();
+    lines[2] = "not,a,row";
+    std::fs::write(&bad, lines.join("\n") + "\n").unwrap();
+    let out = vio(&[
+        "eval",
+        "--gt",
+        bad.to_str().unwrap(),
+        "--est",
+        est.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8(out.stderr).unwrap();
+    assert!(stderr.contains(&format!("{}:3", bad.display())), "{stderr}");
+}
+
 #[test]
 fn eval_exits_2_naming_file_and_line_on_bad_input() {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("scenarios-cli");

@@ -87,24 +87,11 @@ ov_poses=$(sed -n 's/^common frames: .* and \([0-9]*\) (.*/\1/p' "$run/eval.txt"
 ov_offset=$(sed -n 's/.*final time offset \(-*[0-9.]*\) ms.*/\1/p' "$run/openvins.log")
 if [ -n "$ov_poses" ] && [ "$ov_poses" -gt 0 ] && [ $((10 * common)) -lt $((9 * ov_poses)) ]; then
   echo "compare.sh: only $common of OpenVINS's $ov_poses poses are common (its final time offset ${ov_offset:-?} ms): both scored against the export's 200 Hz ground truth instead" >&2
-  python3 - "$run" <<'PY'
-import sys
-run = sys.argv[1]
-with open(f"{run}/ground_truth_200hz.tum", "w") as out:
-    for line in open(f"{run}/export/mav0/state_groundtruth_estimate0/data.csv"):
-        if line.startswith("#"):
-            continue
-        f = line.strip().split(",")
-        # ASL: t_ns, p x y z, q w x y z -> TUM: t x y z qx qy qz qw
-        out.write(f"{int(f[0]) * 1e-9:.9f} {f[1]} {f[2]} {f[3]} {f[5]} {f[6]} {f[7]} {f[4]}\n")
-rows = [l for l in open(f"{run}/openvins.tum") if l.strip() and not l.startswith("#")]
-first = float(rows[0].split()[0]) - 0.001
-with open(f"{run}/ours_from_openvins_start.tum", "w") as out:
-    for line in open(f"{run}/ours/estimate.tum"):
-        if not line.startswith("#") and line.strip() and float(line.split()[0]) >= first:
-            out.write(line)
-PY
-  score() { "$vio" eval --gt "$run/ground_truth_200hz.tum" --est "$1" --t-max-diff 0.003 | awk '/^ATE (trans|rot)/ {printf "%s ", $5}'; }
+  # Ours from OpenVINS's first pose on (1 ms early, for the stamp's rounding).
+  first=$(awk '!/^#/ && NF {printf "%.9f", $1 - 0.001; exit}' "$run/openvins.tum")
+  awk -v t0="$first" '!/^#/ && NF && $1 >= t0' "$run/ours/estimate.tum" >"$run/ours_from_openvins_start.tum"
+  gt200=$run/export/mav0/state_groundtruth_estimate0/data.csv
+  score() { "$vio" eval --gt "$gt200" --est "$1" --t-max-diff 0.003 | awk '/^ATE (trans|rot)/ {printf "%s ", $5}'; }
   read -r ours_ate ours_rot < <(score "$run/ours_from_openvins_start.tum"; echo)
   read -r ov_ate ov_rot < <(score "$run/openvins.tum"; echo)
   scored_on=ground_truth_200hz

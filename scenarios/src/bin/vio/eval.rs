@@ -1,9 +1,9 @@
 //! `vio eval`: ATE and RPE of a trajectory file against ground truth, with evo's definitions.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use clap::ValueEnum;
-use scenarios::dataset::{StampedPose, read_tum};
+use scenarios::dataset::{StampedPose, read_groundtruth_csv, read_tum};
 use scenarios::metrics::{
     Alignment, EvalOptions, PairsFrom, RpeDelta, RpeOptions, associate_trajectories, evaluate,
 };
@@ -38,7 +38,8 @@ enum PairsArg {
 
 #[derive(clap::Args)]
 pub(super) struct EvalArgs {
-    /// Ground-truth trajectory (TUM: `t tx ty tz qx qy qz qw`).
+    /// Ground-truth trajectory (TUM: `t tx ty tz qx qy qz qw`), or a EuRoC ground-truth file
+    /// (`mav0/state_groundtruth_estimate0/data.csv`, read by its `.csv` extension).
     #[arg(long)]
     gt: PathBuf,
     /// Estimated trajectory (TUM).
@@ -66,8 +67,20 @@ pub(super) struct EvalArgs {
     common_with: Option<PathBuf>,
 }
 
+/// The ground truth at `path`: a EuRoC ground-truth CSV (`.csv`) or a TUM file.
+fn read_ground_truth(path: &Path) -> Result<Vec<StampedPose>, String> {
+    if path.extension().is_some_and(|e| e == "csv") {
+        let states = read_groundtruth_csv(path).map_err(|e| e.to_string())?;
+        return Ok(states
+            .iter()
+            .map(|s| StampedPose::new(s.t_ns, s.pose))
+            .collect());
+    }
+    read_tum(path).map_err(|e| e.to_string())
+}
+
 pub(super) fn eval(args: &EvalArgs) -> Result<String, String> {
-    let gt = read_tum(&args.gt).map_err(|e| e.to_string())?;
+    let gt = read_ground_truth(&args.gt)?;
     let est = read_tum(&args.est).map_err(|e| e.to_string())?;
     if !(args.t_max_diff.is_finite() && args.t_max_diff >= 0.0) {
         return Err(format!(
@@ -158,8 +171,8 @@ pub(super) fn eval(args: &EvalArgs) -> Result<String, String> {
 fn table(
     gt: &[StampedPose],
     est: &[StampedPose],
-    gt_path: &std::path::Path,
-    est_path: &std::path::Path,
+    gt_path: &Path,
+    est_path: &Path,
     t_max_diff: f64,
     opts: &EvalOptions,
 ) -> Result<String, String> {
