@@ -114,8 +114,9 @@ fn wheel_odometry_gives_the_scale_of_a_monocular_ground_vehicle() {
     // On level ground at near-constant speed the accelerometer barely sees the scale; the
     // wheels measure it, in the initial visual-inertial alignment too. With them (seed 1,
     // 60 s): initialized at 3.3 s (94.6 % of the frames tracking), ATE 0.0274 m (seeds 2, 3:
-    // 0.0273 / 0.0250; 0.0182 / 0.0400 / 0.0770 with drifted points kept in the prior). Without them the scale never passes the initialization's 3 % gate and
-    // the estimator does not start (it started at 21.6 s into 0.31 m with a 5 % gate).
+    // 0.0273 / 0.0250; 0.0182 / 0.0400 / 0.0770 with drifted points kept in the prior).
+    // Without them the scale never passes the initialization's 3 % gate and the estimator does
+    // not start (it started at 21.6 s into 0.31 m with a 5 % gate).
     let a = with.report.ate_rmse_m.unwrap();
     assert!(a < 0.05, "with the wheels {a}");
     assert!(with.report.tracking_fraction > 0.9);
