@@ -31,8 +31,8 @@ pub use frontend::FeatureFrame;
 pub use imu::ImuSample;
 pub use odometry::{
     CameraConfig, ConfigError, Estimate, Estimator, EstimatorConfig, EstimatorError, Event,
-    EventKind, FilterEstimate, GnssConfig, HealthLimits, LiveSuite, PointCoordinates, Status,
-    Suite, WheelConfig, ZeroVelocityConfig,
+    EventKind, FilterEstimate, GnssConfig, HealthLimits, ImuNoiseModel, LiveSuite,
+    PointCoordinates, Status, Suite, WheelConfig, ZeroVelocityConfig,
 };
 
 /// Standard gravity magnitude (m/s²); the world frame is z-up with `g_w = (0, 0, −GRAVITY)`.

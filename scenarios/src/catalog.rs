@@ -45,6 +45,16 @@ const ENTRIES: &[Entry] = &[
     entry!("room_figure8_time_offset_stereo_imu"),
     entry!("room_replay_v1_01_time_offset_stereo_imu"),
     entry!("room_replay_v1_01_real_imu_stereo_imu"),
+    entry!("room_replay_v1_01_real_imu_matched_stereo_imu"),
+    entry!("euroc_mh_01_realistic_stereo"),
+    entry!("euroc_mh_01_realistic_mono_imu"),
+    entry!("euroc_mh_01_realistic_stereo_imu"),
+    entry!("euroc_v1_01_realistic_stereo"),
+    entry!("euroc_v1_01_realistic_mono_imu"),
+    entry!("euroc_v1_01_realistic_stereo_imu"),
+    entry!("euroc_v2_02_realistic_stereo"),
+    entry!("euroc_v2_02_realistic_mono_imu"),
+    entry!("euroc_v2_02_realistic_stereo_imu"),
     entry!("room_replay_v1_01_fitted_imu_stereo_imu"),
     entry!("room_replay_v1_01_datasheet_imu_stereo_imu"),
     entry!("room_fast_rotation_imu_saturation_stereo_imu"),
@@ -86,6 +96,14 @@ const DATA: &[(&str, &[u8])] = &[
         include_bytes!("../catalog/data/euroc_V1_01_easy_20s.txt"),
     ),
     (
+        "data/euroc_MH_01_easy_50hz.txt",
+        include_bytes!("../catalog/data/euroc_MH_01_easy_50hz.txt"),
+    ),
+    (
+        "data/euroc_V2_02_medium_100hz.txt",
+        include_bytes!("../catalog/data/euroc_V2_02_medium_100hz.txt"),
+    ),
+    (
         "data/euroc_V1_01_easy_excerpt/mav0/state_groundtruth_estimate0/data.csv",
         include_bytes!(
             "../catalog/data/euroc_V1_01_easy_excerpt/mav0/state_groundtruth_estimate0/data.csv"
@@ -115,6 +133,43 @@ pub fn imu_error_model(name: &str) -> Option<&'static str> {
 /// The names of the built-in IMU error models.
 pub fn imu_error_model_names() -> Vec<&'static str> {
     IMU_ERROR_MODELS.iter().map(|(n, _)| *n).collect()
+}
+
+/// Built-in estimator IMU noise models (`estimator.imu_noise = "<name>"`), each a file in
+/// `catalog/estimator_imu_noise/` written by `vio imu-model --gt`.
+const ESTIMATOR_IMU_NOISE: &[(&str, &str)] = &[(
+    "euroc_mav",
+    include_str!("../catalog/estimator_imu_noise/euroc_mav.toml"),
+)];
+
+/// A built-in estimator IMU noise model's text by name.
+pub fn estimator_imu_noise(name: &str) -> Option<&'static str> {
+    ESTIMATOR_IMU_NOISE
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, t)| *t)
+}
+
+/// The names of the built-in estimator IMU noise models.
+pub fn estimator_imu_noise_names() -> Vec<&'static str> {
+    ESTIMATOR_IMU_NOISE.iter().map(|(n, _)| *n).collect()
+}
+
+/// Built-in sensor presets (`preset = "<name>"`), each a partial scenario in
+/// `catalog/presets/`.
+const PRESETS: &[(&str, &str)] = &[(
+    "euroc_realistic",
+    include_str!("../catalog/presets/euroc_realistic.toml"),
+)];
+
+/// A built-in preset's text by name.
+pub fn preset(name: &str) -> Option<&'static str> {
+    PRESETS.iter().find(|(n, _)| *n == name).map(|(_, t)| *t)
+}
+
+/// The names of the built-in presets.
+pub fn preset_names() -> Vec<&'static str> {
+    PRESETS.iter().map(|(n, _)| *n).collect()
 }
 
 /// Every built-in scenario, the default first.

@@ -47,8 +47,9 @@ pub use batch_reference::FilterEstimate;
 use batch_reference::History;
 pub use chi2::chi2_quantile;
 pub use config::{
-    CameraConfig, ConfigError, EstimatorConfig, GnssConfig, HealthLimits, MAX_PERSISTENT_POINTS,
-    MAX_WINDOW_SIZE, PointCoordinates, Suite, WheelConfig, ZeroVelocityConfig,
+    CameraConfig, ConfigError, EstimatorConfig, GnssConfig, HealthLimits, ImuNoiseModel,
+    MAX_PERSISTENT_POINTS, MAX_WINDOW_SIZE, PointCoordinates, Suite, WheelConfig,
+    ZeroVelocityConfig,
 };
 pub use events::{Event, EventKind, LiveSuite};
 use frame::WindowFrame;
@@ -241,6 +242,7 @@ impl Estimator {
                 c.pixel_sigma = sigma;
             }
         }
+        config.imu_noise = config.imu_noise_model.applied_to(config.imu_noise);
         let mut focal = Vec::new();
         for (i, c) in config.cameras.iter().enumerate() {
             // Effective focal length: the projection's derivative on the optical axis.

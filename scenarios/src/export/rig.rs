@@ -72,12 +72,13 @@ fn sensor_yaml_distortion(kalibr: &str) -> &str {
     }
 }
 
-/// The rig of `scenario` with the estimator's configuration `est`: its IMU noise and each
-/// camera's `T_b_c` as the estimator starts from it (a camera's `calibration_error` included, as
-/// a calibration tool would have reported it).
+/// The rig of `scenario` with the estimator's configuration `est`: the IMU noise the estimator
+/// assumes (`[estimator.imu_noise]` over the sensor's) and each camera's `T_b_c` as the
+/// estimator starts from it (a camera's `calibration_error` and the seed's drawn calibration
+/// error included, as a calibration tool would have reported it).
 pub(crate) fn export_rig(scenario: &Scenario, est: &EstimatorConfig) -> ExportRig {
     let spec = &scenario.spec;
-    let noise: ImuNoise = est.imu_noise;
+    let noise: ImuNoise = est.imu_noise_model.applied_to(est.imu_noise);
     let imu = ImuSensor {
         comment: format!("vio simulated IMU, scenario {}", scenario.name),
         t_bs: Pose::identity(),
@@ -101,20 +102,21 @@ pub(crate) fn export_rig(scenario: &Scenario, est: &EstimatorConfig) -> ExportRi
         });
         // The rotation as the scenario wrote it when it wrote a matrix and the estimator uses
         // it unchanged (its transpose is then exact), else the estimator's quaternion's.
-        let r_b_c: Matrix3<f64> = match (c.T_b_c.rotation, &c.calibration_error) {
-            (Some(rows), None) => Matrix3::from_fn(|a, b| rows[a][b]),
+        let off_truth = c.calibration_error.is_some() || spec.rig.calibration_draw.is_some();
+        let r_b_c: Matrix3<f64> = match (c.T_b_c.rotation, off_truth) {
+            (Some(rows), false) => Matrix3::from_fn(|a, b| rows[a][b]),
             _ => Rotation3::from(cam.T_b_c.q).into_inner(),
         };
         // A quaternion as given (the scenario's, or the estimator's when it starts off the
         // truth): no matrix of doubles carries it bit for bit.
-        let quaternion_xyzw = match (c.T_b_c.quaternion_xyzw, &c.calibration_error) {
-            (Some(q), None) => Some(q),
-            (_, Some(_)) => {
+        let quaternion_xyzw = match (c.T_b_c.quaternion_xyzw, off_truth) {
+            (Some(q), false) => Some(q),
+            (_, true) => {
                 let mut q = [0.0; 4];
                 estimator::geometry::quat_to_xyzw(&cam.T_b_c.q, &mut q);
                 Some(q)
             }
-            (None, None) => None,
+            (None, false) => None,
         };
         kalibr.push(KalibrCamera {
             name: format!("cam{i}"),
@@ -157,7 +159,7 @@ pub(crate) fn export_rig(scenario: &Scenario, est: &EstimatorConfig) -> ExportRi
 /// translations (exactly for axis-aligned cameras and for rigs read from Kalibr files; see
 /// [`crate::dataset::camera_from_imu`]).
 pub fn kalibr_files(scenario: &Scenario) -> Result<(String, String), crate::run::RunError> {
-    let est = scenario.estimator_config()?;
+    let est = scenario.estimator_config_at(scenario.spec.world.seed)?;
     let rig = export_rig(scenario, &est);
     Ok((rig.camchain, rig.imu_yaml))
 }

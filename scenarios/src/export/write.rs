@@ -47,7 +47,9 @@ fn export_into(
     let world_cfg = scenario
         .world_config(options.seed, options.duration_s)
         .map_err(RunError::from)?;
-    let est_cfg = scenario.estimator_config().map_err(RunError::from)?;
+    let est_cfg = scenario
+        .estimator_config_at(world_cfg.seed)
+        .map_err(RunError::from)?;
     let world = World::new(world_cfg).map_err(|e| RunError::sim(scenario, e))?;
     let (mut stream, _) = measurement_stream(scenario, &world)?;
     let mut sink = make_sink(export_rig(scenario, &est_cfg))?;

@@ -7,9 +7,10 @@ use nalgebra::Vector3;
 use super::allan::allan_deviation;
 use super::comparison::compare;
 use super::error_model::fit_error_model;
+use super::estimator_noise::recommend;
 use super::fit::{NoiseFit, SlopeReadoff, fit_noise_model, slope_readoff};
 use super::motion::check_motion;
-use super::options::{MIN_SAMPLES, Options};
+use super::options::{DEFAULT_ESTIMATOR_INTERVAL_S, MIN_SAMPLES, Options};
 use super::report::{
     AllanSection, AxisAllan, ImuModel, KalibrReference, SCHEMA, Selection, SensorAllan, SensorPair,
     SensorSpectrum, SpectrumSection,
@@ -55,6 +56,13 @@ pub fn analyze(input: &Input, opts: &Options) -> Result<ImuModel, String> {
     check_option("--from", opts.from_s)?;
     check_option("--to", opts.to_s)?;
     check_option("--rest-until", opts.rest_until_s)?;
+    if let Some(t) = opts.estimator_interval_s
+        && !(t.is_finite() && (0.001..=1.0).contains(&t))
+    {
+        return Err(format!(
+            "--interval must be an IMU interval in [0.001, 1] s (a camera period), got {t}"
+        ));
+    }
     if let Some(k) = opts.knot_spacing_s
         && !(k.is_finite() && (0.01..=2.0).contains(&k))
     {
@@ -132,6 +140,7 @@ pub fn analyze(input: &Input, opts: &Options) -> Result<ImuModel, String> {
             residual_rest: None,
         },
         error_model: None,
+        estimator_noise: None,
         notes,
     };
     if let Some((path, gt)) = &input.groundtruth {
@@ -276,6 +285,18 @@ fn with_groundtruth(
     let measure =
         |g: &[Vector3<f64>], a: &[Vector3<f64>], mask: &[bool]| spectra(g, a, mask, dt, line_min);
     model.error_model = fit_error_model(model, &c, &measure);
+    let interval = opts
+        .estimator_interval_s
+        .unwrap_or(DEFAULT_ESTIMATOR_INTERVAL_S);
+    let flight = SensorPair {
+        gyro: sensor_allan(&c.residual.gyro, &c.flight, dt),
+        accel: sensor_allan(&c.residual.accel, &c.flight, dt),
+    };
+    let bias = model
+        .error_model
+        .as_ref()
+        .and_then(|f| f.model.bias_instability.as_ref());
+    model.estimator_noise = recommend(&flight, interval, model.sensor_yaml.as_ref(), bias);
     model.notes.push(format!(
         "ground truth every {gt_period:.4} s through a cubic B-spline with knots every {knots:.4} s: the implied IMU is valid below {bandwidth:.2} Hz; residual content above it is sensor noise and vibration, below it also the ground truth's error"
     ));

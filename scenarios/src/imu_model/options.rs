@@ -14,4 +14,10 @@ pub struct Options {
     /// Knot spacing (s) of the spline through the ground truth; default its median period, at
     /// least [`super::residual::MIN_DEFAULT_KNOT_SPACING_S`].
     pub knot_spacing_s: Option<f64>,
+    /// With ground truth: the IMU interval (s) the estimator's white densities are matched at;
+    /// default [`DEFAULT_ESTIMATOR_INTERVAL_S`].
+    pub estimator_interval_s: Option<f64>,
 }
+
+/// The EuRoC camera period (20 Hz): the shortest interval an estimator's IMU factor spans there.
+pub const DEFAULT_ESTIMATOR_INTERVAL_S: f64 = 0.05;

@@ -34,6 +34,9 @@ pub struct ImuModel {
     /// With ground truth: the fitted IMU error model and its check.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error_model: Option<FittedErrorModel>,
+    /// With ground truth: the noise model an estimator should assume on this platform.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub estimator_noise: Option<EstimatorNoise>,
     /// What the numbers mean and where they cannot be trusted.
     pub notes: Vec<String>,
 }
@@ -222,4 +225,24 @@ pub struct FittedErrorModel {
     pub iterations: usize,
     /// Per octave, real and predicted power after calibration.
     pub check: Vec<OctaveCheck>,
+}
+
+/// The recommended model and how it was read off.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct EstimatorNoise {
+    /// The IMU interval the white densities are matched at (s).
+    pub interval_s: f64,
+    /// Gyroscope white noise density (rad/s/√Hz).
+    pub gyroscope_noise_density: f64,
+    /// Accelerometer white noise density (m/s²/√Hz).
+    pub accelerometer_noise_density: f64,
+    /// Gyroscope bias random walk (rad/s²/√Hz); `None` without a sensor.yaml or a fitted
+    /// bias instability (the sensor's own is kept).
+    pub gyroscope_random_walk: Option<f64>,
+    /// Accelerometer bias random walk (m/s³/√Hz); as the gyroscope's.
+    pub accelerometer_random_walk: Option<f64>,
+    /// Per axis (x, y, z), the in-flight residual's white-equivalent density at the interval.
+    pub per_axis: SensorPair<[f64; 3]>,
+    /// Each value's reasoning, written beside it in the file.
+    pub reasoning: Vec<String>,
 }

@@ -251,12 +251,27 @@ pub fn summary(m: &ImuModel) -> String {
         if let Some(f) = &m.error_model {
             error_model_rows(&mut out, f);
         }
+        if let Some(n) = &m.estimator_noise {
+            estimator_noise_rows(&mut out, n);
+        }
     } else if let Some(r) = &m.spectrum.raw {
         out.push_str("spectrum of the raw log minus its mean:\n");
         lines_row(&mut out, "gyro", "rad/s", Some(&r.gyro));
         lines_row(&mut out, "accel", "m/s²", Some(&r.accel));
     }
     out
+}
+
+/// The estimator's noise model: the values and their reasoning.
+fn estimator_noise_rows(out: &mut String, n: &super::EstimatorNoise) {
+    let _ = writeln!(
+        out,
+        "estimator noise model (estimator_imu_noise.toml, for `[estimator.imu_noise]`), matched at {:.0} ms:",
+        n.interval_s * 1e3
+    );
+    for r in &n.reasoning {
+        let _ = writeln!(out, "  {r}");
+    }
 }
 
 /// The fitted error model: what it holds and how its predicted residual compares per octave.

@@ -6,7 +6,8 @@ use super::plot::{allan_png, spectrum_png};
 use super::report::ImuModel;
 
 /// Writes `imu_model.json`, `allan.png` and `spectrum.png` into `dir` (created), and with a
-/// ground truth `error_model.toml` (the fitted IMU error model); returns the paths written.
+/// ground truth `error_model.toml` (the fitted IMU error model, for the simulator) and
+/// `estimator_imu_noise.toml` (the noise model an estimator should assume); returns the paths written.
 pub fn write_outputs(dir: &Path, model: &ImuModel) -> Result<Vec<PathBuf>, String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let mut written = Vec::new();
@@ -26,6 +27,12 @@ pub fn write_outputs(dir: &Path, model: &ImuModel) -> Result<Vec<PathBuf>, Strin
         let path = dir.join("error_model.toml");
         let text = toml::to_string(&fitted.model).map_err(|e| e.to_string())?;
         std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+        written.push(path);
+    }
+    if let Some(noise) = &model.estimator_noise {
+        let path = dir.join("estimator_imu_noise.toml");
+        std::fs::write(&path, noise.to_toml(&model.log))
+            .map_err(|e| format!("{}: {e}", path.display()))?;
         written.push(path);
     }
     Ok(written)

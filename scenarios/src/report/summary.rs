@@ -142,6 +142,20 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
             p.fit_max_m,
             p.fit_max_deg
         );
+        if let Some(largest) = p
+            .steps_blended
+            .iter()
+            .max_by(|a, b| a.position_m.total_cmp(&b.position_m))
+        {
+            let _ = writeln!(
+                s,
+                "replay steps  {} steps in the file bridged by motion-limited blends (largest {:.4} m at line {}, over {:.2} s): the simulated motion leaves the file by up to half a step near each; score against groundtruth.tum, not the file",
+                p.steps_blended.len(),
+                largest.position_m,
+                largest.line,
+                largest.blend_s
+            );
+        }
         if let Some(imu) = &p.recorded_imu {
             let _ = writeln!(s, "recorded IMU  {}", imu.summary());
         }

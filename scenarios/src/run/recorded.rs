@@ -164,8 +164,14 @@ fn settings(path: Option<&Path>) -> Result<(EstimatorConfig, TrackerConfig), Run
     let est_table = table(root.get("estimator"), "estimator")?;
     let camera = table(root.get("camera"), "camera")?;
     let tracker_table = table(camera.get("tracker"), "camera.tracker")?;
-    let (est, tracker) =
-        crate::spec::overlay::estimator_and_tracker(&est_table, &tracker_table, &text, &file)?;
+    let origin = crate::spec::Origin::File(path.to_path_buf());
+    let (est, tracker) = crate::spec::overlay::estimator_and_tracker(
+        &est_table,
+        &tracker_table,
+        &origin,
+        &text,
+        &file,
+    )?;
     est.validate_settings()
         .map_err(|e| SpecError::at(&file, &text, &format!("estimator.{}", e.field), e.message))?;
     Ok((est, tracker))

@@ -59,7 +59,7 @@ pub(crate) fn simulate(
     control: &mut RunControl,
 ) -> Result<RunOutput, RunError> {
     let world_cfg = scenario.world_config(options.seed, options.duration_s)?;
-    let mut est_cfg = scenario.estimator_config()?;
+    let mut est_cfg = scenario.estimator_config_at(world_cfg.seed)?;
     est_cfg.record_history |= options.batch_reference;
     est_cfg.compute_covariance |= options.covariance;
     let seed = world_cfg.seed;

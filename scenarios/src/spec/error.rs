@@ -116,6 +116,25 @@ pub(crate) fn line_of_key(text: &str, key: &str) -> Option<usize> {
     span.map(|s| line_of_offset(text, s.start))
 }
 
+/// [`deserialize_toml`] of a table made from `text` (a preset laid under it): errors name the
+/// key and the line of `text` that holds it, when it does.
+pub(crate) fn deserialize_table<T: serde::de::DeserializeOwned>(
+    table: toml::Table,
+    text: &str,
+    file: &str,
+) -> Result<T, SpecError> {
+    serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
+        let key = path_string(e.path());
+        let line = line_of_key(text, &key);
+        SpecError {
+            file: file.into(),
+            key,
+            line,
+            message: e.into_inner().message().trim().to_string(),
+        }
+    })
+}
+
 /// Deserializes TOML `text` into `T`; a syntax or schema error names `file`, the key path and
 /// the line (the error's own span, else the key's line).
 pub(crate) fn deserialize_toml<T: serde::de::DeserializeOwned>(

@@ -693,7 +693,8 @@ impl Scenario {
             || self.settings.estimate_extrinsics
             || s.rig.time_offset_s != 0.0
             || !td_steps.is_empty()
-            || s.rig.cameras.iter().any(|c| c.calibration_error.is_some());
+            || s.rig.cameras.iter().any(|c| c.calibration_error.is_some())
+            || s.rig.calibration_draw.is_some();
         if !studied {
             return None;
         }

@@ -70,17 +70,21 @@ use sim::render::{RenderConfig, RenderError};
 
 use crate::catalog;
 
+mod calibration_draw;
 mod calibration_truth;
 mod camera_schema;
 pub mod error;
+pub(crate) mod estimator_imu_noise;
 pub(crate) mod exact;
 pub mod imu_error_model;
 mod mapping;
 pub(crate) mod overlay;
+mod preset;
 mod recorded_imu;
 pub mod schema;
 mod validate;
 
+pub use calibration_draw::DrawnCalibrationError;
 pub use calibration_truth::CalibrationTruth;
 pub use error::SpecError;
 pub use imu_error_model::{ImuErrorModel, ImuErrorModelSpec};
@@ -199,9 +203,17 @@ impl Scenario {
         file: &str,
     ) -> Result<Self, SpecError> {
         let file = file.to_string();
-        let spec: ScenarioSpec = error::deserialize_toml(text, &file)?;
-        let (settings, tracker) =
-            overlay::estimator_and_tracker(&spec.estimator, &spec.camera.tracker, text, &file)?;
+        let spec: ScenarioSpec = match preset::expand(text, &file)? {
+            None => error::deserialize_toml(text, &file)?,
+            Some(merged) => error::deserialize_table(merged, text, &file)?,
+        };
+        let (settings, tracker) = overlay::estimator_and_tracker(
+            &spec.estimator,
+            &spec.camera.tracker,
+            &origin,
+            text,
+            &file,
+        )?;
         let mut render = overlay::overlay(
             &RenderConfig::default(),
             &spec.camera.render,

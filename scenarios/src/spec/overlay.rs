@@ -12,8 +12,8 @@ use estimator::frontend::TrackerConfig;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 
-use super::SpecError;
 use super::error::path_string;
+use super::{Origin, SpecError, estimator_imu_noise};
 
 /// `defaults` with the keys of `table` laid over them; `key` is the table's path in the
 /// scenario (`estimator`), `text` and `file` locate an error.
@@ -43,17 +43,20 @@ pub(crate) fn overlay<T: Serialize + DeserializeOwned>(
 }
 
 /// The estimator's and the image front end's settings: the `[estimator]` and
-/// `[camera.tracker]` tables laid over their defaults (a scenario's, or `vio euroc --settings`).
+/// `[camera.tracker]` tables laid over their defaults (a scenario's, or `vio euroc --settings`;
+/// `origin` resolves a named `estimator.imu_noise` model).
 pub(crate) fn estimator_and_tracker(
     estimator: &toml::Table,
     tracker: &toml::Table,
+    origin: &Origin,
     text: &str,
     file: &str,
 ) -> Result<(EstimatorConfig, TrackerConfig), SpecError> {
+    let estimator = estimator_imu_noise::resolve(estimator, origin, text, file)?;
     Ok((
         overlay(
             &EstimatorConfig::settings_default(),
-            estimator,
+            &estimator,
             "estimator",
             text,
             file,
@@ -69,7 +72,7 @@ pub(crate) fn estimator_and_tracker(
 }
 
 /// Replaces the values of `base` by those of `top`, descending into tables present in both.
-fn lay_over(base: &mut toml::Table, top: &toml::Table) {
+pub(super) fn lay_over(base: &mut toml::Table, top: &toml::Table) {
     for (k, v) in top {
         match (base.get_mut(k), v) {
             (Some(toml::Value::Table(b)), toml::Value::Table(t)) => lay_over(b, t),

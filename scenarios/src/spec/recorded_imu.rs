@@ -61,6 +61,18 @@ impl Scenario {
         };
         self.check_recorded_imu_keys()?;
         let (replay, report) = (&recording.0, &recording.1);
+        // The log was flown along the file's true motion: a blended step would make the
+        // simulated cameras disagree with it by up to half the step, and the run would score
+        // that disagreement.
+        if let Some(step) = report.steps.first() {
+            return Err(self.error(
+                "trajectory.replay",
+                format!(
+                    "line {}: a step of {:.4} m / {:.2}° cannot be blended under a recorded IMU log, which flew the file's true motion: cut the recording at that line, or simulate the IMU (remove `rig.imu.recorded`)",
+                    step.line, step.position_m, step.angle_deg
+                ),
+            ));
+        }
         let label = self.data_path(file);
         let text = self.data_file(key, file)?;
         let samples = parse_imu_csv(&text, &label).map_err(|e| self.error(key, e.to_string()))?;

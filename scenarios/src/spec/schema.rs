@@ -16,6 +16,9 @@ use estimator::Suite;
 pub struct ScenarioSpec {
     /// One line saying what the scenario exercises (shown by `vio list`).
     pub description: String,
+    /// A sensor preset laid under the file (`catalog/presets/<name>.toml`): every key the
+    /// preset sets that the file does not (`preset.rs`).
+    pub preset: Option<String>,
     /// The sensors the estimator fuses.
     pub suite: SuiteSpec,
     /// Scene and seed.
@@ -435,6 +438,28 @@ pub struct RigSpec {
     pub gnss: Option<GnssSpec>,
     /// Wheel odometry (forward speed of the body origin).
     pub wheel: Option<WheelSpec>,
+    /// Calibration error drawn per seed: the estimator is given the rig's extrinsics off by
+    /// Gaussian errors of these per-axis standard deviations (`calibration_draw.rs`).
+    pub calibration_draw: Option<CalibrationDrawSpec>,
+}
+
+/// `[rig.calibration_draw]`: per-axis standard deviations of the calibration error drawn per
+/// seed.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CalibrationDrawSpec {
+    /// The stereo pair's rotation against the IMU (deg, body frame).
+    #[serde(default)]
+    pub camera_imu_rotation_deg: f64,
+    /// The stereo pair's translation against the IMU (m, body frame).
+    #[serde(default)]
+    pub camera_imu_translation_m: f64,
+    /// The second camera's rotation against the first (deg, body frame).
+    #[serde(default)]
+    pub stereo_rotation_deg: f64,
+    /// The second camera's translation against the first (m, body frame).
+    #[serde(default)]
+    pub stereo_translation_m: f64,
 }
 
 /// `[rig.gnss]`.

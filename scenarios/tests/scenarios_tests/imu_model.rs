@@ -300,6 +300,47 @@ fn a_simulated_flight_matches_its_ground_truth_and_the_output_is_deterministic()
             (fit / truth - 1.0).abs() < 0.1,
             "{sensor}: N {fit} vs {truth}"
         );
+        // A white sensor needs no more than its datasheet: the estimator's model is the
+        // datasheet's (the white-equivalent density at 50 ms is within 15 % of it).
+        let per_axis = m["estimator_noise"]["per_axis"][sensor].as_array().unwrap();
+        for v in per_axis {
+            let v = v.as_f64().unwrap();
+            assert!((v / truth - 1.0).abs() < 0.15, "{sensor}: {v} vs {truth}");
+        }
+        let assumed = m["estimator_noise"][key].as_f64().unwrap();
+        assert!(
+            assumed >= truth && assumed < 1.15 * truth,
+            "{sensor}: {assumed}"
+        );
     }
     let _ = std::fs::remove_dir_all(dir);
+}
+
+/// The built-in estimator model `euroc_mav` is what `vio imu-model --gt` writes from the real
+/// V1_01 log in the catalog, key for key (nothing in it is tuned by hand), and it is the
+/// flight's: many times the datasheet's white noise.
+#[test]
+fn the_built_in_estimator_model_is_the_one_imu_model_measures() {
+    let mav0 = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("catalog/data/euroc_V1_01_easy_excerpt/mav0");
+    let dir = scratch("imu-model-estimator");
+    let out = dir.path().join("out");
+    let (code, stderr) = imu_model(
+        &[
+            mav0.join("imu0/data.csv").to_str().unwrap(),
+            "--gt",
+            mav0.join("state_groundtruth_estimate0/data.csv")
+                .to_str()
+                .unwrap(),
+        ],
+        &out,
+    );
+    assert_eq!(code, Some(0), "{stderr}");
+    let keys = |text: &str| -> toml::Table { text.parse().unwrap() };
+    let written = std::fs::read_to_string(out.join("estimator_imu_noise.toml")).unwrap();
+    let preset = scenarios::catalog::estimator_imu_noise("euroc_mav").unwrap();
+    assert_eq!(keys(&written), keys(preset));
+    let n = |k: &str| keys(preset)[k].as_float().unwrap();
+    assert!(n("gyroscope_noise_density") > 10.0 * 1.6968e-4);
+    assert!(n("accelerometer_noise_density") > 10.0 * 2.0e-3);
 }

@@ -151,3 +151,38 @@ fn a_log_that_misses_part_of_the_run_is_refused_saying_which() {
         &["no IMU samples"],
     );
 }
+
+/// A step in the replayed ground truth is bridged by a blend under `repair` when the IMU is
+/// simulated; under a recorded log, which flew the file's true motion, it is refused naming the
+/// step's line.
+#[test]
+fn a_step_is_not_blended_under_a_recorded_log() {
+    let (gt, imu) = data();
+    // Rows 200 on (line 202 on) 8 cm off in x: a step nothing undoes.
+    let stepped: String = gt
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i < 201 || l.starts_with('#') {
+                return format!("{l}\n");
+            }
+            let mut f: Vec<String> = l.split(',').map(str::to_string).collect();
+            let x: f64 = f[1].trim().parse().unwrap();
+            f[1] = format!("{:.6}", x + 0.08);
+            format!("{}\n", f.join(","))
+        })
+        .collect();
+    let repaired = |t: String| {
+        t.replace(
+            "knot_spacing_s = 0.05 }",
+            "knot_spacing_s = 0.05, repair = true }",
+        )
+    };
+    assert_bad_with(
+        "recorded-step",
+        &scenario(repaired),
+        &[(GT, stepped.as_bytes()), (IMU, imu.as_bytes())],
+        "trajectory.replay",
+        &["line 202", "cannot be blended under a recorded IMU log"],
+    );
+}

@@ -24,6 +24,7 @@ pub mod recording;
 pub mod reference;
 mod sample_statistics;
 pub mod spline;
+mod step_blend;
 pub mod vehicle;
 
 pub use reference::{Lissajous, RefState, Reference, StaticStart, Stop, Stops};

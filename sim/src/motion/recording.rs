@@ -13,7 +13,9 @@
 //! - **Jumps** (`jumps.rs`): a step between two samples far beyond what the motion can do and
 //!   larger than the fit tolerance, and, within 2 s, the step back: the samples between are an
 //!   excursion, dropped by `repair` with the glitches (and counted with them); a step that never
-//!   comes back is refused with its line, whatever `repair` says.
+//!   comes back is refused with its line, or with `repair` bridged by a minimum-jerk blend
+//!   within the motion's own accelerations (`step_blend.rs`; refused when the blend would need
+//!   more than [`MAX_BLEND_S`] or two blends overlap).
 //! - **Gaps**: a spacing over ten median spacings and over two knot spacings leaves spline knots
 //!   without data, and the fit rings through them.
 //! - **Fit**: the fitted spline must stay within a tolerance (default 1 cm / 1°) of every kept
@@ -33,6 +35,8 @@ use nalgebra::{UnitQuaternion, Vector3};
 use super::jumps::{Jump, MAX_EXCURSION_S, find_jumps};
 use super::reference::Reference;
 use super::sample_statistics::{median, percentile};
+use super::step_blend::blend_steps;
+pub use super::step_blend::{BlendedStep, MAX_BLEND_S};
 
 use super::spline::{PoseSample, Replay, TrajectoryError, parse_recording};
 
@@ -148,6 +152,8 @@ pub struct RecordingReport {
     pub median_spacing_s: f64,
     /// Glitches found (dropped when repairing).
     pub glitches: Vec<Glitch>,
+    /// Steps found and bridged by a blend (repairing only; without `repair` a step is refused).
+    pub steps: Vec<BlendedStep>,
     /// Gaps found (bridged when repairing).
     pub gaps: Vec<Gap>,
     /// Samples added to bridge the gaps.
@@ -159,11 +165,24 @@ pub struct RecordingReport {
 }
 
 impl RecordingReport {
+    /// The blended steps for [`RecordingReport::summary`]: empty without any.
+    fn steps_summary(&self) -> String {
+        self.steps
+            .iter()
+            .map(|s| {
+                format!(
+                    " step at line {} (t = {:.3} s, {:.4} m / {:.2}°) blended over {:.2} s;",
+                    s.line, s.t_s, s.position_m, s.angle_deg, s.blend_s
+                )
+            })
+            .collect()
+    }
+
     /// One line for summaries.
     pub fn summary(&self) -> String {
         let largest = |f: fn(&Glitch) -> f64| self.glitches.iter().map(f).fold(0.0, f64::max);
         format!(
-            "{} samples, stamps in {}{}, median spacing {:.4} s; {} glitches (largest {:.3} m / {:.1}°), {} gaps (longest {:.3} s, {} samples bridged); fit within {:.4} m / {:.3}°",
+            "{} samples, stamps in {}{}, median spacing {:.4} s; {} glitches (largest {:.3} m / {:.1}°),{} {} gaps (longest {:.3} s, {} samples bridged); fit within {:.4} m / {:.3}°",
             self.samples,
             self.time_unit.name(),
             if self.unit_detected {
@@ -175,6 +194,7 @@ impl RecordingReport {
             self.glitches.len(),
             largest(|g| g.position_m),
             largest(|g| g.angle_deg),
+            self.steps_summary(),
             self.gaps.len(),
             self.gaps.iter().map(|g| g.length_s).fold(0.0, f64::max),
             self.bridged_samples,
@@ -523,7 +543,7 @@ pub fn load_recording(
     for &(i, _, _) in &found {
         drop[i] = true;
     }
-    let kept: Vec<(usize, PoseSample)> = samples
+    let mut kept: Vec<(usize, PoseSample)> = samples
         .iter()
         .enumerate()
         .filter(|(i, _)| !drop[*i])
@@ -539,16 +559,19 @@ pub fn load_recording(
     };
     jumps.steps.retain(beyond);
     jumps.excursions.retain(|e| beyond(&e.2));
-    if let Some(step) = jumps.steps.first() {
+    if let Some(step) = jumps.steps.first()
+        && !options.repair
+    {
         let (m, rad) = step.size();
         return Err(unusable(format!(
-            "line {}: the recording jumps {m:.4} m / {:.2}° at t = {:.6} s, far beyond what the motion can do in {:.4} s, and does not jump back within {MAX_EXCURSION_S} s: a step (the tracker found the body elsewhere), not a glitch; which side is true cannot be told from the recording, so repair does not guess: cut the recording at this line",
+            "line {}: the recording jumps {m:.4} m / {:.2}° at t = {:.6} s, far beyond what the motion can do in {:.4} s, and does not jump back within {MAX_EXCURSION_S} s: a step (the tracker found the body elsewhere), not a glitch; which side is true cannot be told from the recording: set `repair = true` to bridge it with a motion-limited blend (the simulated motion then leaves the file near the step), or cut the recording at this line",
             kept[step.index + 1].0,
             rad.to_degrees(),
             kept_samples[step.index].t,
             kept_samples[step.index + 1].t - kept_samples[step.index].t
         )));
     }
+    let steps = blend_steps(&mut kept, &kept_samples, &jumps.steps, accel)?;
     if let Some(&(first, last, jump)) = jumps.excursions.first()
         && !options.repair
     {
@@ -665,6 +688,7 @@ pub fn load_recording(
         samples: samples.len(),
         median_spacing_s,
         glitches,
+        steps,
         gaps,
         bridged_samples,
         fit_max_m: fit_m,

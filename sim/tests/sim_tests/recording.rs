@@ -253,7 +253,7 @@ fn shifted(dx: impl Fn(usize) -> f64) -> String {
 }
 
 #[test]
-fn a_tracker_jump_and_back_is_dropped_and_a_step_is_refused_naming_its_line() {
+fn a_tracker_jump_and_back_is_dropped_and_a_step_is_blended_or_refused_naming_its_line() {
     let repair = RecordingOptions {
         repair: true,
         ..Default::default()
@@ -283,16 +283,54 @@ fn a_tracker_jump_and_back_is_dropped_and_a_step_is_refused_naming_its_line() {
             .fold(0.0, f64::max);
         assert!(worst < 0.01, "{dx} m for {} rows: {worst} m", rows.len());
     }
-    // A step that never comes back: which side is true cannot be told; refused either way,
-    // naming the line, not blamed on the knot spacing.
+    // A step that never comes back: which side is true cannot be told. Refused without
+    // `repair`, naming the line, not blamed on the knot spacing; with it, bridged by a blend.
     let step = shifted(|r| if r >= 700 { 0.08 } else { 0.0 });
-    for options in [RecordingOptions::default(), repair] {
-        let err = load_recording(&step, &options).unwrap_err().to_string();
-        assert!(
-            err.contains("line 702") && err.contains("step") && !err.contains("knot"),
-            "{err}"
-        );
+    let err = load_recording(&step, &RecordingOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("line 702") && err.contains("step") && !err.contains("knot"),
+        "{err}"
+    );
+    assert!(err.contains("repair = true"), "{err}");
+    let (blended, r) = load_recording(&step, &repair).unwrap();
+    assert_eq!(r.steps.len(), 1, "{:?}", r.steps);
+    let s = r.steps[0];
+    assert_eq!(s.line, 702);
+    assert!((s.position_m - 0.08).abs() < 0.005, "{s:?}");
+    assert!(s.blend_s > 0.05 && s.blend_s < 2.0, "{s:?}");
+    // Outside the blend the motion is the file's (the clean cut, shifted after the step);
+    // inside, it stays within half the step of either side, and the spline's acceleration
+    // stays within the recording's own largest plus what the blend adds (its 99th percentile).
+    let t_step = 700.0 * 0.01 - 0.005;
+    let end = blended.duration().unwrap().min(clean.duration().unwrap());
+    let mut worst_outside = 0.0f64;
+    let mut worst_inside = 0.0f64;
+    let mut accel_blended = 0.0f64;
+    let mut accel_clean = 0.0f64;
+    for k in 0..=(end / 0.005) as usize {
+        let t = k as f64 * 0.005;
+        let d = (blended.state(t).p - clean.state(t).p).x;
+        accel_blended = accel_blended.max(blended.state(t).a.norm());
+        accel_clean = accel_clean.max(clean.state(t).a.norm());
+        if (t - t_step).abs() > 0.5 * s.blend_s + 0.1 {
+            let off = if t > t_step {
+                (d - 0.08).abs()
+            } else {
+                d.abs()
+            };
+            worst_outside = worst_outside.max(off);
+        } else {
+            worst_inside = worst_inside.max(d.min(0.08 - d).max(0.0));
+        }
     }
+    assert!(worst_outside < 0.01, "outside the blend: {worst_outside} m");
+    assert!(worst_inside <= 0.041, "inside the blend: {worst_inside} m");
+    assert!(
+        accel_blended < 2.0 * accel_clean,
+        "{accel_blended} vs {accel_clean} m/s²"
+    );
     // A jump within the fit tolerance is the fit's to absorb, as before.
     let small = shifted(|r| if r >= 700 { 0.004 } else { 0.0 });
     assert!(load_recording(&small, &RecordingOptions::default()).is_ok());

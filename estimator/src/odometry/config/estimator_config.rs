@@ -2,7 +2,7 @@
 
 use std::sync::Arc;
 
-use super::{GnssConfig, HealthLimits, WheelConfig, ZeroVelocityConfig};
+use super::{GnssConfig, HealthLimits, ImuNoiseModel, WheelConfig, ZeroVelocityConfig};
 use crate::camera::{CameraModel, RollingShutter};
 use crate::geometry::Pose;
 use crate::imu::ImuNoise;
@@ -87,6 +87,10 @@ pub struct EstimatorConfig {
     /// [`CameraConfig::pixel_sigma`] (the estimator applies it when built); `None`: each
     /// camera's.
     pub pixel_sigma_px: Option<f64>,
+    /// `[estimator.imu_noise]`: the IMU noise model assumed instead of `imu_noise` (the
+    /// sensor's), key by key (the estimator applies it when built); empty: the sensor's.
+    #[serde(rename = "imu_noise", skip_serializing_if = "ImuNoiseModel::is_empty")]
+    pub imu_noise_model: ImuNoiseModel,
     /// Keyframes kept in the window (the newest frame comes on top); at least `init_frames`.
     pub window_size: usize,
     /// Keyframes kept for the first `startup_window_s` of tracking with the IMU (`window_size`
@@ -412,6 +416,7 @@ impl EstimatorConfig {
             cameras,
             imu_noise,
             pixel_sigma_px: None,
+            imu_noise_model: ImuNoiseModel::default(),
             window_size: 10,
             startup_window_size: 10,
             startup_window_s: 0.0,

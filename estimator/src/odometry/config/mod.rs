@@ -6,6 +6,7 @@ mod error;
 mod estimator_config;
 mod gnss_wheel;
 mod health_limits;
+mod imu_noise_model;
 mod validation;
 mod zero_velocity;
 
@@ -15,4 +16,5 @@ pub use estimator_config::{
 };
 pub use gnss_wheel::{GnssConfig, WheelConfig};
 pub use health_limits::HealthLimits;
+pub use imu_noise_model::ImuNoiseModel;
 pub use zero_velocity::ZeroVelocityConfig;

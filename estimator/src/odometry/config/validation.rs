@@ -85,6 +85,11 @@ impl EstimatorConfig {
         if let Some(p) = self.pixel_sigma_px {
             positive("pixel_sigma_px", p)?;
         }
+        for (key, v) in self.imu_noise_model.entries() {
+            if let Some(v) = v {
+                positive(&format!("imu_noise.{key}"), v)?;
+            }
+        }
         count_in(
             "init_frames",
             self.init_frames,

@@ -16,7 +16,7 @@ pub(super) struct ImuModelArgs {
     #[arg(long)]
     gt: Option<PathBuf>,
     /// Output folder (`imu_model.json`, `allan.png`, `spectrum.png`; with --gt also
-    /// `error_model.toml`).
+    /// `error_model.toml` and `estimator_imu_noise.toml`).
     #[arg(long)]
     out: PathBuf,
     /// Analyse from this time (s from the log's first sample), e.g. the start of a rest.
@@ -33,6 +33,11 @@ pub(super) struct ImuModelArgs {
     /// ground truth's median period, at least 0.05 s].
     #[arg(long)]
     knot_spacing: Option<f64>,
+    /// With --gt: the IMU interval (s) the estimator's white densities in
+    /// `estimator_imu_noise.toml` are matched at: the camera period [default: 0.05, EuRoC's
+    /// 20 Hz].
+    #[arg(long)]
+    interval: Option<f64>,
 }
 
 /// Exit 0 after writing the outputs, 2 on bad input or an unwritable `--out`.
@@ -53,6 +58,7 @@ pub(super) fn imu_model_command(args: ImuModelArgs) -> ExitCode {
         to_s: args.to,
         rest_until_s: args.rest_until,
         knot_spacing_s: args.knot_spacing,
+        estimator_interval_s: args.interval,
     };
     let model = match analyze(&input, &opts) {
         Ok(m) => m,
