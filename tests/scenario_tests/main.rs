@@ -17,6 +17,7 @@ mod faults;
 mod frontend;
 mod imu_fidelity;
 mod persistent_points;
+mod realism;
 mod recorded_imu;
 mod reliability;
 mod rendered;
