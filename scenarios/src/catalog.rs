@@ -122,17 +122,24 @@ const IMU_ERROR_MODELS: &[(&str, &str)] = &[(
     include_str!("../catalog/imu_models/euroc_mav.toml"),
 )];
 
+/// The text of `name` in a table of named files.
+fn named(table: &[(&'static str, &'static str)], name: &str) -> Option<&'static str> {
+    table.iter().find(|(n, _)| *n == name).map(|(_, t)| *t)
+}
+
+/// The names of a table of named files.
+fn names_in(table: &[(&'static str, &'static str)]) -> Vec<&'static str> {
+    table.iter().map(|(n, _)| *n).collect()
+}
+
 /// A built-in IMU error model's text by name.
 pub fn imu_error_model(name: &str) -> Option<&'static str> {
-    IMU_ERROR_MODELS
-        .iter()
-        .find(|(n, _)| *n == name)
-        .map(|(_, t)| *t)
+    named(IMU_ERROR_MODELS, name)
 }
 
 /// The names of the built-in IMU error models.
 pub fn imu_error_model_names() -> Vec<&'static str> {
-    IMU_ERROR_MODELS.iter().map(|(n, _)| *n).collect()
+    names_in(IMU_ERROR_MODELS)
 }
 
 /// Built-in estimator IMU noise models (`estimator.imu_noise = "<name>"`), each a file in
@@ -144,15 +151,12 @@ const ESTIMATOR_IMU_NOISE: &[(&str, &str)] = &[(
 
 /// A built-in estimator IMU noise model's text by name.
 pub fn estimator_imu_noise(name: &str) -> Option<&'static str> {
-    ESTIMATOR_IMU_NOISE
-        .iter()
-        .find(|(n, _)| *n == name)
-        .map(|(_, t)| *t)
+    named(ESTIMATOR_IMU_NOISE, name)
 }
 
 /// The names of the built-in estimator IMU noise models.
 pub fn estimator_imu_noise_names() -> Vec<&'static str> {
-    ESTIMATOR_IMU_NOISE.iter().map(|(n, _)| *n).collect()
+    names_in(ESTIMATOR_IMU_NOISE)
 }
 
 /// Built-in sensor presets (`preset = "<name>"`), each a partial scenario in
@@ -164,12 +168,12 @@ const PRESETS: &[(&str, &str)] = &[(
 
 /// A built-in preset's text by name.
 pub fn preset(name: &str) -> Option<&'static str> {
-    PRESETS.iter().find(|(n, _)| *n == name).map(|(_, t)| *t)
+    named(PRESETS, name)
 }
 
 /// The names of the built-in presets.
 pub fn preset_names() -> Vec<&'static str> {
-    PRESETS.iter().map(|(n, _)| *n).collect()
+    names_in(PRESETS)
 }
 
 /// Every built-in scenario, the default first.

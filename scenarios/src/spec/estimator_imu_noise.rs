@@ -6,6 +6,7 @@
 
 use std::path::Path;
 
+use super::imu_error_model::is_preset_name;
 use super::{Origin, SpecError};
 use crate::catalog;
 
@@ -25,7 +26,7 @@ pub(crate) fn resolve(
         return Ok(out);
     };
     let err = |m: String| SpecError::at(file, text, KEY, m);
-    let (source, body) = if is_name(value) {
+    let (source, body) = if is_preset_name(value) {
         let body = catalog::estimator_imu_noise(value).ok_or_else(|| {
             err(format!(
                 "no built-in estimator IMU noise model `{value}` (built in: {}; or name a .toml file)",
@@ -76,11 +77,6 @@ pub(crate) fn resolve(
     }
     out.insert("imu_noise".into(), toml::Value::Table(table));
     Ok(out)
-}
-
-/// A value without `.toml` or a path separator names a built-in model.
-fn is_name(value: &str) -> bool {
-    !value.ends_with(".toml") && !value.contains('/') && !value.contains('\\')
 }
 
 #[cfg(test)]

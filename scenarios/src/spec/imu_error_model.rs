@@ -251,8 +251,9 @@ impl ImuErrorModelSpec {
     }
 }
 
-/// Whether `rig.imu.error_model`'s value names a built-in preset (no `.toml`, no `/`).
-fn is_preset_name(value: &str) -> bool {
+/// Whether a value names a built-in model rather than a file (no `.toml`, no `/`): for
+/// `rig.imu.error_model` and `estimator.imu_noise`.
+pub(super) fn is_preset_name(value: &str) -> bool {
     !value.ends_with(".toml") && !value.contains('/') && !value.contains('\\')
 }
 

@@ -227,6 +227,13 @@ fn bad_input_is_refused_with_the_file_named() {
         imu_model(&[g, "--from=-1"], &out),
         &["--from"],
     );
+    for interval in ["0", "5", "nan"] {
+        check(
+            "estimator interval",
+            imu_model(&[g, "--interval", interval], &out),
+            &["--interval", "[0.001, 1] s"],
+        );
+    }
 
     // Ground truth with a quaternion of norm 2 on line 3.
     let gt_row = |t: i64, qw: f64| format!("{t},0,0,0,{qw},0,0,0,0,0,0,0,0,0,0,0,0\n");
