@@ -297,6 +297,11 @@ fn with_groundtruth(
         .as_ref()
         .and_then(|f| f.model.bias_instability.as_ref());
     model.estimator_noise = recommend(&flight, interval, model.sensor_yaml.as_ref(), bias);
+    if model.estimator_noise.is_none() {
+        model.notes.push(format!(
+            "no estimator noise model: the in-flight residual's Allan deviation does not reach the {interval} s interval (too little flight, or an interval below the sample period)"
+        ));
+    }
     model.notes.push(format!(
         "ground truth every {gt_period:.4} s through a cubic B-spline with knots every {knots:.4} s: the implied IMU is valid below {bandwidth:.2} Hz; residual content above it is sensor noise and vibration, below it also the ground truth's error"
     ));
