@@ -242,7 +242,7 @@ impl Estimator {
                 c.pixel_sigma = sigma;
             }
         }
-        config.imu_noise = config.imu_noise_model.applied_to(config.imu_noise);
+        config.imu_noise = config.assumed_imu_noise();
         let mut focal = Vec::new();
         for (i, c) in config.cameras.iter().enumerate() {
             // Effective focal length: the projection's derivative on the optical axis.

@@ -78,7 +78,7 @@ fn sensor_yaml_distortion(kalibr: &str) -> &str {
 /// error included, as a calibration tool would have reported it).
 pub(crate) fn export_rig(scenario: &Scenario, est: &EstimatorConfig) -> ExportRig {
     let spec = &scenario.spec;
-    let noise: ImuNoise = est.imu_noise_model.applied_to(est.imu_noise);
+    let noise: ImuNoise = est.assumed_imu_noise();
     let imu = ImuSensor {
         comment: format!("vio simulated IMU, scenario {}", scenario.name),
         t_bs: Pose::identity(),

@@ -2,7 +2,7 @@
 //! ([`sim::motion::recording`]), and the source-time estimate file.
 
 use serde::Serialize;
-use sim::motion::recording::RecordingReport;
+use sim::motion::recording::{BlendedStep, RecordingReport};
 
 use crate::report::recorded_imu::RecordedImuReport;
 
@@ -28,7 +28,7 @@ pub struct ReplayReport {
     /// Steps bridged by a motion-limited blend (`repair`): the simulated motion leaves the file
     /// by up to half a step near each, so score against the run's ground truth, not the file.
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub steps_blended: Vec<StepReport>,
+    pub steps_blended: Vec<BlendedStep>,
     /// Gaps bridged.
     pub gaps_bridged: usize,
     /// Longest bridged gap (s).
@@ -45,21 +45,6 @@ pub struct ReplayReport {
     pub recorded_imu: Option<RecordedImuReport>,
 }
 
-/// One blended step.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct StepReport {
-    /// Line of the first sample after the step.
-    pub line: usize,
-    /// Its time (s, the file's clock).
-    pub t_s: f64,
-    /// Its position residual against the motion on both sides (m).
-    pub position_m: f64,
-    /// Its attitude residual (deg).
-    pub angle_deg: f64,
-    /// The blend's window (s).
-    pub blend_s: f64,
-}
-
 impl From<&RecordingReport> for ReplayReport {
     fn from(r: &RecordingReport) -> Self {
         let fold = |f: fn(&sim::motion::recording::Glitch) -> f64| {
@@ -74,17 +59,7 @@ impl From<&RecordingReport> for ReplayReport {
             glitch_lines: r.glitches.iter().map(|g| g.line).collect(),
             largest_glitch_m: fold(|g| g.position_m),
             largest_glitch_deg: fold(|g| g.angle_deg),
-            steps_blended: r
-                .steps
-                .iter()
-                .map(|s| StepReport {
-                    line: s.line,
-                    t_s: s.t_s,
-                    position_m: s.position_m,
-                    angle_deg: s.angle_deg,
-                    blend_s: s.blend_s,
-                })
-                .collect(),
+            steps_blended: r.steps.clone(),
             gaps_bridged: r.gaps.len(),
             longest_gap_s: r.gaps.iter().map(|g| g.length_s).fold(0.0, f64::max),
             bridged_samples: r.bridged_samples,

@@ -4,8 +4,6 @@
 //! --gt` writes. The file holds the keys of `[estimator.imu_noise]`; the table it gives stands
 //! where the string stood, so the estimator's own checks apply to it as to a written table.
 
-use std::path::Path;
-
 use super::imu_error_model::is_preset_name;
 use super::{Origin, SpecError};
 use crate::catalog;
@@ -35,26 +33,10 @@ pub(crate) fn resolve(
         })?;
         (format!("preset:{value}"), body.to_string())
     } else {
-        match origin {
-            Origin::Catalog => (
-                value.clone(),
-                catalog::data(value)
-                    .ok_or_else(|| err(format!("no embedded catalog data file `{value}`")))?,
-            ),
-            Origin::File(p) => {
-                let path = p.parent().unwrap_or(Path::new(".")).join(value);
-                let bytes = sim::input_file::read(&path).map_err(|e| {
-                    err(format!(
-                        "cannot read {} (relative to the scenario file): {e}",
-                        path.display()
-                    ))
-                })?;
-                (
-                    path.display().to_string(),
-                    String::from_utf8_lossy(&bytes).into_owned(),
-                )
-            }
-        }
+        (
+            origin.path_of(value).display().to_string(),
+            origin.read(value).map_err(err)?,
+        )
     };
     let table: toml::Table = body
         .parse()
@@ -81,6 +63,8 @@ pub(crate) fn resolve(
 
 #[cfg(test)]
 mod tests {
+    use std::path::Path;
+
     use super::super::Scenario;
     use super::*;
 
@@ -105,7 +89,7 @@ mod tests {
             let origin = in_file(dir.path(), "s.toml", &text);
             let s = Scenario::parse("s", origin, &text).unwrap_or_else(|e| panic!("{e}"));
             let c = s.estimator_config().unwrap();
-            c.imu_noise_model.applied_to(c.imu_noise)
+            c.assumed_imu_noise()
         };
         let named = assumed("imu_noise = \"euroc_mav\"");
         assert_eq!(named, assumed("imu_noise = \"noise.toml\""));

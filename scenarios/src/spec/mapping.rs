@@ -504,27 +504,7 @@ impl Scenario {
     /// Reads a data file named in the scenario: relative to the scenario file, or embedded for
     /// catalog scenarios.
     pub(super) fn data_file(&self, key: &str, rel: &str) -> Result<String, SpecError> {
-        match &self.origin {
-            Origin::Catalog => catalog::data(rel)
-                .ok_or_else(|| self.error(key, format!("no embedded catalog data file `{rel}`"))),
-            Origin::File(p) => {
-                let base = p.parent().unwrap_or(Path::new("."));
-                let path = base.join(rel);
-                // Bytes that are not UTF-8 (a Latin-1 comment) are replaced, not refused: the
-                // data files' numbers are ASCII.
-                sim::input_file::read(&path)
-                    .map(|b| String::from_utf8_lossy(&b).into_owned())
-                    .map_err(|e| {
-                        self.error(
-                            key,
-                            format!(
-                                "cannot read {} (relative to the scenario file): {e}",
-                                path.display()
-                            ),
-                        )
-                    })
-            }
-        }
+        self.origin.read(rel).map_err(|m| self.error(key, m))
     }
 
     /// The simulator configuration; `seed` overrides `world.seed`, `duration_s` the
@@ -752,5 +732,39 @@ impl Scenario {
             ));
         }
         Ok(cfg)
+    }
+}
+
+impl Origin {
+    /// Where a data file named `rel` in the scenario lives: relative to the scenario file, or
+    /// as the catalog's embedded path.
+    pub(super) fn path_of(&self, rel: &str) -> std::path::PathBuf {
+        match self {
+            Origin::Catalog => std::path::PathBuf::from(rel),
+            Origin::File(p) => p.parent().unwrap_or(Path::new(".")).join(rel),
+        }
+    }
+
+    /// The text of data file `rel` ([`Origin::path_of`]; embedded for catalog scenarios); the
+    /// error says which file and why.
+    pub(super) fn read(&self, rel: &str) -> Result<String, String> {
+        match self {
+            Origin::Catalog => {
+                catalog::data(rel).ok_or_else(|| format!("no embedded catalog data file `{rel}`"))
+            }
+            Origin::File(_) => {
+                let path = self.path_of(rel);
+                // Bytes that are not UTF-8 (a Latin-1 comment) are replaced, not refused: the
+                // data files' numbers are ASCII.
+                sim::input_file::read(&path)
+                    .map(|b| String::from_utf8_lossy(&b).into_owned())
+                    .map_err(|e| {
+                        format!(
+                            "cannot read {} (relative to the scenario file): {e}",
+                            path.display()
+                        )
+                    })
+            }
+        }
     }
 }

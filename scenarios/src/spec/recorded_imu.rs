@@ -10,7 +10,7 @@
 //! The ground-truth biases are the recording's when the replayed file is an EuRoC ASL ground
 //! truth with bias columns, else zero.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 
 use estimator::geometry::Pose;
@@ -20,7 +20,7 @@ use sim::imu_source::RecordedImu;
 use sim::motion::recording::{RecordingReport, TimeUnit};
 use sim::motion::{Reference, Replay};
 
-use super::{Origin, Scenario, SpecError};
+use super::{Scenario, SpecError};
 use crate::dataset::{GroundTruthState, parse_groundtruth_csv, parse_imu_csv};
 
 /// Largest relative difference between the log's median rate and `rig.imu.rate_hz`.
@@ -205,10 +205,7 @@ impl Scenario {
     /// A data file's path as errors name it: relative to the scenario file, or as written for
     /// catalog scenarios.
     pub(super) fn data_path(&self, rel: &str) -> PathBuf {
-        match &self.origin {
-            Origin::Catalog => PathBuf::from(rel),
-            Origin::File(p) => p.parent().unwrap_or(Path::new(".")).join(rel),
-        }
+        self.origin.path_of(rel)
     }
 
     /// The recorded IMU log (`rig.imu.recorded`), when the scenario has one.

@@ -203,7 +203,7 @@ fn exported_kalibr_files_give_back_every_catalog_rig_exactly() {
         }
         // The noise the estimator assumes: the rig's, or `[estimator.imu_noise]` over it.
         let f = |k: &str| imu[k].as_float().unwrap();
-        let n = est.imu_noise_model.applied_to(est.imu_noise);
+        let n = est.assumed_imu_noise();
         assert_eq!(f("rate_hz"), rig.imu.rate_hz, "{name}");
         assert_eq!(f("gyroscope_noise_density"), n.gyroscope_noise_density);
         assert_eq!(

@@ -571,7 +571,7 @@ pub fn load_recording(
             kept_samples[step.index + 1].t - kept_samples[step.index].t
         )));
     }
-    let steps = blend_steps(&mut kept, &kept_samples, &jumps.steps, accel)?;
+    let steps = blend_steps(&mut kept, &jumps.steps, accel)?;
     if let Some(&(first, last, jump)) = jumps.excursions.first()
         && !options.repair
     {

@@ -25,8 +25,8 @@ pub const MAX_BLEND_S: f64 = 2.0;
 /// Peak `|s''|` of the minimum-jerk ramp on `[0, 1]`.
 const PEAK_ACCEL_PER_STEP: f64 = 5.773_502_691_896_258;
 
-/// A step bridged by a blend.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// A step bridged by a blend (`report.json` → `replay.steps_blended` holds it as it is).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct BlendedStep {
     /// 1-based line of the first sample after the step.
     pub line: usize,
@@ -89,15 +89,15 @@ fn overlapping(samples: &[PoseSample], steps: &[(Jump, f64)]) -> Option<(usize, 
         .find_map(|(a, pair)| (span(&pair[0]).1 >= span(&pair[1]).0).then_some((a, a + 1)))
 }
 
-/// The steps bridged in `kept` (lines and samples; `samples` are its samples before the blend),
-/// each by the window its size needs at the motion's accelerations `accel`; refused when a step
-/// needs more than [`MAX_BLEND_S`] or two windows overlap.
+/// The steps (indices into `kept`) bridged in `kept` (lines and samples), each by the window its
+/// size needs at the motion's accelerations `accel`; refused when a step needs more than
+/// [`MAX_BLEND_S`] or two windows overlap.
 pub(super) fn blend_steps(
     kept: &mut [(usize, PoseSample)],
-    samples: &[PoseSample],
     steps: &[Jump],
     accel: (f64, f64),
 ) -> Result<Vec<BlendedStep>, TrajectoryError> {
+    let mut samples: Vec<PoseSample> = kept.iter().map(|k| k.1).collect();
     let windows: Vec<(Jump, f64)> = steps.iter().map(|j| (*j, blend_window(j, accel))).collect();
     let line = |j: &Jump| kept[j.index + 1].0;
     if let Some((j, w)) = windows.iter().find(|(_, w)| *w > MAX_BLEND_S) {
@@ -111,7 +111,7 @@ pub(super) fn blend_steps(
             accel.1
         )));
     }
-    if let Some((a, b)) = overlapping(samples, &windows) {
+    if let Some((a, b)) = overlapping(&samples, &windows) {
         return Err(TrajectoryError::Unusable(format!(
             "lines {} and {}: two steps {:.3} s apart, closer than their blends ({:.2} s, {:.2} s): cut the recording between them",
             line(&windows[a].0),
@@ -134,9 +134,8 @@ pub(super) fn blend_steps(
             }
         })
         .collect();
-    let mut moved: Vec<PoseSample> = samples.to_vec();
-    blend(&mut moved, &windows);
-    for (k, s) in kept.iter_mut().zip(moved) {
+    blend(&mut samples, &windows);
+    for (k, s) in kept.iter_mut().zip(samples) {
         k.1 = s;
     }
     Ok(report)

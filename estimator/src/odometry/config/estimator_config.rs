@@ -494,6 +494,12 @@ impl EstimatorConfig {
 }
 
 impl EstimatorConfig {
+    /// The IMU noise the estimator assumes: the sensor's `imu_noise` with `[estimator.imu_noise]`
+    /// laid over it (what [`crate::Estimator::new`] uses).
+    pub fn assumed_imu_noise(&self) -> ImuNoise {
+        self.imu_noise_model.applied_to(self.imu_noise)
+    }
+
     /// The settings' defaults with an empty rig (stereo+IMU, no cameras, EuRoC IMU noise; not
     /// valid on its own); what a deserialized configuration starts from.
     pub fn settings_default() -> Self {
