@@ -181,6 +181,12 @@ pub struct FrontendStats {
     pub stereo_error_median_px: f64,
     /// Same: 95th percentile.
     pub stereo_error_p95_px: f64,
+    /// The pixel σ an estimator should assume for this front end: the per-axis RMS of every
+    /// kept track's and stereo match's error within [`WRONG_TRACK_PX`] (the tracks beyond it
+    /// are outliers, left to the robust loss), `√(Σ e² / 2n)`. A track's error is taken
+    /// against its first observation's scene point, as an estimator anchoring a landmark on
+    /// its first observation sees it.
+    pub pixel_sigma_px: f64,
     /// Observations with no scene point to compare with (the ray hit nothing).
     pub unverifiable: usize,
 }
@@ -355,8 +361,24 @@ impl TrackEvaluation {
             wrong_after_ransac: frac(wrong(&self.track_errors), kept),
             stereo_error_median_px: percentile(&self.stereo_errors, 0.5),
             stereo_error_p95_px: percentile(&self.stereo_errors, 0.95),
+            pixel_sigma_px: per_axis_rms_within(
+                self.track_errors.iter().chain(&self.stereo_errors),
+                WRONG_TRACK_PX,
+            ),
             unverifiable: self.unverifiable,
         }
+    }
+}
+
+/// Per-axis RMS `√(Σ e² / 2n)` of the 2-D error norms `e` at most `limit`; 0 when none.
+fn per_axis_rms_within<'a>(errors: impl Iterator<Item = &'a f64>, limit: f64) -> f64 {
+    let (sum, n) = errors
+        .filter(|e| **e <= limit)
+        .fold((0.0, 0usize), |(s, n), e| (s + e * e, n + 1));
+    if n == 0 {
+        0.0
+    } else {
+        (sum / (2 * n) as f64).sqrt()
     }
 }
 
@@ -368,4 +390,20 @@ pub(crate) fn percentile(v: &[f64], p: f64) -> f64 {
     let mut s = v.to_vec();
     s.sort_by(f64::total_cmp);
     s[((p * s.len() as f64).ceil() as usize).clamp(1, s.len()) - 1]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 2-D Gaussian error of σ per axis has `E|e|² = 2σ²`; outliers past the limit are left
+    /// out.
+    #[test]
+    fn pixel_sigma_is_the_per_axis_rms_within_the_limit() {
+        let errors = [0.3f64, 0.4, 0.5, 50.0];
+        let want = ((0.09 + 0.16 + 0.25) / 6.0f64).sqrt();
+        let got = per_axis_rms_within(errors.iter(), WRONG_TRACK_PX);
+        assert!((got - want).abs() < 1e-12, "{got}");
+        assert_eq!(per_axis_rms_within([9.0f64].iter(), WRONG_TRACK_PX), 0.0);
+    }
 }

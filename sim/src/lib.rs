@@ -28,6 +28,7 @@ pub mod imu_source;
 pub mod input_file;
 pub mod limits;
 pub mod motion;
+pub mod plausible;
 pub mod render;
 mod render_worker;
 pub mod rng;

@@ -9,6 +9,7 @@ use estimator::camera::{Camera, KannalaBrandt, PinholeRadtan};
 use estimator::geometry::Pose;
 use estimator::imu::ImuNoise;
 use nalgebra::{Matrix3, Matrix4, Rotation3, UnitQuaternion, Vector3};
+use sim::plausible::{self, Plausible};
 
 use super::yaml::{Doc, list, scalar};
 use super::{
@@ -264,6 +265,13 @@ impl YamlReader<'_> {
         }
     }
 
+    /// The value at `key` in its physical range ([`sim::plausible`]).
+    fn plausible(&self, key: &str, range: &Plausible) -> Result<f64, DatasetError> {
+        let v = self.positive(key)?;
+        range.check(v).map_err(|m| self.err(key, m))?;
+        Ok(v)
+    }
+
     fn f64_list(&self, key: &str) -> Result<Vec<f64>, DatasetError> {
         let items = list(&self.entry(key)?.value).map_err(|m| self.err(key, m))?;
         items
@@ -325,9 +333,20 @@ pub fn parse_sensor_yaml(text: &str, path: &Path) -> Result<SensorYaml, DatasetE
         None => String::new(),
     };
     let t_bs = r.t_bs()?;
+    plausible::CAMERA_OFFSET_M
+        .check(t_bs.p.norm())
+        .map_err(|m| {
+            r.err(
+                "T_BS.data",
+                format!("the sensor {} m from the body origin: {m}", t_bs.p.norm()),
+            )
+        })?;
     let rate_hz = r.positive("rate_hz")?;
     match sensor_type.as_str() {
         "camera" => {
+            plausible::CAMERA_RATE_HZ
+                .check(rate_hz)
+                .map_err(|m| r.err("rate_hz", m))?;
             let res = r.f64_list("resolution")?;
             let valid = res.len() == 2
                 && res
@@ -339,23 +358,51 @@ pub fn parse_sensor_yaml(text: &str, path: &Path) -> Result<SensorYaml, DatasetE
                     format!("expected [width, height] in pixels, found {res:?}"),
                 ));
             }
+            let intrinsics = r.f64_list("intrinsics")?;
+            let longer = res[0].max(res[1]);
+            for f in intrinsics.iter().take(2) {
+                plausible::FOCAL_PER_IMAGE_SIDE
+                    .check(f / longer)
+                    .map_err(|m| {
+                        r.err(
+                            "intrinsics",
+                            format!("focal length {f} px over the longer side {longer} px: {m}"),
+                        )
+                    })?;
+            }
+            let distortion_coefficients = r.f64_list("distortion_coefficients")?;
+            for d in &distortion_coefficients {
+                plausible::DISTORTION_COEFFICIENT
+                    .check(*d)
+                    .map_err(|m| r.err("distortion_coefficients", m))?;
+            }
             Ok(SensorYaml::Camera(CameraSensor {
                 comment,
                 t_bs,
                 rate_hz,
                 resolution: [res[0] as u32, res[1] as u32],
                 camera_model: r.string("camera_model")?,
-                intrinsics: r.f64_list("intrinsics")?,
+                intrinsics,
                 distortion_model: r.string("distortion_model")?,
-                distortion_coefficients: r.f64_list("distortion_coefficients")?,
+                distortion_coefficients,
             }))
         }
         "imu" => {
             let noise = ImuNoise {
-                gyroscope_noise_density: r.positive("gyroscope_noise_density")?,
-                accelerometer_noise_density: r.positive("accelerometer_noise_density")?,
-                gyroscope_random_walk: r.positive("gyroscope_random_walk")?,
-                accelerometer_random_walk: r.positive("accelerometer_random_walk")?,
+                gyroscope_noise_density: r.plausible(
+                    "gyroscope_noise_density",
+                    &plausible::GYROSCOPE_NOISE_DENSITY,
+                )?,
+                accelerometer_noise_density: r.plausible(
+                    "accelerometer_noise_density",
+                    &plausible::ACCELEROMETER_NOISE_DENSITY,
+                )?,
+                gyroscope_random_walk: r
+                    .plausible("gyroscope_random_walk", &plausible::GYROSCOPE_RANDOM_WALK)?,
+                accelerometer_random_walk: r.plausible(
+                    "accelerometer_random_walk",
+                    &plausible::ACCELEROMETER_RANDOM_WALK,
+                )?,
             };
             Ok(SensorYaml::Imu(ImuSensor {
                 comment,

@@ -10,7 +10,9 @@ use super::error_model::fit_error_model;
 use super::estimator_noise::recommend;
 use super::fit::{NoiseFit, SlopeReadoff, fit_noise_model, slope_readoff};
 use super::motion::check_motion;
-use super::options::{DEFAULT_ESTIMATOR_INTERVAL_S, MIN_SAMPLES, Options};
+use super::options::{
+    DEFAULT_ESTIMATOR_INTERVAL_S, DEFAULT_ESTIMATOR_WINDOW_S, MIN_SAMPLES, Options,
+};
 use super::report::{
     AllanSection, AxisAllan, ImuModel, KalibrReference, SCHEMA, Selection, SensorAllan, SensorPair,
     SensorSpectrum, SpectrumSection,
@@ -62,6 +64,16 @@ pub fn analyze(input: &Input, opts: &Options) -> Result<ImuModel, String> {
         return Err(format!(
             "--interval must be an IMU interval in [0.001, 1] s (a camera period), got {t}"
         ));
+    }
+    if let Some(w) = opts.estimator_window_s {
+        let interval = opts
+            .estimator_interval_s
+            .unwrap_or(DEFAULT_ESTIMATOR_INTERVAL_S);
+        if !(w.is_finite() && w >= interval && w <= 10.0) {
+            return Err(format!(
+                "--window must be the span of the estimator's window in [--interval ({interval} s), 10] s, got {w}"
+            ));
+        }
     }
     if let Some(k) = opts.knot_spacing_s
         && !(k.is_finite() && (0.01..=2.0).contains(&k))
@@ -296,7 +308,16 @@ fn with_groundtruth(
         .error_model
         .as_ref()
         .and_then(|f| f.model.bias_instability.as_ref());
-    model.estimator_noise = recommend(&flight, interval, model.sensor_yaml.as_ref(), bias);
+    let window = opts
+        .estimator_window_s
+        .unwrap_or(DEFAULT_ESTIMATOR_WINDOW_S)
+        .max(interval);
+    model.estimator_noise = recommend(
+        &flight,
+        (interval, window),
+        model.sensor_yaml.as_ref(),
+        bias,
+    );
     if model.estimator_noise.is_none() {
         model.notes.push(format!(
             "no estimator noise model: the in-flight residual's Allan deviation does not reach the {interval} s interval (too little flight, or an interval below the sample period)"

@@ -25,7 +25,7 @@ pub use error_model::fit_error_model;
 pub use estimator_noise::recommend;
 pub use fit::{NoiseFit, SlopeReadoff, fit_noise_model, slope_readoff};
 pub use input::load;
-pub use options::{DEFAULT_ESTIMATOR_INTERVAL_S, MIN_SAMPLES, Options};
+pub use options::{DEFAULT_ESTIMATOR_INTERVAL_S, DEFAULT_ESTIMATOR_WINDOW_S, MIN_SAMPLES, Options};
 pub use report::{EstimatorNoise, FittedErrorModel, ImuModel};
 pub use summary::summary;
 pub use write::write_outputs;

@@ -17,7 +17,15 @@ pub struct Options {
     /// With ground truth: the IMU interval (s) the estimator's white densities are matched at;
     /// default [`DEFAULT_ESTIMATOR_INTERVAL_S`].
     pub estimator_interval_s: Option<f64>,
+    /// With ground truth: the span (s) of the estimator's window, the longest time scale its
+    /// white densities are matched over; default [`DEFAULT_ESTIMATOR_WINDOW_S`].
+    pub estimator_window_s: Option<f64>,
 }
 
 /// The EuRoC camera period (20 Hz): the shortest interval an estimator's IMU factor spans there.
 pub const DEFAULT_ESTIMATOR_INTERVAL_S: f64 = 0.05;
+
+/// The span of the estimator's 10-keyframe window on the EuRoC flights: on the V1_01 preset's
+/// stereo+IMU run (seed 1, 30 s) 0.67 s median and 0.93 s mean, keyframes 0.05 s apart median
+/// and 0.10 s mean.
+pub const DEFAULT_ESTIMATOR_WINDOW_S: f64 = 0.8;

@@ -230,8 +230,10 @@ pub struct FittedErrorModel {
 /// The recommended model and how it was read off.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct EstimatorNoise {
-    /// The IMU interval the white densities are matched at (s).
+    /// The IMU interval (s): the shortest time scale the white densities are matched over.
     pub interval_s: f64,
+    /// The estimator window's span (s): the longest (or the curve's end, if shorter).
+    pub window_s: f64,
     /// Gyroscope white noise density (rad/s/√Hz).
     pub gyroscope_noise_density: f64,
     /// Accelerometer white noise density (m/s²/√Hz).
@@ -241,7 +243,7 @@ pub struct EstimatorNoise {
     pub gyroscope_random_walk: Option<f64>,
     /// Accelerometer bias random walk (m/s³/√Hz); as the gyroscope's.
     pub accelerometer_random_walk: Option<f64>,
-    /// Per axis (x, y, z), the in-flight residual's white-equivalent density at the interval.
+    /// Per axis (x, y, z), the in-flight residual's white-equivalent density over the band.
     pub per_axis: SensorPair<[f64; 3]>,
     /// Each value's reasoning, written beside it in the file.
     pub reasoning: Vec<String>,

@@ -266,8 +266,9 @@ pub fn summary(m: &ImuModel) -> String {
 fn estimator_noise_rows(out: &mut String, n: &super::EstimatorNoise) {
     let _ = writeln!(
         out,
-        "estimator noise model (estimator_imu_noise.toml, for `[estimator.imu_noise]`), matched at {:.0} ms:",
-        n.interval_s * 1e3
+        "estimator noise model (estimator_imu_noise.toml, for `[estimator.imu_noise]`), matched over {:.0}–{:.0} ms:",
+        n.interval_s * 1e3,
+        n.window_s * 1e3
     );
     for r in &n.reasoning {
         let _ = writeln!(out, "  {r}");

@@ -182,7 +182,7 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
     if let Some(f) = &r.frontend {
         let _ = writeln!(
             s,
-            "front end     {:.0} features/frame (min {}), tracks {:.1} frames, stereo {:.0} %, track error median / p95 {:.3} / {:.3} px, wrong {:.2} % → {:.2} % after RANSAC, stereo error median {:.3} px",
+            "front end     {:.0} features/frame (min {}), tracks {:.1} frames, stereo {:.0} %, track error median / p95 {:.3} / {:.3} px, wrong {:.2} % → {:.2} % after RANSAC, stereo error median {:.3} px; pixel σ for the estimator {:.3} px",
             f.features_mean,
             f.features_min,
             f.mean_track_length,
@@ -191,7 +191,8 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
             f.track_error_p95_px,
             100.0 * f.wrong_before_ransac,
             100.0 * f.wrong_after_ransac,
-            f.stereo_error_median_px
+            f.stereo_error_median_px,
+            f.pixel_sigma_px
         );
     }
     if let Some(f) = &r.frontend_tracks {

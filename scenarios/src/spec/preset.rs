@@ -61,4 +61,30 @@ mod tests {
             .to_string();
         assert!(e.contains("preset") && e.contains("euroc_realistic"), "{e}");
     }
+
+    /// The estimator is told the calibration's uncertainty the preset draws its error at: the
+    /// extrinsics estimated, each prior at the draw's σ (the pair against the IMU; the second
+    /// camera against the first).
+    #[test]
+    fn the_realistic_preset_tells_the_estimator_the_calibrations_uncertainty() {
+        let text = catalog::get("euroc_v1_01_realistic_stereo_imu")
+            .unwrap()
+            .text;
+        let s = Scenario::parse("t", Origin::Catalog, text).unwrap_or_else(|e| panic!("{e}"));
+        let draw = s.spec.rig.calibration_draw.as_ref().expect("a draw");
+        let c = s.estimator_config().unwrap();
+        assert!(c.estimate_extrinsics);
+        assert_eq!(c.extrinsic_prior_sigma_deg, draw.camera_imu_rotation_deg);
+        assert_eq!(c.extrinsic_prior_sigma_m, draw.camera_imu_translation_m);
+        assert_eq!(
+            c.extrinsic_relative_prior_sigma_deg,
+            draw.stereo_rotation_deg
+        );
+        assert_eq!(
+            c.extrinsic_relative_prior_sigma_m,
+            draw.stereo_translation_m
+        );
+        let sigma = c.pixel_sigma_px.expect("the front end's measured pixel σ");
+        assert!(sigma > 0.1 && sigma < 0.3, "{sigma}");
+    }
 }

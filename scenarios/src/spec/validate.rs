@@ -5,6 +5,7 @@
 //! data files; each error names the key and its line.
 
 use sim::limits;
+use sim::plausible::{self, Plausible};
 
 use super::{Scenario, SpecError, SuiteSpec};
 
@@ -70,6 +71,11 @@ impl Check<'_> {
                 format!("expected a number in [{lo}, {hi}] ({why}), got {v}"),
             ))
         }
+    }
+
+    /// `v` in the physical range of its quantity ([`sim::plausible`]).
+    fn plausible(&self, key: &str, v: f64, range: &Plausible) -> Result<(), SpecError> {
+        range.check(v).map_err(|e| self.scenario.error(key, e))
     }
 
     fn at_most(&self, key: &str, v: usize, hi: usize, why: &str) -> Result<(), SpecError> {
@@ -247,6 +253,7 @@ impl Scenario {
             limits::MAX_CAMERA_RATE_HZ.min(imu.rate_hz),
             "a camera no faster than 1 kHz nor than the IMU",
         )?;
+        c.plausible("rig.rate_hz", rig.rate_hz, &plausible::CAMERA_RATE_HZ)?;
         if let Some(g) = rig.gnss {
             c.within("rig.gnss.rate_hz", g.rate_hz, 0.01, 1000.0, "a receiver")?;
             c.whole_ns_period("rig.gnss.rate_hz", g.rate_hz)?;
@@ -321,9 +328,29 @@ impl Scenario {
                     format!("expected focal lengths fx, fy ≥ 1 px, got {fx}, {fy}"),
                 ));
             }
+            let longer = f64::from(w.max(h));
+            for f in [fx, fy] {
+                plausible::FOCAL_PER_IMAGE_SIDE
+                    .check(f / longer)
+                    .map_err(|e| {
+                        self.error(
+                            &k("intrinsics"),
+                            format!("focal length {f} px over the longer side {longer} px: {e}"),
+                        )
+                    })?;
+            }
             c.finite_all(&k("distortion"), &cam.distortion)?;
+            for d in &cam.distortion {
+                c.plausible(&k("distortion"), *d, &plausible::DISTORTION_COEFFICIENT)?;
+            }
             self.camera_model(i)?;
-            self.extrinsic(i)?;
+            let offset = self.extrinsic(i)?.p.norm();
+            plausible::CAMERA_OFFSET_M.check(offset).map_err(|e| {
+                self.error(
+                    &k("T_b_c.translation_m"),
+                    format!("the camera {offset} m from the IMU: {e}"),
+                )
+            })?;
             // Noise beyond a tenth of the image makes every feature a random pixel.
             let side = f64::from(w.min(h));
             c.within(
@@ -430,22 +457,30 @@ impl Scenario {
                 ));
             }
         }
-        for (key, v) in [
+        for (key, v, range) in [
             (
                 "rig.imu.gyroscope_noise_density",
                 imu.gyroscope_noise_density,
+                plausible::GYROSCOPE_NOISE_DENSITY,
             ),
             (
                 "rig.imu.accelerometer_noise_density",
                 imu.accelerometer_noise_density,
+                plausible::ACCELEROMETER_NOISE_DENSITY,
             ),
-            ("rig.imu.gyroscope_random_walk", imu.gyroscope_random_walk),
+            (
+                "rig.imu.gyroscope_random_walk",
+                imu.gyroscope_random_walk,
+                plausible::GYROSCOPE_RANDOM_WALK,
+            ),
             (
                 "rig.imu.accelerometer_random_walk",
                 imu.accelerometer_random_walk,
+                plausible::ACCELEROMETER_RANDOM_WALK,
             ),
         ] {
             c.positive(key, v)?;
+            c.plausible(key, v, &range)?;
         }
         c.finite_all(
             "rig.imu.initial_gyro_bias_rad_s",
@@ -457,9 +492,11 @@ impl Scenario {
         )?;
         if let Some(r) = imu.gyro_range_rad_s {
             c.positive("rig.imu.gyro_range_rad_s", r)?;
+            c.plausible("rig.imu.gyro_range_rad_s", r, &plausible::GYRO_RANGE_RAD_S)?;
         }
         if let Some(r) = imu.accel_range_m_s2 {
             c.positive("rig.imu.accel_range_m_s2", r)?;
+            c.plausible("rig.imu.accel_range_m_s2", r, &plausible::ACCEL_RANGE_M_S2)?;
         }
         Ok(())
     }

@@ -513,3 +513,53 @@ fn fifos_and_folders_are_refused_at_the_door_not_read() {
         "{err}"
     );
 }
+
+/// Units mistakes by 10³ (millimetres typed as metres, a focal length in millimetres, mg as
+/// m/s², a period for a rate) are refused at the door with the key, the value and the physical
+/// range (`sim::plausible`), where they used to run to a meaningless PASS or FAIL.
+#[test]
+fn physically_impossible_values_are_refused_with_their_range() {
+    let base = default_text(2.0);
+    let cases = [
+        (
+            "camera-55m",
+            base.replacen(
+                "translation_m = [0.0, 0.055, 0.0]",
+                "translation_m = [0.0, 55.0, 0.0]",
+                1,
+            ),
+            "rig.cameras[0].T_b_c.translation_m",
+            &["55 m from the IMU", "[0, 5] m"][..],
+        ),
+        (
+            "accel-density-2",
+            base.replacen(
+                "accelerometer_noise_density = 2.0e-3",
+                "accelerometer_noise_density = 2.0",
+                1,
+            ),
+            "rig.imu.accelerometer_noise_density",
+            &["2 m/s²/√Hz", "[1e-6, 1]"][..],
+        ),
+        (
+            "camera-0.05hz",
+            base.replacen("rate_hz = 20.0", "rate_hz = 0.05", 1),
+            "rig.rate_hz",
+            &["0.05 Hz", "[1, 1000] Hz"][..],
+        ),
+        (
+            "focal-mm",
+            base.replacen(
+                "intrinsics = [458.654, 457.296, 367.215, 248.375]",
+                "intrinsics = [4.58, 4.57, 367.215, 248.375]",
+                1,
+            ),
+            "rig.cameras[0].intrinsics",
+            &["focal length 4.58 px", "[0.05, 100]"][..],
+        ),
+    ];
+    for (tag, text, key, expect) in &cases {
+        assert_ne!(text, &base, "{tag}: the replacement did not apply");
+        assert_bad(tag, text, key, expect);
+    }
+}

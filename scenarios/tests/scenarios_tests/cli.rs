@@ -95,6 +95,42 @@ fn eval_prints_evo_ate() {
     assert_eq!(out.status.code(), Some(0));
 }
 
+/// An RPE step that is no step (0, negative, NaN, or not whole in frames) is refused with exit
+/// 2 naming the option, where `--rpe-delta 0` used to exit 0.
+#[test]
+fn eval_refuses_an_rpe_delta_that_is_no_step() {
+    let (gt, est) = (
+        evo_dir("synthetic").join("gt.tum"),
+        evo_dir("synthetic").join("est.tum"),
+    );
+    for (delta, unit) in [
+        ("0", "m"),
+        ("-1", "m"),
+        ("nan", "m"),
+        ("inf", "m"),
+        ("0", "f"),
+        ("1.5", "f"),
+    ] {
+        let out = vio(&[
+            "eval",
+            "--gt",
+            gt.to_str().unwrap(),
+            "--est",
+            est.to_str().unwrap(),
+            &format!("--rpe-delta={delta}"),
+            "--rpe-unit",
+            unit,
+        ]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{delta} {unit}: {stderr}");
+        assert!(
+            stderr.contains("vio eval: error"),
+            "{delta} {unit}: {stderr}"
+        );
+        assert!(stderr.contains("--rpe-delta"), "{delta} {unit}: {stderr}");
+    }
+}
+
 /// `--gt` also reads a EuRoC ground-truth file (`state_groundtruth_estimate0/data.csv`, as
 /// `vio export` and the EuRoC datasets write it): the same poses give the same printed metrics
 /// as their TUM file, and a bad row is refused with its file and line.

@@ -427,6 +427,63 @@ fn sensor_yaml_errors_name_file_and_key() {
     assert_names(&e, "cam0/sensor.yaml", Some(2));
 }
 
+/// A `sensor.yaml` value outside its physical range (`sim::plausible`) is refused naming the
+/// file, the line and the key, where it used to run (an accelerometer density of 2.0 to a PASS).
+#[test]
+fn sensor_yaml_refuses_physically_impossible_values() {
+    let fix = |s: &str| std::fs::read_to_string(fixtures().join(s)).unwrap();
+    let (cam, imu) = (
+        fix("euroc/mav0/cam0/sensor.yaml"),
+        fix("euroc/mav0/imu0/sensor.yaml"),
+    );
+    let p = Path::new("x/sensor.yaml");
+    let cases = [
+        (
+            cam.replace("458.654", "4.58"),
+            "intrinsics",
+            "focal length 4.58 px",
+        ),
+        (
+            cam.replace("-0.28340811", "1e6"),
+            "distortion_coefficients",
+            "1000000",
+        ),
+        (
+            cam.replace("-0.0216401454975", "55.0"),
+            "T_BS.data",
+            "m from the body origin",
+        ),
+        (
+            cam.replace("rate_hz: 20", "rate_hz: 0.05"),
+            "rate_hz",
+            "0.05 Hz",
+        ),
+        (
+            imu.replace(
+                "accelerometer_noise_density: 2.0000e-3",
+                "accelerometer_noise_density: 2.0",
+            ),
+            "accelerometer_noise_density",
+            "[1e-6, 1] m/s²/√Hz",
+        ),
+        (
+            imu.replace(
+                "gyroscope_noise_density: 1.6968e-04",
+                "gyroscope_noise_density: 1e300",
+            ),
+            "gyroscope_noise_density",
+            "not physically plausible",
+        ),
+    ];
+    for (text, key, says) in &cases {
+        let e = parse_sensor_yaml(text, p).expect_err(key).to_string();
+        assert!(
+            e.contains("x/sensor.yaml:") && e.contains(key) && e.contains(says),
+            "{key}: {e}"
+        );
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // features.csv
 

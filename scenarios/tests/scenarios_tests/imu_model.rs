@@ -234,6 +234,13 @@ fn bad_input_is_refused_with_the_file_named() {
             &["--interval", "[0.001, 1] s"],
         );
     }
+    for window in ["0.01", "20", "nan"] {
+        check(
+            "estimator window",
+            imu_model(&[g, "--window", window], &out),
+            &["--window", "10] s"],
+        );
+    }
 
     // Ground truth with a quaternion of norm 2 on line 3.
     let gt_row = |t: i64, qw: f64| format!("{t},0,0,0,{qw},0,0,0,0,0,0,0,0,0,0,0,0\n");
@@ -348,6 +355,8 @@ fn the_built_in_estimator_model_is_the_one_imu_model_measures() {
     let preset = scenarios::catalog::estimator_imu_noise("euroc_mav").unwrap();
     assert_eq!(keys(&written), keys(preset));
     let n = |k: &str| keys(preset)[k].as_float().unwrap();
-    assert!(n("gyroscope_noise_density") > 10.0 * 1.6968e-4);
-    assert!(n("accelerometer_noise_density") > 10.0 * 2.0e-3);
+    // Matched over 50–800 ms the flight's white density is 8× the datasheet's (16× / 13× at
+    // 50 ms alone, where vibration is at its worst against white noise).
+    assert!(n("gyroscope_noise_density") > 5.0 * 1.6968e-4);
+    assert!(n("accelerometer_noise_density") > 5.0 * 2.0e-3);
 }

@@ -89,9 +89,17 @@ pub(super) fn eval(args: &EvalArgs) -> Result<String, String> {
         ));
     }
     let delta = match args.rpe_unit {
-        UnitArg::M => RpeDelta::Meters(args.rpe_delta),
+        UnitArg::M => {
+            if !(args.rpe_delta.is_finite() && args.rpe_delta > 0.0) {
+                return Err(format!(
+                    "--rpe-delta must be a distance > 0 m with --rpe-unit m, got {}",
+                    args.rpe_delta
+                ));
+            }
+            RpeDelta::Meters(args.rpe_delta)
+        }
         UnitArg::F => {
-            if args.rpe_delta < 1.0 || args.rpe_delta.fract() != 0.0 {
+            if !(args.rpe_delta >= 1.0 && args.rpe_delta.fract() == 0.0) {
                 return Err(format!(
                     "--rpe-delta must be a whole number ≥ 1 with --rpe-unit f, got {}",
                     args.rpe_delta

@@ -33,11 +33,15 @@ pub(super) struct ImuModelArgs {
     /// ground truth's median period, at least 0.05 s].
     #[arg(long)]
     knot_spacing: Option<f64>,
-    /// With --gt: the IMU interval (s) the estimator's white densities in
-    /// `estimator_imu_noise.toml` are matched at: the camera period [default: 0.05, EuRoC's
-    /// 20 Hz].
+    /// With --gt: the IMU interval (s), the shortest time scale the estimator's white
+    /// densities in `estimator_imu_noise.toml` are matched over: the camera period [default:
+    /// 0.05, EuRoC's 20 Hz].
     #[arg(long)]
     interval: Option<f64>,
+    /// With --gt: the span (s) of the estimator's window, the longest time scale its white
+    /// densities are matched over [default: 0.8, the 10-keyframe window on the EuRoC flights].
+    #[arg(long)]
+    window: Option<f64>,
 }
 
 /// Exit 0 after writing the outputs, 2 on bad input or an unwritable `--out`.
@@ -59,6 +63,7 @@ pub(super) fn imu_model_command(args: ImuModelArgs) -> ExitCode {
         rest_until_s: args.rest_until,
         knot_spacing_s: args.knot_spacing,
         estimator_interval_s: args.interval,
+        estimator_window_s: args.window,
     };
     let model = match analyze(&input, &opts) {
         Ok(m) => m,
