@@ -191,6 +191,22 @@ pub fn names() -> Vec<&'static str> {
     ENTRIES.iter().map(|e| e.name).collect()
 }
 
+/// What to tell someone who asked for `name` among `known` (scenario names, preset names…):
+/// the closest known name when one is close (Jaro–Winkler similarity ≥ 0.85, the `strsim`
+/// crate's, as clap's own suggestions), else all of them.
+pub fn closest_hint(name: &str, known: &[&str]) -> String {
+    let best = known
+        .iter()
+        .map(|k| (strsim::jaro_winkler(name, k), *k))
+        .max_by(|a, b| a.0.total_cmp(&b.0));
+    match best {
+        Some((score, k)) if score >= 0.85 => {
+            format!("did you mean `{k}`? ({} known: `vio list`)", known.len())
+        }
+        _ => format!("known: {}", known.join(", ")),
+    }
+}
+
 /// An embedded data file by its path relative to `catalog/`, as text (bytes that are not
 /// UTF-8 replaced).
 pub fn data(path: &str) -> Option<String> {
@@ -203,6 +219,28 @@ pub fn data(path: &str) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use crate::spec::Scenario;
+
+    /// A misspelt name gets the one close name, not the whole list; a name like none of them
+    /// gets the list.
+    #[test]
+    fn a_misspelt_name_is_answered_with_the_closest() {
+        let names = super::names();
+        let hint = super::closest_hint("room_figure8_stereo_im", &names);
+        assert!(
+            hint.contains("did you mean `room_figure8_stereo_imu`?"),
+            "{hint}"
+        );
+        assert!(!hint.contains("outdoor"), "{hint}");
+        let hint = super::closest_hint("zzzz", &["alpha", "beta"]);
+        assert_eq!(hint, "known: alpha, beta");
+        let e = Scenario::load("euroc_v1_01_realistic_stereo_im")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("did you mean `euroc_v1_01_realistic_stereo_imu`?"),
+            "{e}"
+        );
+    }
 
     #[test]
     fn every_catalog_scenario_parses_and_builds() {

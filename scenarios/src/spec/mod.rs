@@ -143,8 +143,8 @@ impl Scenario {
             key: String::new(),
             line: None,
             message: format!(
-                "no catalog scenario of that name and no such file (catalog: {})",
-                catalog::names().join(", ")
+                "no catalog scenario of that name and no such file: {}",
+                catalog::closest_hint(name_or_path, &catalog::names())
             ),
         })
     }
@@ -160,8 +160,8 @@ impl Scenario {
             key: String::new(),
             line: None,
             message: format!(
-                "no catalog scenario of that name (catalog: {})",
-                catalog::names().join(", ")
+                "no catalog scenario of that name: {}",
+                catalog::closest_hint(name, &catalog::names())
             ),
         })?;
         Self::parse(entry.name, Origin::Catalog, &edit(entry.text))

@@ -350,8 +350,11 @@ pub fn check_baseline(
             return err(
                 &[name],
                 format!(
-                    "no scenario of that name in the catalog (catalog: {})",
-                    catalog.join(", ")
+                    "no scenario of that name in the catalog: {}",
+                    crate::catalog::closest_hint(
+                        name,
+                        &catalog.iter().map(String::as_str).collect::<Vec<_>>()
+                    )
                 ),
             );
         }
