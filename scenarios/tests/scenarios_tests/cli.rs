@@ -715,6 +715,11 @@ fn eval_scores_a_static_trajectory_from_its_first_pose() {
 /// Starts `vio args` (stderr piped), sends it Ctrl-C (SIGINT) once `ready` says so of what it
 /// has printed to stderr so far, and returns its exit code and stderr.
 fn ctrl_c(args: &[&str], ready: impl Fn(&str) -> bool) -> (Option<i32>, String) {
+    signal(args, "-INT", ready)
+}
+
+/// [`ctrl_c`] with another signal (`-TERM`, …).
+fn signal(args: &[&str], which: &str, ready: impl Fn(&str) -> bool) -> (Option<i32>, String) {
     use std::io::Read;
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_vio"))
         .args(args)
@@ -748,7 +753,7 @@ fn ctrl_c(args: &[&str], ready: impl Fn(&str) -> bool) -> (Option<i32>, String) 
         );
     }
     let kill = std::process::Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
+        .args([which, &child.id().to_string()])
         .status()
         .unwrap();
     assert!(kill.success());
@@ -757,6 +762,24 @@ fn ctrl_c(args: &[&str], ready: impl Fn(&str) -> bool) -> (Option<i32>, String) 
         text.push_str(&String::from_utf8_lossy(&b));
     }
     (code, text)
+}
+
+/// SIGTERM (a scheduler's or `kill`'s) stops `vio run` as Ctrl-C does: exit 130 with the
+/// files of what finished written, where it used to end the process with nothing written.
+#[test]
+fn sigterm_stops_a_run_like_ctrl_c_and_writes_what_finished() {
+    let dir = scratch("run-sigterm");
+    let out = dir.path().join("run");
+    let (code, err) = signal(
+        &["run", "--duration", "60", "--out", out.to_str().unwrap()],
+        "-TERM",
+        |e| e.contains("% of its time"),
+    );
+    assert_eq!(code, Some(130), "{err}");
+    assert!(err.contains("interrupted"), "{err}");
+    let report = std::fs::read_to_string(out.join("report.json")).unwrap();
+    assert!(report.contains("\"resets\""), "{report}");
+    assert!(out.join("estimate.tum").exists());
 }
 
 #[test]

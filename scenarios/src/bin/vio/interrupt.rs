@@ -1,5 +1,8 @@
 //! Ctrl-C for every command that runs for a while: the first sets a flag the work checks (and
-//! says what will happen), the second exits at once with 130.
+//! says what will happen), the second exits at once with 130. SIGTERM (what `kill`, a job
+//! scheduler or a container runtime sends) and SIGHUP are handled the same way (`ctrlc`'s
+//! `termination` feature), so a stopped run writes what it finished whichever way it is
+//! stopped.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
