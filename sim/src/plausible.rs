@@ -72,9 +72,9 @@ pub const ACCELEROMETER_NOISE_DENSITY: Plausible = Plausible {
 /// Gyroscope bias random walk.
 pub const GYROSCOPE_RANDOM_WALK: Plausible = Plausible {
     lo: 1e-9,
-    hi: 0.1,
+    hi: 1e-2,
     unit: "rad/s²/√Hz",
-    basis: "navigation grade to consumer MEMS, with margin; the EuRoC ADIS16448: 1.9e-5",
+    basis: "navigation grade to consumer MEMS' 1e-4, with margin; the EuRoC ADIS16448: 1.9e-5",
 };
 
 /// Accelerometer bias random walk.
