@@ -40,5 +40,5 @@ pub mod vibration;
 mod world;
 mod world_config;
 
-pub use world::World;
+pub use world::{World, reference_motion};
 pub use world_config::{SimError, StaticStartConfig, TrajectoryConfig, WorldConfig};

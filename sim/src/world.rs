@@ -13,6 +13,35 @@ use crate::stream::Stream;
 use crate::world_config::{SimError, TrajectoryConfig, WorldConfig};
 use std::sync::Arc;
 
+/// The reference motion `config` flies: its trajectory (a replayed file read and fitted) under
+/// its static start and stops. Its [`Reference::duration`] is the longest run the world
+/// simulates; a longer `duration_s` is cut to it.
+pub fn reference_motion(config: &WorldConfig) -> Result<Arc<dyn Reference>, SimError> {
+    let mut reference: Arc<dyn Reference> = match &config.trajectory {
+        TrajectoryConfig::Lissajous(l) => Arc::new(l.clone()),
+        TrajectoryConfig::Waypoints(w) => Arc::new(w.build(config.seed)),
+        TrajectoryConfig::Replay {
+            path,
+            knot_spacing_s,
+        } => Arc::new(Replay::from_file(path, *knot_spacing_s)?),
+        TrajectoryConfig::Reference(r) => r.clone(),
+    };
+    if let Some(s) = config.static_start {
+        reference = Arc::new(StaticStart {
+            inner: Box::new(SharedReference(reference)),
+            hold_s: s.hold_s,
+            ramp_s: s.ramp_s.max(1e-3),
+        });
+    }
+    if !config.stops.is_empty() {
+        reference = Arc::new(Stops {
+            inner: Box::new(SharedReference(reference)),
+            stops: config.stops.clone(),
+        });
+    }
+    Ok(reference)
+}
+
 /// A built world: scene, reference motion and sensor configuration. Streams are generated from
 /// it on demand; every stream of the same world is identical.
 #[derive(Clone, Debug)]
@@ -49,28 +78,7 @@ impl World {
         if !positive(config.duration_s) {
             return bad("duration must be positive");
         }
-        let mut reference: Arc<dyn Reference> = match &config.trajectory {
-            TrajectoryConfig::Lissajous(l) => Arc::new(l.clone()),
-            TrajectoryConfig::Waypoints(w) => Arc::new(w.build(config.seed)),
-            TrajectoryConfig::Replay {
-                path,
-                knot_spacing_s,
-            } => Arc::new(Replay::from_file(path, *knot_spacing_s)?),
-            TrajectoryConfig::Reference(r) => r.clone(),
-        };
-        if let Some(s) = config.static_start {
-            reference = Arc::new(StaticStart {
-                inner: Box::new(SharedReference(reference)),
-                hold_s: s.hold_s,
-                ramp_s: s.ramp_s.max(1e-3),
-            });
-        }
-        if !config.stops.is_empty() {
-            reference = Arc::new(Stops {
-                inner: Box::new(SharedReference(reference)),
-                stops: config.stops.clone(),
-            });
-        }
+        let reference = reference_motion(&config)?;
         let mut duration = config.duration_s;
         if let Some(d) = reference.duration() {
             duration = duration.min(d);

@@ -573,7 +573,7 @@ impl Scenario {
         let steps = (1..=20u32)
             .find(|n| period % i64::from(*n) == 0 && period / i64::from(*n) <= 1_000_000)
             .unwrap_or(1);
-        Ok(WorldConfig {
+        let config = WorldConfig {
             seed: seed.unwrap_or(s.world.seed),
             duration_s: duration,
             trajectory: self.trajectory()?,
@@ -609,7 +609,23 @@ impl Scenario {
             faults,
             recorded_imu: self.recorded_imu.as_ref().map(|r| r.log.clone()),
             ..WorldConfig::default()
-        })
+        };
+        // A duration asked for beyond the motion's end (a replayed recording, with its static
+        // start and stops) would silently be cut to it: refused instead.
+        if let Some(asked) = duration_s
+            && let Some(end) = sim::reference_motion(&config)
+                .map_err(|e| self.error("trajectory", e.to_string()))?
+                .duration()
+            && asked > end + 1e-6
+        {
+            return Err(self.error(
+                "trajectory.duration_s",
+                format!(
+                    "a duration of {asked} s was asked for (--duration), beyond the end of the scenario's motion at {end:.3} s (a replayed recording's length, or a generated motion's own duration), which the run would be cut to: ask for at most {end:.3} s, or leave the duration to the scenario"
+                ),
+            ));
+        }
+        Ok(config)
     }
 
     /// The scene preset and landmark density.

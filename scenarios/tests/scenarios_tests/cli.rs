@@ -874,3 +874,29 @@ fn eval_common_with_scores_both_estimates_on_the_frames_both_produced() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("no common frames"));
 }
+
+/// `--duration` beyond the end of a replayed recording is refused (exit 2, naming the option
+/// and the motion's end), where the run used to be cut to the recording silently.
+#[test]
+fn a_duration_beyond_the_replayed_motion_is_refused() {
+    let dir = scratch("duration-beyond-replay");
+    let out = dir.path().join("run");
+    let run = |d: &str| {
+        vio(&[
+            "run",
+            "room_replay_v2_02_stereo_imu",
+            "--duration",
+            d,
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    let o = run("1000");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("--duration") && stderr.contains("beyond the end of the scenario's motion"),
+        "{stderr}"
+    );
+    assert!(!out.join("report.json").exists());
+}
