@@ -53,6 +53,30 @@ fn median(mut v: Vec<f64>) -> f64 {
     v.get(v.len() / 2).copied().unwrap_or(0.0)
 }
 
+/// Refuses a log whose stamps, read as nanoseconds, space the samples at a rate no IMU has
+/// (`sim::limits`' 10 Hz to 10 kHz), naming the unit they look like (microsecond stamps read
+/// as nanoseconds put a 200 Hz IMU at 200 kHz).
+fn check_rate(log: &str, dt_s: f64) -> Result<(), String> {
+    use sim::limits::{MAX_IMU_RATE_HZ, MIN_IMU_RATE_HZ};
+    let rate = 1.0 / dt_s;
+    let plausible = |r: f64| (MIN_IMU_RATE_HZ..=MAX_IMU_RATE_HZ).contains(&r);
+    if dt_s > 0.0 && plausible(rate) {
+        return Ok(());
+    }
+    let unit = [("microseconds", 1e3), ("milliseconds", 1e6), ("seconds", 1e9)]
+        .into_iter()
+        .find(|(_, f)| plausible(rate / f))
+        .map_or(String::new(), |(name, f)| {
+            format!(
+                ": the stamps look like {name} ({:.1} Hz if they were); the log's stamps must be nanoseconds",
+                rate / f
+            )
+        });
+    Err(format!(
+        "{log}: the samples' median spacing of {dt_s:e} s (stamps read as nanoseconds) is a rate of {rate:.3e} Hz, outside any IMU's [{MIN_IMU_RATE_HZ}, {MAX_IMU_RATE_HZ}] Hz{unit}"
+    ))
+}
+
 /// Runs the analysis. `Err` explains what in the input or options is unusable.
 pub fn analyze(input: &Input, opts: &Options) -> Result<ImuModel, String> {
     check_option("--from", opts.from_s)?;
@@ -110,6 +134,7 @@ pub fn analyze(input: &Input, opts: &Options) -> Result<ImuModel, String> {
         .map(|w| (w[1].t_ns - w[0].t_ns) as f64 * 1e-9)
         .collect();
     let dt = median(intervals.clone());
+    check_rate(log, dt)?;
     let selection = Selection {
         from_s: rel(&sel[0]),
         to_s: rel(&sel[sel.len() - 1]),

@@ -208,6 +208,21 @@ fn bad_input_is_refused_with_the_file_named() {
         &["bad_row.csv:4", "w_y", "abc"],
     );
 
+    // Microsecond stamps read as nanoseconds: a 200 Hz IMU at 200 kHz.
+    let micro: String = imu_rows(300)
+        .lines()
+        .map(|l| {
+            let (t, rest) = l.split_once(',').unwrap();
+            format!("{},{rest}\n", t.parse::<i64>().unwrap() / 1000)
+        })
+        .collect();
+    let micro = write(dir, "micro.csv", &(IMU_HEADER.to_string() + &micro));
+    check(
+        "microsecond stamps",
+        imu_model(&[micro.to_str().unwrap()], &out),
+        &["micro.csv", "look like microseconds", "200.0 Hz"],
+    );
+
     let short = write(dir, "short.csv", &(IMU_HEADER.to_string() + &imu_rows(50)));
     check(
         "too short",
