@@ -252,16 +252,41 @@ enum Command {
 fn say(text: &str) {
     use std::io::Write;
     let mut stdout = std::io::stdout().lock();
-    let _ = stdout
+    if let Err(e) = stdout
         .write_all(text.as_bytes())
-        .and_then(|()| stdout.flush());
+        .and_then(|()| stdout.flush())
+    {
+        // A reader that closed the pipe (`vio list | head`) wanted no more; anything else (a
+        // full disk, a closed descriptor) lost output the user asked for.
+        if e.kind() != std::io::ErrorKind::BrokenPipe {
+            let _ = STDOUT_FAILED.set(e.to_string());
+        }
+    }
 }
+
+/// The first error writing to stdout other than a closed pipe: the command then exits
+/// [`STDOUT_FAILED_EXIT`] saying so, whatever it would have exited with.
+static STDOUT_FAILED: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+
+/// Exit code when the output could not be written (`EX_IOERR` of sysexits.h).
+const STDOUT_FAILED_EXIT: u8 = 74;
 
 /// Exit code for bad input.
 const BAD_INPUT: u8 = 2;
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let code = dispatch(Cli::parse());
+    match STDOUT_FAILED.get() {
+        Some(e) => {
+            eprintln!("vio: error: writing to stdout failed: {e}");
+            ExitCode::from(STDOUT_FAILED_EXIT)
+        }
+        None => code,
+    }
+}
+
+/// Runs the command line's command; its exit code.
+fn dispatch(cli: Cli) -> ExitCode {
     match cli.command {
         Command::Run {
             scenario,

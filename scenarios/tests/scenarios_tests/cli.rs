@@ -900,3 +900,22 @@ fn a_duration_beyond_the_replayed_motion_is_refused() {
     );
     assert!(!out.join("report.json").exists());
 }
+
+/// Output that cannot be written (a full disk: `/dev/full`) is an error, exit 74 saying so,
+/// where `vio list > /dev/full` used to exit 0; a reader closing the pipe early is not.
+#[test]
+fn output_that_cannot_be_written_is_an_error() {
+    let full = std::fs::OpenOptions::new().write(true).open("/dev/full");
+    let Ok(full) = full else {
+        eprintln!("no /dev/full here: skipped");
+        return;
+    };
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_vio"))
+        .arg("list")
+        .stdout(full)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(74), "{stderr}");
+    assert!(stderr.contains("writing to stdout failed"), "{stderr}");
+}
