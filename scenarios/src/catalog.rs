@@ -194,16 +194,19 @@ pub fn names() -> Vec<&'static str> {
 /// What to tell someone who asked for `name` among `known` (scenario names, preset names…):
 /// the closest known name when one is close (Jaro–Winkler similarity ≥ 0.85, the `strsim`
 /// crate's, as clap's own suggestions), else all of them.
-pub fn closest_hint(name: &str, known: &[&str]) -> String {
+pub fn closest_hint<S: AsRef<str>>(name: &str, known: &[S]) -> String {
     let best = known
         .iter()
-        .map(|k| (strsim::jaro_winkler(name, k), *k))
+        .map(|k| (strsim::jaro_winkler(name, k.as_ref()), k.as_ref()))
         .max_by(|a, b| a.0.total_cmp(&b.0));
     match best {
         Some((score, k)) if score >= 0.85 => {
             format!("did you mean `{k}`? ({} known: `vio list`)", known.len())
         }
-        _ => format!("known: {}", known.join(", ")),
+        _ => {
+            let all: Vec<&str> = known.iter().map(AsRef::as_ref).collect();
+            format!("known: {}", all.join(", "))
+        }
     }
 }
 

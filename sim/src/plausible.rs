@@ -119,6 +119,16 @@ pub const FOCAL_PER_IMAGE_SIDE: Plausible = Plausible {
     basis: "from a 200° fisheye (0.17) to a 1° telephoto (60); a focal length in millimetres is far below",
 };
 
+/// A focal length `f_px` on an image whose longer side is `longer_side_px`, against
+/// [`FOCAL_PER_IMAGE_SIDE`]; the error names both.
+pub fn check_focal_length(f_px: f64, longer_side_px: f64) -> Result<(), String> {
+    FOCAL_PER_IMAGE_SIDE
+        .check(f_px / longer_side_px)
+        .map_err(|e| {
+            format!("focal length {f_px} px over the longer side {longer_side_px} px: {e}")
+        })
+}
+
 /// A lens distortion coefficient (radial-tangential, Kannala–Brandt, Mei).
 pub const DISTORTION_COEFFICIENT: Plausible = Plausible {
     lo: -5.0,

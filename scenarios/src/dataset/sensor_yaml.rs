@@ -361,14 +361,7 @@ pub fn parse_sensor_yaml(text: &str, path: &Path) -> Result<SensorYaml, DatasetE
             let intrinsics = r.f64_list("intrinsics")?;
             let longer = res[0].max(res[1]);
             for f in intrinsics.iter().take(2) {
-                plausible::FOCAL_PER_IMAGE_SIDE
-                    .check(f / longer)
-                    .map_err(|m| {
-                        r.err(
-                            "intrinsics",
-                            format!("focal length {f} px over the longer side {longer} px: {m}"),
-                        )
-                    })?;
+                plausible::check_focal_length(*f, longer).map_err(|m| r.err("intrinsics", m))?;
             }
             let distortion_coefficients = r.f64_list("distortion_coefficients")?;
             for d in &distortion_coefficients {

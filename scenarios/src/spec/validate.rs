@@ -330,14 +330,8 @@ impl Scenario {
             }
             let longer = f64::from(w.max(h));
             for f in [fx, fy] {
-                plausible::FOCAL_PER_IMAGE_SIDE
-                    .check(f / longer)
-                    .map_err(|e| {
-                        self.error(
-                            &k("intrinsics"),
-                            format!("focal length {f} px over the longer side {longer} px: {e}"),
-                        )
-                    })?;
+                plausible::check_focal_length(f, longer)
+                    .map_err(|e| self.error(&k("intrinsics"), e))?;
             }
             c.finite_all(&k("distortion"), &cam.distortion)?;
             for d in &cam.distortion {

@@ -351,10 +351,7 @@ pub fn check_baseline(
                 &[name],
                 format!(
                     "no scenario of that name in the catalog: {}",
-                    crate::catalog::closest_hint(
-                        name,
-                        &catalog.iter().map(String::as_str).collect::<Vec<_>>()
-                    )
+                    crate::catalog::closest_hint(name, catalog)
                 ),
             );
         }
