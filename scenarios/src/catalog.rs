@@ -52,6 +52,7 @@ const ENTRIES: &[Entry] = &[
     entry!("euroc_v1_01_realistic_stereo"),
     entry!("euroc_v1_01_realistic_mono_imu"),
     entry!("euroc_v1_01_realistic_stereo_imu"),
+    entry!("euroc_v1_01_realistic_features_stereo_imu"),
     entry!("euroc_v2_02_realistic_stereo"),
     entry!("euroc_v2_02_realistic_mono_imu"),
     entry!("euroc_v2_02_realistic_stereo_imu"),
@@ -157,6 +158,23 @@ pub fn estimator_imu_noise(name: &str) -> Option<&'static str> {
 /// The names of the built-in estimator IMU noise models.
 pub fn estimator_imu_noise_names() -> Vec<&'static str> {
     names_in(ESTIMATOR_IMU_NOISE)
+}
+
+/// Built-in tracker error models (`rig.cameras[i].tracker_error = "<name>"`), each a file in
+/// `catalog/tracker_error/` fitted by the run summary's `tracker error` line.
+const TRACKER_ERRORS: &[(&str, &str)] = &[(
+    "euroc_rendered",
+    include_str!("../catalog/tracker_error/euroc_rendered.toml"),
+)];
+
+/// A built-in tracker error model's text by name.
+pub fn tracker_error(name: &str) -> Option<&'static str> {
+    named(TRACKER_ERRORS, name)
+}
+
+/// The names of the built-in tracker error models.
+pub fn tracker_error_names() -> Vec<&'static str> {
+    names_in(TRACKER_ERRORS)
 }
 
 /// Built-in sensor presets (`preset = "<name>"`), each a partial scenario in

@@ -21,6 +21,10 @@ use serde::Serialize;
 use sim::render::ImageFrame;
 use sim::scene::Scene;
 
+mod tracker_error;
+use tracker_error::AgedError;
+pub use tracker_error::TrackerErrorFit;
+
 /// Tracks farther than this from ground truth (px) count as wrong.
 pub const WRONG_TRACK_PX: f64 = 2.0;
 
@@ -187,6 +191,8 @@ pub struct FrontendStats {
     /// against its first observation's scene point, as an estimator anchoring a landmark on
     /// its first observation sees it.
     pub pixel_sigma_px: f64,
+    /// The tracker's error fitted to the feature-level camera's tracker error model.
+    pub tracker_error: TrackerErrorFit,
     /// Observations with no scene point to compare with (the ray hit nothing).
     pub unverifiable: usize,
 }
@@ -229,7 +235,11 @@ struct TrackEvaluation {
     cameras: Vec<sim::camera::CameraConfig>,
     /// Scene point of each track's first observation (`None`: the ray hit nothing).
     anchors: BTreeMap<u64, Option<Vector3<f64>>>,
+    /// Each track's first frame.
+    first_frames: BTreeMap<u64, usize>,
     track_errors: Vec<f64>,
+    aged_errors: Vec<AgedError>,
+    stereo_vectors: Vec<(f64, f64)>,
     rejected_errors: Vec<f64>,
     stereo_errors: Vec<f64>,
     features: Vec<usize>,
@@ -243,7 +253,10 @@ impl TrackEvaluation {
             scene,
             cameras: cameras.to_vec(),
             anchors: BTreeMap::new(),
+            first_frames: BTreeMap::new(),
             track_errors: Vec::new(),
+            aged_errors: Vec::new(),
+            stereo_vectors: Vec::new(),
             rejected_errors: Vec::new(),
             stereo_errors: Vec::new(),
             features: Vec::new(),
@@ -275,7 +288,8 @@ impl TrackEvaluation {
     }
 
     /// Pixel error of `uv` in camera `cam` against scene point `x_w`, seen at the time of
-    /// `uv`'s row (a track near its truth is on nearly the same row).
+    /// `uv`'s row (a track near its truth is on nearly the same row): `uv` less the point's
+    /// projection.
     #[allow(non_snake_case)]
     fn error(
         &self,
@@ -283,12 +297,12 @@ impl TrackEvaluation {
         uv: &Vector2<f64>,
         x_w: &Vector3<f64>,
         poses: &CapturePoses,
-    ) -> Option<f64> {
+    ) -> Option<Vector2<f64>> {
         let T_w_c = self
             .pose_at_row(cam, uv, poses)
             .compose(&self.cameras[cam].t_b_c);
         let p_c = T_w_c.inverse().transform(x_w);
-        Some((self.cameras[cam].model.project(&p_c)? - uv).norm())
+        Some(uv - self.cameras[cam].model.project(&p_c)?)
     }
 
     fn add(
@@ -302,6 +316,7 @@ impl TrackEvaluation {
             return;
         };
         let p = primary.cam_id;
+        let frame_index = self.features.len();
         self.features.push(primary.features.len());
         let mut left: BTreeMap<u64, Vector2<f64>> = BTreeMap::new();
         for f in &primary.features {
@@ -310,17 +325,29 @@ impl TrackEvaluation {
                 None => {
                     let x = self.ray_point(p, &f.uv, poses);
                     self.anchors.insert(f.feature_id, x);
+                    self.first_frames.insert(f.feature_id, frame_index);
                 }
                 Some(Some(x)) => {
                     let e = self.error(p, &f.uv, x, poses);
-                    self.track_errors.push(e.unwrap_or(f64::INFINITY));
+                    self.track_errors
+                        .push(e.map_or(f64::INFINITY, |e| e.norm()));
+                    if let (Some(e), Some(first)) = (e, self.first_frames.get(&f.feature_id)) {
+                        self.aged_errors.push(AgedError {
+                            track: f.feature_id,
+                            age: frame_index - first,
+                            dx: e.x,
+                            dy: e.y,
+                        });
+                    }
                 }
                 Some(None) => self.unverifiable += 1,
             }
         }
         for (id, uv) in rejected {
             if let Some(Some(x)) = self.anchors.get(id) {
-                let e = self.error(p, uv, x, poses).unwrap_or(f64::INFINITY);
+                let e = self
+                    .error(p, uv, x, poses)
+                    .map_or(f64::INFINITY, |e| e.norm());
                 self.rejected_errors.push(e);
             }
         }
@@ -333,7 +360,11 @@ impl TrackEvaluation {
                 match self.ray_point(p, uv0, poses) {
                     Some(x) => {
                         let e = self.error(cam.cam_id, &f.uv, &x, poses);
-                        self.stereo_errors.push(e.unwrap_or(f64::INFINITY));
+                        self.stereo_errors
+                            .push(e.map_or(f64::INFINITY, |e| e.norm()));
+                        if let Some(e) = e {
+                            self.stereo_vectors.push((e.x, e.y));
+                        }
                     }
                     None => self.unverifiable += 1,
                 }
@@ -363,6 +394,11 @@ impl TrackEvaluation {
             stereo_error_p95_px: percentile(&self.stereo_errors, 0.95),
             pixel_sigma_px: per_axis_rms_within(
                 self.track_errors.iter().chain(&self.stereo_errors),
+                WRONG_TRACK_PX,
+            ),
+            tracker_error: tracker_error::fit(
+                &self.aged_errors,
+                &self.stereo_vectors,
                 WRONG_TRACK_PX,
             ),
             unverifiable: self.unverifiable,

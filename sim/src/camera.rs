@@ -50,11 +50,14 @@
 //!
 //! # Noise
 //! Each observation is the true distorted pixel plus isotropic Gaussian noise `pixel_sigma`
-//! drawn from the stream `<name>` in feature-id order.
+//! drawn from the stream `<name>` in feature-id order; or, under a tracker error model
+//! (`CameraConfig::tracker_error`), the error a tracker makes in motion, drawn per track from
+//! the stream `<name>/tracker` ([`crate::tracker_error`]).
 
 use crate::motion::TruthBuffer;
 use crate::rng::sensor_rng;
 use crate::scene::{Landmark, Scene};
+use crate::tracker_error::{TrackErrors, TrackerErrorModel};
 use estimator::camera::{CameraModel, RollingShutter, in_image};
 use estimator::frontend::{CameraFeatures, FeatureFrame, FeatureObservation};
 use estimator::geometry::Pose;
@@ -75,6 +78,9 @@ pub struct CameraConfig {
     pub t_b_c: Pose,
     /// Pixel noise standard deviation (px).
     pub pixel_sigma: f64,
+    /// The pixel error drawn as a tracker's in motion (drift, sliding tracks, stereo
+    /// matches following their leader) in place of the Gaussian of `pixel_sigma`.
+    pub tracker_error: Option<TrackerErrorModel>,
     /// Nearest visible depth (m).
     pub min_depth: f64,
     /// Farthest visible depth (m).
@@ -97,6 +103,7 @@ impl CameraConfig {
             model,
             t_b_c,
             pixel_sigma: 0.5,
+            tracker_error: None,
             min_depth: 0.1,
             max_depth: 40.0,
             max_features: 150,
@@ -246,6 +253,8 @@ struct CamState {
     track_id: Vec<u64>,
     /// Tracks of each landmark this camera has started (realistic ids).
     episodes: Vec<u32>,
+    /// The tracks' errors under a tracker error model (`None`: independent Gaussian noise).
+    tracker: Option<TrackErrors>,
 }
 
 /// A landmark's true projection in one camera.
@@ -298,6 +307,9 @@ impl RigSim {
                 rest_until: vec![0; n],
                 track_id: vec![0; n],
                 episodes: vec![0; n],
+                tracker: c
+                    .tracker_error
+                    .map(|m| TrackErrors::new(m, sensor_rng(seed, &format!("{}/tracker", c.name)))),
             })
             .collect();
         Self {
@@ -710,14 +722,29 @@ impl RigSim {
         let c = &self.cfg.cameras[ci];
         let (sigma, realistic) = (c.pixel_sigma, self.cfg.track_ids == TrackIds::Realistic);
         let kept_ix: Vec<usize> = kept.iter().map(|p| self.index_of(p.id)).collect();
-        let st = &mut self.cams[ci];
+        let (earlier, rest) = self.cams.split_at_mut(ci);
+        let st = &mut rest[0];
         st.tracked.clear();
+        if let Some(t) = &mut st.tracker {
+            t.begin_frame();
+        }
         let mut out = Vec::with_capacity(kept.len());
         // Noise is drawn for every tracked landmark, in landmark-id order.
         for (p, ix) in kept.iter().zip(kept_ix) {
-            let nx: f64 = StandardNormal.sample(&mut st.noise);
-            let ny: f64 = StandardNormal.sample(&mut st.noise);
-            let uv = p.uv + Vector2::new(nx, ny) * sigma;
+            let uv = match &mut st.tracker {
+                None => {
+                    let nx: f64 = StandardNormal.sample(&mut st.noise);
+                    let ny: f64 = StandardNormal.sample(&mut st.noise);
+                    p.uv + Vector2::new(nx, ny) * sigma
+                }
+                Some(t) => {
+                    let id = st.track_id[ix];
+                    let leader = earlier
+                        .iter()
+                        .find_map(|c| c.tracker.as_ref().and_then(|t| t.reported(id)));
+                    p.uv + t.error(id, leader)
+                }
+            };
             if realistic && !in_image(c.model.width(), c.model.height(), &uv) {
                 // A tracker cannot report a pixel outside the image: the track ends.
                 st.track_start[ix] = u32::MAX;
@@ -728,6 +755,9 @@ impl RigSim {
                 feature_id: st.track_id[ix],
                 uv,
             });
+        }
+        if let Some(t) = &mut st.tracker {
+            t.end_frame();
         }
         out.sort_by_key(|f| f.feature_id);
         out

@@ -35,6 +35,7 @@ pub mod rng;
 pub mod scene;
 pub mod shaped_noise;
 pub mod stream;
+pub mod tracker_error;
 pub mod validate;
 pub mod vibration;
 mod world;

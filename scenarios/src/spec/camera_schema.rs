@@ -44,8 +44,14 @@ pub struct CameraSpec {
     pub alpha: Option<f64>,
     /// Extrinsic camera-to-body transform.
     pub T_b_c: ExtrinsicSpec,
-    /// Feature noise standard deviation (px).
+    /// Feature noise standard deviation (px): drawn independently per observation by a
+    /// feature-level camera without `tracker_error`, and the estimator's default pixel model.
     pub pixel_sigma_px: f64,
+    /// A feature-level camera's error drawn as an image tracker's in motion, in place of
+    /// the Gaussian of `pixel_sigma_px` (which stays the estimator's default model): a
+    /// built-in model's name, a `.toml` file, or the table itself (see
+    /// [`super::tracker_error_model`]).
+    pub tracker_error: Option<toml::Value>,
     /// Most features per frame (default 150).
     pub max_features: Option<usize>,
     /// Nearest visible depth (m, default 0.1).

@@ -525,6 +525,7 @@ impl Scenario {
                 self.extrinsic(i)?,
             );
             sc.pixel_sigma = c.pixel_sigma_px;
+            sc.tracker_error = self.tracker_error_model(i)?;
             if let Some(v) = c.max_features {
                 sc.max_features = v;
             }

@@ -82,6 +82,7 @@ pub(crate) mod overlay;
 mod preset;
 mod recorded_imu;
 pub mod schema;
+mod tracker_error_model;
 mod validate;
 
 pub use calibration_draw::DrawnCalibrationError;

@@ -354,6 +354,7 @@ impl Scenario {
                 0.1 * side,
                 "at most a tenth of the smaller image side",
             )?;
+            self.tracker_error_model(i)?;
             if let Some(e) = &cam.calibration_error {
                 c.finite_all(&k("calibration_error.rotation_deg"), &e.rotation_deg)?;
                 c.finite_all(&k("calibration_error.translation_m"), &e.translation_m)?;

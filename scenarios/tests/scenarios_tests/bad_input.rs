@@ -346,6 +346,39 @@ fn camera_realism_keys_out_of_range_are_refused() {
             "rolling_shutter = { readout_ms = 10.0, direction = \"left_to_right\" }",
             "rig.cameras[0].rolling_shutter",
         ),
+        (
+            "tracker-fraction",
+            "tracker_error = { white_px = 0.1, drift_px = 0.01, sliding_fraction = 1.5, \
+             sliding_drift_px = 0.1, stereo_px = 0.1 }",
+            "rig.cameras[0].tracker_error.sliding_fraction",
+        ),
+        (
+            "tracker-white",
+            "tracker_error = { white_px = 50.0, drift_px = 0.01, sliding_fraction = 0.1, \
+             sliding_drift_px = 0.1, stereo_px = 0.1 }",
+            "rig.cameras[0].tracker_error.white_px",
+        ),
+        (
+            "tracker-unknown-key",
+            "tracker_error = { white_px = 0.1, drift_px = 0.01, sliding_fraction = 0.1, \
+             sliding_drift_px = 0.1, stereo_px = 0.1, jitter = 1.0 }",
+            "rig.cameras[0].tracker_error",
+        ),
+        (
+            "tracker-missing-key",
+            "tracker_error = { white_px = 0.1 }",
+            "rig.cameras[0].tracker_error",
+        ),
+        (
+            "tracker-unknown-name",
+            "tracker_error = \"euroc_render\"",
+            "rig.cameras[0].tracker_error",
+        ),
+        (
+            "tracker-number",
+            "tracker_error = 0.5",
+            "rig.cameras[0].tracker_error",
+        ),
     ] {
         let text = default_text(2.0).replacen(
             "pixel_sigma_px = 1.0",
@@ -379,6 +412,21 @@ fn camera_realism_keys_out_of_range_are_refused() {
         let text = format!("{}\n[camera.{table}]\n{value}\n", default_text(2.0));
         assert_bad(tag, &text, key, &[]);
     }
+    // The image front end tracking rendered images makes its own errors.
+    let text = format!(
+        "{}\n[camera]\nmode = \"rendered\"\n",
+        default_text(2.0).replacen(
+            "pixel_sigma_px = 1.0",
+            "pixel_sigma_px = 1.0\ntracker_error = \"euroc_rendered\"",
+            1
+        )
+    );
+    assert_bad(
+        "tracker-rendered",
+        &text,
+        "rig.cameras[0].tracker_error",
+        &["feature-level"],
+    );
 }
 
 #[test]

@@ -446,3 +446,72 @@ fn rolling_shutter_pixels_are_where_their_own_row_saw_them() {
     // On the figure-eight the rows' motion moves features by pixels: the test sees the shutter.
     assert!(median > 0.3, "median shift {median} px");
 }
+
+/// Under a tracker error model, a track's error against the truth is a white jitter on a
+/// random walk from its first observation (per-axis variance `σ_w² + k·σ_d²` at age `k`), and
+/// the second camera sees the first camera's error of the same track plus its own stereo σ.
+#[test]
+fn tracker_error_drifts_along_a_track_and_the_stereo_match_follows_it() {
+    let model = sim::tracker_error::TrackerErrorModel {
+        white_px: 0.1,
+        drift_px: 0.03,
+        sliding_fraction: 0.0,
+        sliding_drift_px: 1.0,
+        stereo_px: 0.07,
+    };
+    let mut rig = common::rig(2);
+    for c in &mut rig.cameras {
+        c.tracker_error = Some(model);
+    }
+    let world = World::new(WorldConfig {
+        seed: 5,
+        duration_s: 40.0,
+        rig: Some(rig.clone()),
+        ..WorldConfig::default()
+    })
+    .unwrap();
+    let mut stream = world.stream();
+    let ages = 20usize;
+    let (mut var, mut count) = (vec![0.0f64; ages], vec![0usize; ages]);
+    let (mut stereo, mut pairs) = (0.0f64, 0usize);
+    let mut first: std::collections::BTreeMap<u64, usize> = Default::default();
+    let mut frame = 0usize;
+    while let Some(m) = stream.next() {
+        let Measurement::Frame(f) = m else { continue };
+        let gt = stream.truth(f.t_ns).unwrap();
+        let mut left = std::collections::BTreeMap::new();
+        for cf in &f.cameras {
+            let c = &rig.cameras[cf.cam_id];
+            let t_c_w = gt.pose.compose(&c.t_b_c).inverse();
+            for o in &cf.features {
+                let lm = stream.landmark(o.feature_id).unwrap();
+                let e = o.uv - c.model.project(&t_c_w.transform(&lm.p)).unwrap();
+                if cf.cam_id == 0 {
+                    left.insert(o.feature_id, e);
+                    let age = frame - *first.entry(o.feature_id).or_insert(frame);
+                    if age < ages {
+                        var[age] += 0.5 * e.norm_squared();
+                        count[age] += 1;
+                    }
+                } else if let Some(l) = left.get(&o.feature_id) {
+                    stereo += 0.5 * (e - l).norm_squared();
+                    pairs += 1;
+                }
+            }
+        }
+        frame += 1;
+    }
+    for k in 0..ages {
+        let (v, want) = (var[k] / count[k] as f64, 0.01 + k as f64 * 0.0009);
+        assert!(count[k] > 500, "age {k}: {} samples", count[k]);
+        assert!(
+            (v - want).abs() < 0.12 * want,
+            "age {k}: {v} against {want}"
+        );
+    }
+    let s = (stereo / pairs as f64).sqrt();
+    assert!(
+        pairs > 10_000 && (s - 0.07).abs() < 0.005,
+        "{pairs} pairs, σ {s}"
+    );
+}
