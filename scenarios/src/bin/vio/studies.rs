@@ -57,14 +57,24 @@ pub(super) fn sweep_command(
         "stopping: the runs under way are dropped, the finished ones kept for --resume",
     );
     let started = std::time::Instant::now();
+    let terminal = std::io::IsTerminal::is_terminal(&std::io::stderr());
     let control = SweepControl {
         done: kept.iter().map(|r| r.run).collect(),
         stop: Some(stop),
         keep: &|row| keep_row(out, &sweep, row),
-        progress: &|done, total| eprint!("\r{done}/{total} runs"),
+        progress: &|done, total| {
+            // A terminal gets one line rewritten; a log, a line per tenth of the runs.
+            if terminal {
+                eprint!("\r{done}/{total} runs");
+            } else if done == total || done % total.div_ceil(10).max(1) == 0 {
+                eprintln!("{done}/{total} runs");
+            }
+        },
     };
     let new_rows = sweep.run(shard, jobs, &control);
-    eprintln!();
+    if terminal {
+        eprintln!();
+    }
     let mut rows = match new_rows {
         Ok(r) => r,
         Err(e) => return bad(e),
@@ -98,6 +108,11 @@ pub(super) fn sweep_command(
         && let Err(e) = scenarios::studies::sweep::merge::merge(&[out.to_path_buf()], out)
     {
         return bad(e);
+    }
+    if shard_spec.is_none()
+        && let Ok(table) = std::fs::read_to_string(out.join("summary.md"))
+    {
+        say(&format!("{table}\n"));
     }
     say(&format!(
         "{} runs of {} in {:.1} s on {jobs} threads → {}\n",
@@ -140,6 +155,8 @@ fn prepare_sweep_out(
                 .unwrap_or_default();
             name == "sweep.json"
                 || name == "results.csv"
+                || name == "summary.csv"
+                || name == "summary.md"
                 || name == PARTIAL_DIR
                 || (name.contains("_vs_") && name.ends_with(".png"))
         })

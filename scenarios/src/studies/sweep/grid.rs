@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
+use super::summary::TargetSpec;
 use crate::spec::{Origin, Scenario, SpecError};
 
 /// The default metrics of a sweep.
@@ -44,6 +45,8 @@ pub struct SweepSpec {
     pub metrics: Option<Vec<String>>,
     /// The parameter axes.
     pub axes: Vec<AxisSpec>,
+    /// The bound the sweep asks about (its summary says which points meet it).
+    pub target: Option<TargetSpec>,
 }
 
 /// One `[[axes]]` entry.
@@ -62,6 +65,9 @@ pub struct AxisSpec {
     pub x: Option<Vec<f64>>,
     /// Tick names of the values (default: the values).
     pub labels: Option<Vec<String>>,
+    /// What each value costs (any unit, at least 0): the summary's cheapest passing point has
+    /// the least sum over the axes.
+    pub cost: Option<Vec<f64>>,
 }
 
 /// A validated sweep: its base scenario text and origin, the axes, seeds and metrics.
@@ -179,9 +185,23 @@ impl Sweep {
                     ));
                 }
             }
+            if let Some(j) = a
+                .cost
+                .as_ref()
+                .and_then(|c| c.iter().position(|v| !(v.is_finite() && *v >= 0.0)))
+            {
+                return Err(at(
+                    &k(&format!("cost[{j}]")),
+                    format!(
+                        "{}: expected a finite cost ≥ 0",
+                        a.cost.as_ref().unwrap()[j]
+                    ),
+                ));
+            }
             for (n, len) in [
                 ("x", a.x.as_ref().map(Vec::len)),
                 ("labels", a.labels.as_ref().map(Vec::len)),
+                ("cost", a.cost.as_ref().map(Vec::len)),
             ] {
                 if len.is_some_and(|l| l != a.values.len()) {
                     return Err(at(&k(n), "expected one entry per value".into()));
@@ -216,6 +236,30 @@ impl Sweep {
                 "metrics",
                 format!("unknown metric `{m}` (known: {})", known.join(", ")),
             ));
+        }
+        if let Some(t) = &spec.target {
+            if !metrics.contains(&t.metric) {
+                return Err(at(
+                    "target.metric",
+                    format!(
+                        "`{}` is not among the sweep's metrics ({}): add it to `metrics`",
+                        t.metric,
+                        metrics.join(", ")
+                    ),
+                ));
+            }
+            match (t.max, t.min) {
+                (Some(v), None) | (None, Some(v)) if v.is_finite() => {}
+                (Some(_), Some(_)) | (None, None) => {
+                    return Err(at(
+                        "target",
+                        "expected one bound: `max` (an error metric) or `min`".into(),
+                    ));
+                }
+                (Some(v), None) | (None, Some(v)) => {
+                    return Err(at("target", format!("{v} is not a finite bound")));
+                }
+            }
         }
         let sweep = Self {
             spec,

@@ -10,6 +10,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use serde::Deserialize;
 
+use super::summary::{SummaryInput, TargetSpec, summarize};
 use crate::plot::{DrawResult, render_png};
 
 /// What merging needs of `sweep.json`.
@@ -19,6 +20,9 @@ struct SweepMeta {
     metrics: Vec<String>,
     axes: Vec<AxisMeta>,
     runs: usize,
+    seeds: Vec<u64>,
+    #[serde(default)]
+    target: Option<TargetSpec>,
 }
 
 #[derive(Clone, Debug, Deserialize)]
@@ -26,6 +30,8 @@ struct AxisMeta {
     name: String,
     x: Vec<f64>,
     labels: Vec<String>,
+    #[serde(default)]
+    cost: Option<Vec<f64>>,
 }
 
 /// Merges the shard folders `dirs` into `out`; returns the files written.
@@ -77,6 +83,13 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>, String> {
                 )));
             }
             let parsed = parse_row(line, &meta).map_err(at)?;
+            let points: usize = meta.axes.iter().map(|a| a.x.len()).product();
+            if parsed.0 >= points {
+                return Err(at(format!(
+                    "point {} is beyond the sweep's {points} points",
+                    parsed.0
+                )));
+            }
             if rows.insert(run, (line.to_string(), parsed)).is_some() {
                 return Err(at(format!(
                     "run {run} appears twice (in this shard or in two of the folders given)"
@@ -113,6 +126,21 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>, String> {
         write("sweep.json", json.as_bytes())?,
     ];
     let table: Table = rows.into_values().map(|(_, row)| row).collect();
+    let input = SummaryInput {
+        metrics: &meta.metrics,
+        axes: meta
+            .axes
+            .iter()
+            .map(|a| (a.name.as_str(), a.labels.as_slice(), a.cost.as_deref()))
+            .collect(),
+        target: meta.target.as_ref(),
+        seeds: meta.seeds.len(),
+    };
+    let per_run: Vec<(usize, Vec<Option<f64>>)> =
+        table.iter().map(|(p, _, vs)| (*p, vs.clone())).collect();
+    let summary = summarize(&input, &per_run);
+    files.push(write("summary.csv", summary.csv(&input).as_bytes())?);
+    files.push(write("summary.md", summary.markdown(&input).as_bytes())?);
     for (mi, metric) in meta.metrics.iter().enumerate() {
         for (ai, axis) in meta.axes.iter().enumerate() {
             let png = plot(&meta, &table, mi, ai)?;
@@ -122,8 +150,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>, String> {
     Ok(files)
 }
 
-/// One row: (axis x values, metric values).
-type Row = (Vec<f64>, Vec<Option<f64>>);
+/// One row: (point index, axis x values, metric values).
+type Row = (usize, Vec<f64>, Vec<Option<f64>>);
 /// Rows in run order.
 type Table = Vec<Row>;
 
@@ -143,6 +171,9 @@ fn parse_row(line: &str, meta: &SweepMeta) -> Result<Row, String> {
         Ok(v) if v.is_finite() => Ok(v),
         _ => Err(format!("`{c}` is not a finite number")),
     };
+    let point: usize = cells[1]
+        .parse()
+        .map_err(|_| format!("`{}` is not a point index", cells[1]))?;
     let xs = cells[3..3 + na]
         .iter()
         .map(|c| num(c))
@@ -157,7 +188,7 @@ fn parse_row(line: &str, meta: &SweepMeta) -> Result<Row, String> {
             }
         })
         .collect::<Result<_, _>>()?;
-    Ok((xs, vs))
+    Ok((point, xs, vs))
 }
 
 /// `sweep.json` is what `vio sweep` writes: a run count within the limit, finite axis positions,
@@ -191,7 +222,7 @@ type Line = Vec<(f64, f64, f64, f64)>;
 /// `metric` against `axis`: one line per combination of the other axes' values.
 fn lines(meta: &SweepMeta, table: &Table, metric: usize, axis: usize) -> Vec<(String, Line)> {
     let mut groups: BTreeMap<Vec<u64>, BTreeMap<u64, Vec<f64>>> = BTreeMap::new();
-    for (xs, vs) in table {
+    for (_, xs, vs) in table {
         let others: Vec<u64> = xs
             .iter()
             .enumerate()

@@ -27,10 +27,17 @@
 //! joins shards into what one process would have written, byte for byte. Each finished run is
 //! kept in `OUT/partial/` as it finishes; after Ctrl-C (or a killed job) `vio sweep --resume`
 //! runs only the rest and writes what an uninterrupted sweep writes.
+//!
+//! A sweep that asks a question says so: `[target]` (`metric = "ate_rmse_m"`, `max = 0.01`,
+//! or `min` for `tracking_fraction`) and, optionally, a `cost` per value of an axis
+//! (`cost = [5, 50, 500]`); the sweep then writes `summary.csv` and `summary.md` (each point's
+//! mean and worst seed, its runs without a value, pass or FAIL) and names the cheapest passing
+//! point ([`summary`]).
 
 mod grid;
 pub mod merge;
 pub mod partial;
 pub mod run;
+pub mod summary;
 
 pub use grid::{AxisSpec, DEFAULT_METRICS, MAX_RUNS, Point, Sweep, SweepSpec};

@@ -92,6 +92,9 @@ pub struct SweepJson {
     pub points: usize,
     /// Number of runs (points × seeds).
     pub runs: usize,
+    /// The bound asked about (absent without one).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub target: Option<super::summary::TargetSpec>,
 }
 
 /// One axis in `sweep.json`.
@@ -105,6 +108,9 @@ pub struct AxisJson {
     pub x: Vec<f64>,
     /// Labels of the values.
     pub labels: Vec<String>,
+    /// Costs of the values (absent without them).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cost: Option<Vec<f64>>,
 }
 
 impl Sweep {
@@ -127,10 +133,12 @@ impl Sweep {
                     keys: axis.keys.clone(),
                     x: (0..axis.values.len()).map(|i| self.x(a, i)).collect(),
                     labels: (0..axis.values.len()).map(|i| self.label(a, i)).collect(),
+                    cost: axis.cost.clone(),
                 })
                 .collect(),
             points,
             runs: points * self.spec.seeds.len(),
+            target: self.spec.target.clone(),
         }
     }
 
