@@ -263,6 +263,19 @@ pub(crate) fn read_cameras(text: &str, file: &str) -> Result<Vec<CameraRead>, Ka
                 "expected a 4×4 matrix as four `- [a, b, c, d]` rows".into(),
             ));
         }
+        // A rigid transform's last row is [0, 0, 0, 1]: anything else is not a camera pose
+        // (a projective matrix, or rows out of order).
+        if rows[3]
+            .iter()
+            .zip([0.0, 0.0, 0.0, 1.0])
+            .any(|(a, b)| (a - b).abs() > 1e-9)
+        {
+            return Err(err(
+                &t.key,
+                Some(t.items[3].1),
+                format!("its last row must be [0, 0, 0, 1], found {:?}", rows[3]),
+            ));
+        }
         let r_c_b = Matrix3::from_fn(|i, j| rows[i][j]);
         let t_c_b = Vector3::new(rows[0][3], rows[1][3], rows[2][3]);
         if (r_c_b.transpose() * r_c_b - Matrix3::identity()).amax() > 1e-6

@@ -92,6 +92,20 @@ fn malformed_kalibr_files_name_file_key_and_line() {
     let skew = camchain().replacen("[0.0148655429818,", "[0.5,", 1);
     let e = scenario_with("skew", &skew, "").unwrap_err();
     assert!(e.contains("not a rotation matrix"), "{e}");
+    // A last row other than [0, 0, 0, 1] is no rigid transform, named at its own line.
+    let projective = camchain().replacen("  - [0.0, 0.0, 0.0, 1.0]", "  - [5.0, 6.0, 7.0, 8.0]", 1);
+    let e = scenario_with("projective", &projective, "").unwrap_err();
+    let line = projective
+        .lines()
+        .position(|l| l.contains("[5.0, 6.0, 7.0, 8.0]"))
+        .unwrap()
+        + 1;
+    assert!(
+        e.contains(&format!("camchain.yaml:{line}"))
+            && e.contains("cam0.T_cam_imu")
+            && e.contains("[0, 0, 0, 1]"),
+        "{e}"
+    );
     let short = camchain().replacen(
         "intrinsics: [458.654, 457.296, 367.215, 248.375]",
         "intrinsics: [458.654]",
