@@ -540,3 +540,18 @@ cost = [0, 10, 20]
     assert!(lines[1].ends_with(",false,5"), "{csv}");
     assert!(lines[5].ends_with(",true,510"), "{csv}");
 }
+
+/// Every example sweep the book names loads: its base scenario, keys and values check out.
+#[test]
+fn every_example_sweep_file_loads() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("sweeps");
+    let mut n = 0;
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "toml") {
+            scenarios::studies::sweep::Sweep::load(&p).unwrap_or_else(|e| panic!("{e}"));
+            n += 1;
+        }
+    }
+    assert!(n >= 8, "{n} sweep files in {}", dir.display());
+}
