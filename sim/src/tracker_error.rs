@@ -17,9 +17,12 @@ use nalgebra::Vector2;
 use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
+use serde::{Deserialize, Serialize};
 
-/// The tracker error model of one camera (all σ per axis, px).
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// The tracker error model of one camera (all σ per axis, px): the table a scenario's
+/// `tracker_error` gives, and the fields of the fit a rendered run reports.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct TrackerErrorModel {
     /// White jitter on every observation.
     pub white_px: f64,

@@ -14,6 +14,7 @@
 use std::collections::BTreeMap;
 
 use serde::Serialize;
+use sim::tracker_error::TrackerErrorModel;
 
 /// Ages (frames since the first observation) the fit reads.
 const FIT_AGES: std::ops::RangeInclusive<usize> = 1..=30;
@@ -24,20 +25,14 @@ const MIN_SAMPLES_PER_AGE: usize = 20;
 /// passes it once in 10⁵ observations.
 pub const SLIDE_PX: f64 = 0.75;
 
-/// The fitted tracker error model (`report.json` → `frontend.tracker_error`).
+/// The fitted tracker error model (`report.json` → `frontend.tracker_error`): the model a
+/// feature-level camera draws, and what the fit saw.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct TrackerErrorFit {
-    /// White jitter per axis on every observation (px).
-    pub white_px: f64,
-    /// A slow track's random-walk drift per axis per frame of its age (px/√frame).
-    pub drift_px: f64,
-    /// Fraction of tracks that slide.
-    pub sliding_fraction: f64,
-    /// A sliding track's drift per axis (px/√frame).
-    pub sliding_drift_px: f64,
-    /// A stereo match's own error per axis, on top of its left feature's (px), within the
-    /// outlier line.
-    pub stereo_px: f64,
+    /// The model (a stereo match's σ within the outlier line; the sliding fraction as counted
+    /// by [`SLIDE_PX`]).
+    #[serde(flatten)]
+    pub model: TrackerErrorModel,
     /// Fraction of kept tracks' observations past the outlier line.
     pub outlier_rate: f64,
     /// Tracks the fit read.
@@ -91,11 +86,13 @@ pub(crate) fn fit(tracks: &[AgedError], stereo: &[(f64, f64)], limit: f64) -> Tr
     let frac = |n: usize, d: usize| if d == 0 { 0.0 } else { n as f64 / d as f64 };
     let outliers = tracks.iter().filter(|e| e.dx.hypot(e.dy) > limit).count();
     TrackerErrorFit {
-        white_px: (0.5 * white_var).sqrt(),
-        drift_px: drift_var.sqrt(),
-        sliding_fraction: frac(sliding.values().filter(|s| **s).count(), sliding.len()),
-        sliding_drift_px: sliding_var.sqrt(),
-        stereo_px: mean(&stereo_in).sqrt(),
+        model: TrackerErrorModel {
+            white_px: (0.5 * white_var).sqrt(),
+            drift_px: drift_var.sqrt(),
+            sliding_fraction: frac(sliding.values().filter(|s| **s).count(), sliding.len()),
+            sliding_drift_px: sliding_var.sqrt(),
+            stereo_px: mean(&stereo_in).sqrt(),
+        },
         outlier_rate: frac(outliers, tracks.len()),
         tracks: sliding.len(),
     }
@@ -171,13 +168,14 @@ mod tests {
                 pairs.push((g(stereo), g(stereo)));
             }
         }
-        let f = fit(&tracks, &pairs, 2.0);
+        let fitted = fit(&tracks, &pairs, 2.0);
+        let f = fitted.model;
         assert!((f.white_px - white).abs() < 0.01, "{f:?}");
         assert!((f.drift_px - drift).abs() < 0.004, "{f:?}");
         assert!((f.sliding_fraction - fraction).abs() < 0.01, "{f:?}");
         assert!((f.sliding_drift_px - sliding).abs() < 0.05, "{f:?}");
         assert!((f.stereo_px - stereo).abs() < 0.003, "{f:?}");
-        assert_eq!(f.tracks, 6000);
+        assert_eq!(fitted.tracks, 6000);
     }
 
     #[test]
@@ -191,10 +189,11 @@ mod tests {
         let tracks = [e(1, 1, 0.1), e(1, 2, 5.0), e(2, 1, 0.1), e(2, 2, 0.2)];
         let f = fit(&tracks, &[], 2.0);
         assert_eq!(f.outlier_rate, 0.25);
-        assert_eq!(f.sliding_fraction, 0.5);
+        let m = f.model;
+        assert_eq!(m.sliding_fraction, 0.5);
         // Too few samples per age for either line.
         assert_eq!(
-            (f.white_px, f.drift_px, f.sliding_drift_px),
+            (m.white_px, m.drift_px, m.sliding_drift_px),
             (0.0, 0.0, 0.0)
         );
     }

@@ -194,7 +194,7 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
             f.stereo_error_median_px,
             f.pixel_sigma_px
         );
-        let e = &f.tracker_error;
+        let (e, fit) = (&f.tracker_error.model, &f.tracker_error);
         let _ = writeln!(
             s,
             "tracker error white {:.3} px + drift {:.4} px/√frame; {:.1} % of tracks slide, drift {:.3} px/√frame; stereo {:.3} px; outliers {:.2} % ({} tracks)",
@@ -203,8 +203,8 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
             100.0 * e.sliding_fraction,
             e.sliding_drift_px,
             e.stereo_px,
-            100.0 * e.outlier_rate,
-            e.tracks
+            100.0 * fit.outlier_rate,
+            fit.tracks
         );
     }
     if let Some(f) = &r.frontend_tracks {

@@ -12,43 +12,13 @@
 //! Checked at the door: unknown keys, wrong types and values out of range are refused naming
 //! the file the model is in and the scenario key that named it.
 
-use serde::Deserialize;
 use sim::tracker_error::TrackerErrorModel;
 
-use super::error::deserialize_toml;
+use super::error::deserialize_table;
 use super::imu_error_model::is_preset_name;
 use super::schema::{CameraMode, FrontendSpec};
 use super::{Scenario, SpecError};
 use crate::catalog;
-
-/// A tracker error model as written (all σ per axis, px).
-#[derive(Clone, Copy, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct TrackerErrorSpec {
-    /// White jitter on every observation.
-    white_px: f64,
-    /// A slow track's random-walk drift per frame (px/√frame).
-    drift_px: f64,
-    /// Fraction of tracks that slide.
-    sliding_fraction: f64,
-    /// A sliding track's drift per frame (px/√frame).
-    sliding_drift_px: f64,
-    /// A stereo match's own error on top of the feature it follows.
-    stereo_px: f64,
-}
-
-/// A model file: the model's keys and what it is.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct TrackerErrorFile {
-    #[allow(dead_code)]
-    description: String,
-    white_px: f64,
-    drift_px: f64,
-    sliding_fraction: f64,
-    sliding_drift_px: f64,
-    stereo_px: f64,
-}
 
 impl Scenario {
     /// Camera `i`'s tracker error model, read and checked; `None` without one.
@@ -69,7 +39,7 @@ impl Scenario {
                  camera.frontend = \"truth\")",
             ));
         }
-        let (source, spec) = match value {
+        let (source, model) = match value {
             toml::Value::String(name) => {
                 let (file, text) = if is_preset_name(name) {
                     let text = catalog::tracker_error(name).ok_or_else(|| {
@@ -89,21 +59,24 @@ impl Scenario {
                         self.data_file(&key, name)?,
                     )
                 };
-                let f: TrackerErrorFile = deserialize_toml(&text, &file)
+                // A model file is the table plus the `description` saying what it is.
+                let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
+                    self.error(&key, format!("{file}: {}", e.message().trim()))
+                })?;
+                if !matches!(table.remove("description"), Some(toml::Value::String(_))) {
+                    return Err(self.error(
+                        &key,
+                        format!("{file}: expected a `description` saying what the model is"),
+                    ));
+                }
+                let model: TrackerErrorModel = deserialize_table(table, &text, &file)
                     .map_err(|e| self.error(&key, format!("in the tracker error model: {e}")))?;
-                let spec = TrackerErrorSpec {
-                    white_px: f.white_px,
-                    drift_px: f.drift_px,
-                    sliding_fraction: f.sliding_fraction,
-                    sliding_drift_px: f.sliding_drift_px,
-                    stereo_px: f.stereo_px,
-                };
-                (format!("{file}: "), spec)
+                (format!("{file}: "), model)
             }
             toml::Value::Table(t) => {
-                let spec: TrackerErrorSpec = serde_path_to_error::deserialize(toml::Value::Table(
-                    t.clone(),
-                ))
+                let model: TrackerErrorModel = serde_path_to_error::deserialize(
+                    toml::Value::Table(t.clone()),
+                )
                 .map_err(|e| {
                     let path = e.path().to_string();
                     let at = if path == "." {
@@ -113,7 +86,7 @@ impl Scenario {
                     };
                     self.error(&at, e.into_inner().message().trim().to_string())
                 })?;
-                (String::new(), spec)
+                (String::new(), model)
             }
             other => {
                 return Err(self.error(
@@ -124,13 +97,6 @@ impl Scenario {
                     ),
                 ));
             }
-        };
-        let model = TrackerErrorModel {
-            white_px: spec.white_px,
-            drift_px: spec.drift_px,
-            sliding_fraction: spec.sliding_fraction,
-            sliding_drift_px: spec.sliding_drift_px,
-            stereo_px: spec.stereo_px,
         };
         model.check().map_err(|(k, m)| {
             let at = if source.is_empty() {
