@@ -233,10 +233,9 @@ struct TrackEvaluation {
     scene: Arc<Scene>,
     /// The simulator's cameras: true intrinsics, extrinsics and readouts.
     cameras: Vec<sim::camera::CameraConfig>,
-    /// Scene point of each track's first observation (`None`: the ray hit nothing).
-    anchors: BTreeMap<u64, Option<Vector3<f64>>>,
-    /// Each track's first frame.
-    first_frames: BTreeMap<u64, usize>,
+    /// Scene point of each track's first observation (`None`: the ray hit nothing), and the
+    /// frame it was made in.
+    anchors: BTreeMap<u64, (Option<Vector3<f64>>, usize)>,
     track_errors: Vec<f64>,
     aged_errors: Vec<AgedError>,
     stereo_vectors: Vec<(f64, f64)>,
@@ -253,7 +252,6 @@ impl TrackEvaluation {
             scene,
             cameras: cameras.to_vec(),
             anchors: BTreeMap::new(),
-            first_frames: BTreeMap::new(),
             track_errors: Vec::new(),
             aged_errors: Vec::new(),
             stereo_vectors: Vec::new(),
@@ -324,14 +322,13 @@ impl TrackEvaluation {
             match self.anchors.get(&f.feature_id) {
                 None => {
                     let x = self.ray_point(p, &f.uv, poses);
-                    self.anchors.insert(f.feature_id, x);
-                    self.first_frames.insert(f.feature_id, frame_index);
+                    self.anchors.insert(f.feature_id, (x, frame_index));
                 }
-                Some(Some(x)) => {
+                Some((Some(x), first)) => {
                     let e = self.error(p, &f.uv, x, poses);
                     self.track_errors
                         .push(e.map_or(f64::INFINITY, |e| e.norm()));
-                    if let (Some(e), Some(first)) = (e, self.first_frames.get(&f.feature_id)) {
+                    if let Some(e) = e {
                         self.aged_errors.push(AgedError {
                             track: f.feature_id,
                             age: frame_index - first,
@@ -340,11 +337,11 @@ impl TrackEvaluation {
                         });
                     }
                 }
-                Some(None) => self.unverifiable += 1,
+                Some((None, _)) => self.unverifiable += 1,
             }
         }
         for (id, uv) in rejected {
-            if let Some(Some(x)) = self.anchors.get(id) {
+            if let Some((Some(x), _)) = self.anchors.get(id) {
                 let e = self
                     .error(p, uv, x, poses)
                     .map_or(f64::INFINITY, |e| e.norm());

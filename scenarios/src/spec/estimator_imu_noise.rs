@@ -4,7 +4,7 @@
 //! --gt` writes. The file holds the keys of `[estimator.imu_noise]`; the table it gives stands
 //! where the string stood, so the estimator's own checks apply to it as to a written table.
 
-use super::imu_error_model::is_preset_name;
+use super::named_model::is_preset_name;
 use super::{Origin, SpecError};
 use crate::catalog;
 

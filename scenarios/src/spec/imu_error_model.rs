@@ -12,6 +12,7 @@ use sim::bias_instability::BiasInstability;
 use sim::vibration::{ActivityProxy, Vibration, VibrationBand, VibrationLine, VibrationProfile};
 
 use super::error::deserialize_toml;
+use super::named_model::BuiltIn;
 use super::{Scenario, SpecError};
 use crate::catalog;
 
@@ -251,12 +252,6 @@ impl ImuErrorModelSpec {
     }
 }
 
-/// Whether a value names a built-in model rather than a file (no `.toml`, no `/`): for
-/// `rig.imu.error_model` and `estimator.imu_noise`.
-pub(super) fn is_preset_name(value: &str) -> bool {
-    !value.ends_with(".toml") && !value.contains('/') && !value.contains('\\')
-}
-
 impl Scenario {
     /// The IMU error model `rig.imu.error_model` names, read and checked; `None` without one.
     pub(super) fn load_imu_error_model(&self) -> Result<Option<ImuErrorModel>, SpecError> {
@@ -275,23 +270,15 @@ impl Scenario {
                 "a recorded IMU log is replayed as recorded: remove `error_model` (or `recorded`)",
             ));
         }
-        let (file, text) = if is_preset_name(value) {
-            let text = catalog::imu_error_model(value).ok_or_else(|| {
-                self.error(
-                    KEY,
-                    format!(
-                        "no built-in IMU error model `{value}` (built in: {}; or name a .toml file)",
-                        catalog::imu_error_model_names().join(", ")
-                    ),
-                )
-            })?;
-            (format!("preset:{value}"), text.to_string())
-        } else {
-            (
-                self.data_path(value).display().to_string(),
-                self.data_file(KEY, value)?,
-            )
-        };
+        let (file, text) = self.named_model_text(
+            KEY,
+            value,
+            &BuiltIn {
+                kind: "IMU error model",
+                get: catalog::imu_error_model,
+                names: catalog::imu_error_model_names,
+            },
+        )?;
         let spec = ImuErrorModelSpec::parse(&text, &file, self.spec.rig.imu.rate_hz)
             .map_err(|e| self.error(KEY, format!("in the IMU error model: {e}")))?;
         Ok(Some(ImuErrorModel {

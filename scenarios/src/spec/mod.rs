@@ -78,6 +78,7 @@ pub(crate) mod estimator_imu_noise;
 pub(crate) mod exact;
 pub mod imu_error_model;
 mod mapping;
+mod named_model;
 pub(crate) mod overlay;
 mod preset;
 mod recorded_imu;

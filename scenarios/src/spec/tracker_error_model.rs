@@ -15,7 +15,7 @@
 use sim::tracker_error::TrackerErrorModel;
 
 use super::error::deserialize_table;
-use super::imu_error_model::is_preset_name;
+use super::named_model::BuiltIn;
 use super::schema::{CameraMode, FrontendSpec};
 use super::{Scenario, SpecError};
 use crate::catalog;
@@ -41,24 +41,15 @@ impl Scenario {
         }
         let (source, model) = match value {
             toml::Value::String(name) => {
-                let (file, text) = if is_preset_name(name) {
-                    let text = catalog::tracker_error(name).ok_or_else(|| {
-                        self.error(
-                            &key,
-                            format!(
-                                "no built-in tracker error model `{name}` (built in: {}; or name \
-                                 a .toml file)",
-                                catalog::tracker_error_names().join(", ")
-                            ),
-                        )
-                    })?;
-                    (format!("preset:{name}"), text.to_string())
-                } else {
-                    (
-                        self.data_path(name).display().to_string(),
-                        self.data_file(&key, name)?,
-                    )
-                };
+                let (file, text) = self.named_model_text(
+                    &key,
+                    name,
+                    &BuiltIn {
+                        kind: "tracker error model",
+                        get: catalog::tracker_error,
+                        names: catalog::tracker_error_names,
+                    },
+                )?;
                 // A model file is the table plus the `description` saying what it is.
                 let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
                     self.error(&key, format!("{file}: {}", e.message().trim()))

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
+use super::point::{Point, point_of};
 use super::summary::TargetSpec;
 use crate::spec::{Origin, Scenario, SpecError};
 
@@ -86,9 +87,6 @@ pub struct Sweep {
     /// Metrics written and plotted.
     pub metrics: Vec<String>,
 }
-
-/// One point of the grid: the value index on each axis.
-pub type Point = Vec<usize>;
 
 impl Sweep {
     /// Reads and validates a sweep file; errors name the file, line and key.
@@ -278,14 +276,8 @@ impl Sweep {
 
     /// Point `index` of the grid (the axes' value indices, the last axis fastest).
     pub fn point(&self, index: usize) -> Point {
-        let mut rest = index;
-        let mut point = vec![0; self.spec.axes.len()];
-        for (a, axis) in self.spec.axes.iter().enumerate().rev() {
-            let n = axis.values.len().max(1);
-            point[a] = rest % n;
-            rest /= n;
-        }
-        point
+        let lens: Vec<usize> = self.spec.axes.iter().map(|a| a.values.len()).collect();
+        point_of(index, &lens)
     }
 
     /// Every point, in index order (the Cartesian product of the axes, the last varying

@@ -44,6 +44,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>, String> {
     let meta: SweepMeta = serde_json::from_str(&json)
         .map_err(|e| format!("{}: {e}", first.join("sweep.json").display()))?;
     check_meta(&meta).map_err(|e| format!("{}: {e}", first.join("sweep.json").display()))?;
+    let points: usize = meta.axes.iter().map(|a| a.x.len()).product();
     let mut header = None;
     // Each row as written and as parsed (checked once, here, and plotted from the same parse).
     let mut rows: BTreeMap<usize, (String, Row)> = BTreeMap::new();
@@ -83,7 +84,6 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>, String> {
                 )));
             }
             let parsed = parse_row(line, &meta).map_err(at)?;
-            let points: usize = meta.axes.iter().map(|a| a.x.len()).product();
             if parsed.0 >= points {
                 return Err(at(format!(
                     "point {} is beyond the sweep's {points} points",

@@ -37,7 +37,9 @@
 mod grid;
 pub mod merge;
 pub mod partial;
+mod point;
 pub mod run;
 pub mod summary;
 
-pub use grid::{AxisSpec, DEFAULT_METRICS, MAX_RUNS, Point, Sweep, SweepSpec};
+pub use grid::{AxisSpec, DEFAULT_METRICS, MAX_RUNS, Sweep, SweepSpec};
+pub use point::Point;

@@ -14,6 +14,8 @@ use std::fmt::Write as _;
 
 use serde::{Deserialize, Serialize};
 
+use super::point::point_of;
+
 /// `[target]`: the bound the sweep asks about.
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -89,16 +91,6 @@ pub struct Summary {
     pub cheapest: Option<usize>,
 }
 
-/// Point `index`'s value index on each axis (the last axis fastest), for axes of `lens` values.
-fn point_indices(mut index: usize, lens: &[usize]) -> Vec<usize> {
-    let mut out = vec![0; lens.len()];
-    for (a, n) in lens.iter().enumerate().rev() {
-        out[a] = index % n.max(&1);
-        index /= n.max(&1);
-    }
-    out
-}
-
 /// Summarizes `rows` (each run's point index and metric values, in run order).
 pub fn summarize(input: &SummaryInput<'_>, rows: &[(usize, Vec<Option<f64>>)]) -> Summary {
     let lens: Vec<usize> = input.axes.iter().map(|a| a.1.len()).collect();
@@ -109,7 +101,7 @@ pub fn summarize(input: &SummaryInput<'_>, rows: &[(usize, Vec<Option<f64>>)]) -
     let any_cost = input.axes.iter().any(|a| a.2.is_some());
     let mut points = Vec::with_capacity(n_points);
     for p in 0..n_points {
-        let idx = point_indices(p, &lens);
+        let idx = point_of(p, &lens);
         let mine: Vec<&Vec<Option<f64>>> = rows.iter().filter(|r| r.0 == p).map(|r| &r.1).collect();
         let metrics = (0..input.metrics.len())
             .map(|m| {
