@@ -177,6 +177,53 @@ pub fn tracker_error_names() -> Vec<&'static str> {
     names_in(TRACKER_ERRORS)
 }
 
+/// Built-in IMU models (`[rig.imu] preset = "<name>"`), each a partial `[rig.imu]` in
+/// `catalog/sensors/imu/` with its sources.
+const IMU_PRESETS: &[(&str, &str)] = &[
+    (
+        "adis16448",
+        include_str!("../catalog/sensors/imu/adis16448.toml"),
+    ),
+    ("bmi160", include_str!("../catalog/sensors/imu/bmi160.toml")),
+];
+
+/// A built-in IMU model's text by name.
+pub fn imu_preset(name: &str) -> Option<&'static str> {
+    named(IMU_PRESETS, name)
+}
+
+/// The names of the built-in IMU models.
+pub fn imu_preset_names() -> Vec<&'static str> {
+    names_in(IMU_PRESETS)
+}
+
+/// Built-in camera modules (`[[rig.cameras]] preset = "<name>"`), each a partial camera
+/// entry in `catalog/sensors/camera/` with its sources.
+const CAMERA_PRESETS: &[(&str, &str)] = &[
+    (
+        "mt9v034_euroc",
+        include_str!("../catalog/sensors/camera/mt9v034_euroc.toml"),
+    ),
+    (
+        "ueye_tum_rs_1280",
+        include_str!("../catalog/sensors/camera/ueye_tum_rs_1280.toml"),
+    ),
+    (
+        "ueye_tum_vi_512",
+        include_str!("../catalog/sensors/camera/ueye_tum_vi_512.toml"),
+    ),
+];
+
+/// A built-in camera module's text by name.
+pub fn camera_preset(name: &str) -> Option<&'static str> {
+    named(CAMERA_PRESETS, name)
+}
+
+/// The names of the built-in camera modules.
+pub fn camera_preset_names() -> Vec<&'static str> {
+    names_in(CAMERA_PRESETS)
+}
+
 /// Built-in sensor presets (`preset = "<name>"`), each a partial scenario in
 /// `catalog/presets/`.
 const PRESETS: &[(&str, &str)] = &[(

@@ -25,6 +25,10 @@ pub enum ModelSpec {
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CameraSpec {
+    /// A built-in camera module (`catalog/sensors/camera/`, each with its sources) or a
+    /// `.toml` file relative to the scenario, laid under this entry: its keys fill what the
+    /// entry leaves unset (`sensor_preset.rs`).
+    pub preset: Option<String>,
     /// Sensor name (selects its random streams); default `cam<index>`.
     pub name: Option<String>,
     /// Projection model.

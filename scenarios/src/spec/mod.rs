@@ -83,7 +83,9 @@ pub(crate) mod overlay;
 mod preset;
 mod recorded_imu;
 pub mod schema;
+mod sensor_preset;
 mod tracker_error_model;
+pub mod units;
 mod validate;
 
 pub use calibration_draw::DrawnCalibrationError;
@@ -205,7 +207,8 @@ impl Scenario {
         file: &str,
     ) -> Result<Self, SpecError> {
         let file = file.to_string();
-        let spec: ScenarioSpec = match preset::expand(text, &file)? {
+        let expanded = preset::expand(text, &file)?;
+        let spec: ScenarioSpec = match sensor_preset::expand(expanded, &origin, text, &file)? {
             None => error::deserialize_toml(text, &file)?,
             Some(merged) => error::deserialize_table(merged, text, &file)?,
         };

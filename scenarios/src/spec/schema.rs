@@ -6,7 +6,7 @@ pub use super::camera_schema::{
     CalibrationErrorSpec, CameraSpec, ExtrinsicSpec, IntrinsicsErrorSpec, ModelSpec,
     RollingShutterSpec,
 };
-use super::exact;
+use super::{exact, units};
 
 use estimator::Suite;
 
@@ -515,15 +515,25 @@ pub enum TrackIdsSpec {
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ImuSpec {
+    /// A built-in IMU model (`"adis16448"`, `"bmi160"`: `catalog/sensors/imu/`, each with its
+    /// sources) or a `.toml` file relative to the scenario, laid under this table: its keys
+    /// fill what the table leaves unset (`sensor_preset.rs`).
+    pub preset: Option<String>,
     /// Sample rate (Hz).
+    #[serde(deserialize_with = "units::frequency")]
     pub rate_hz: f64,
-    /// Gyroscope white noise density (rad/s/√Hz).
+    /// Gyroscope white noise density (rad/s/√Hz; or a string in datasheet units,
+    /// `"0.18 deg/sqrt(h)"`: [`units`]).
+    #[serde(deserialize_with = "units::gyro_density")]
     pub gyroscope_noise_density: f64,
-    /// Accelerometer white noise density (m/s²/√Hz).
+    /// Accelerometer white noise density (m/s²/√Hz; or e.g. `"175 ug/sqrt(Hz)"`).
+    #[serde(deserialize_with = "units::accel_density")]
     pub accelerometer_noise_density: f64,
-    /// Gyroscope bias random walk (rad/s²/√Hz).
+    /// Gyroscope bias random walk (rad/s²/√Hz; or e.g. `"2 deg/h/sqrt(h)"`).
+    #[serde(deserialize_with = "units::gyro_random_walk")]
     pub gyroscope_random_walk: f64,
-    /// Accelerometer bias random walk (m/s³/√Hz).
+    /// Accelerometer bias random walk (m/s³/√Hz; or e.g. `"0.03 mg/sqrt(s)"`).
+    #[serde(deserialize_with = "units::accel_random_walk")]
     pub accelerometer_random_walk: f64,
     /// Simulate a noise-free IMU with constant biases (the estimator still uses the densities).
     #[serde(default)]
@@ -536,9 +546,11 @@ pub struct ImuSpec {
     #[serde(default)]
     #[serde(deserialize_with = "exact::array")]
     pub initial_accel_bias_m_s2: [f64; 3],
-    /// Per-axis gyroscope range (rad/s); none: no saturation.
+    /// Per-axis gyroscope range (rad/s; or e.g. `"2000 deg/s"`); none: no saturation.
+    #[serde(default, deserialize_with = "units::angular_rate_opt")]
     pub gyro_range_rad_s: Option<f64>,
-    /// Per-axis accelerometer range (m/s²); none: no saturation.
+    /// Per-axis accelerometer range (m/s²; or e.g. `"16 g"`); none: no saturation.
+    #[serde(default, deserialize_with = "units::acceleration_opt")]
     pub accel_range_m_s2: Option<f64>,
     /// A recorded IMU log (EuRoC ASL `imu0/data.csv`, the replayed recording's clock, relative
     /// to the scenario file) the run uses instead of the simulated IMU; replay trajectories only.

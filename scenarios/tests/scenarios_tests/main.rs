@@ -23,3 +23,4 @@ mod regress;
 mod report;
 mod settings;
 mod sweep;
+mod units;

@@ -553,5 +553,20 @@ fn every_example_sweep_file_loads() {
             n += 1;
         }
     }
-    assert!(n >= 8, "{n} sweep files in {}", dir.display());
+    assert!(n >= 9, "{n} sweep files in {}", dir.display());
+}
+
+/// An axis over the whole `rig.imu` table by module name gives each point that module's
+/// densities, with the scenario's own keys it carries beside the name.
+#[test]
+fn a_sweep_over_imu_presets_gives_each_point_its_module() {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("sweeps/imu_presets.toml");
+    let sweep = scenarios::studies::sweep::Sweep::load(&p).unwrap_or_else(|e| panic!("{e}"));
+    let imu = |i: usize| sweep.scenario(&[i]).unwrap().spec.rig.imu;
+    let (bmi160, adis16448) = (imu(0), imu(1));
+    // TUM VI's BMI160 model and EuRoC's ADIS16448 sensor.yaml.
+    assert_eq!(bmi160.accelerometer_noise_density, 2.8e-3);
+    assert_eq!(adis16448.accelerometer_noise_density, 2.0e-3);
+    assert_eq!(bmi160.initial_accel_bias_m_s2, [0.05, -0.04, 0.08]);
+    assert!((bmi160.gyro_range_rad_s.unwrap() - 2000f64.to_radians()).abs() < 1e-9);
 }
