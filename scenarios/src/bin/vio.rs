@@ -35,7 +35,9 @@ use euroc::{EurocArgs, euroc_command};
 use eval::{EvalArgs, eval};
 use image_stats::{ImageStatsArgs, image_stats_command};
 use imu_model::{ImuModelArgs, imu_model_command};
-use studies::{bench_command, nees_command, regress_command, sweep_command};
+use studies::{
+    SweepFlags, bench_command, nees_command, regress_command, sweep_command, sweep_plan_command,
+};
 
 /// Visual-inertial odometry estimator and its simulation harness.
 #[derive(Parser)]
@@ -184,9 +186,18 @@ enum Command {
     Sweep {
         /// The sweep file.
         file: PathBuf,
-        /// Output folder.
+        /// Output folder (not needed with `--plan`).
+        #[arg(long, required_unless_present = "plan")]
+        out: Option<PathBuf>,
+        /// Print the runs (this shard's) without running them: every point's scenario is
+        /// built and checked, and two short probe runs (the first and last point) estimate the
+        /// wall time. Writes nothing.
+        #[arg(long, conflicts_with_all = ["resume", "force", "keep_runs"])]
+        plan: bool,
+        /// Keep each run's folder, `OUT/runs/run-<index>/`: the files `vio run --out` writes
+        /// and the point's `scenario.toml`, so any point can be opened or run again.
         #[arg(long)]
-        out: PathBuf,
+        keep_runs: bool,
         /// Run only this slice of the runs: `i/n`.
         #[arg(long)]
         shard: Option<String>,
@@ -412,11 +423,26 @@ fn dispatch(cli: Cli) -> ExitCode {
         Command::Sweep {
             file,
             out,
+            plan,
+            keep_runs,
             shard,
             jobs,
             resume,
             force,
-        } => sweep_command(&file, &out, shard.as_deref(), jobs, (resume, force)),
+        } => match out {
+            Some(out) if !plan => sweep_command(
+                &file,
+                &out,
+                shard.as_deref(),
+                jobs,
+                SweepFlags {
+                    resume,
+                    force,
+                    keep_runs,
+                },
+            ),
+            _ => sweep_plan_command(&file, shard.as_deref(), jobs),
+        },
         Command::SweepMerge { dirs, out } => {
             match scenarios::studies::sweep::merge::merge(&dirs, &out) {
                 Ok(files) => {

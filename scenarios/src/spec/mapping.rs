@@ -758,30 +758,35 @@ impl Origin {
     pub(super) fn path_of(&self, rel: &str) -> std::path::PathBuf {
         match self {
             Origin::Catalog => std::path::PathBuf::from(rel),
-            Origin::File(p) => p.parent().unwrap_or(Path::new(".")).join(rel),
+            Origin::CatalogBeside(_) if catalog::data(rel).is_some() => {
+                std::path::PathBuf::from(rel)
+            }
+            Origin::File(p) | Origin::CatalogBeside(p) => {
+                p.parent().unwrap_or(Path::new(".")).join(rel)
+            }
         }
     }
 
     /// The text of data file `rel` ([`Origin::path_of`]; embedded for catalog scenarios); the
     /// error says which file and why.
     pub(super) fn read(&self, rel: &str) -> Result<String, String> {
-        match self {
-            Origin::Catalog => {
-                catalog::data(rel).ok_or_else(|| format!("no embedded catalog data file `{rel}`"))
-            }
-            Origin::File(_) => {
-                let path = self.path_of(rel);
-                // Bytes that are not UTF-8 (a Latin-1 comment) are replaced, not refused: the
-                // data files' numbers are ASCII.
-                sim::input_file::read(&path)
-                    .map(|b| String::from_utf8_lossy(&b).into_owned())
-                    .map_err(|e| {
-                        format!(
-                            "cannot read {} (relative to the scenario file): {e}",
-                            path.display()
-                        )
-                    })
-            }
+        let embedded = match self {
+            Origin::Catalog | Origin::CatalogBeside(_) => catalog::data(rel),
+            Origin::File(_) => None,
+        };
+        if let Some(text) = embedded {
+            return Ok(text);
         }
+        let beside = match self {
+            Origin::Catalog => return Err(format!("no embedded catalog data file `{rel}`")),
+            Origin::File(_) => "the scenario file",
+            Origin::CatalogBeside(_) => "the sweep file, not being catalog data",
+        };
+        let path = self.path_of(rel);
+        // Bytes that are not UTF-8 (a Latin-1 comment) are replaced, not refused: the data
+        // files' numbers are ASCII.
+        sim::input_file::read(&path)
+            .map(|b| String::from_utf8_lossy(&b).into_owned())
+            .map_err(|e| format!("cannot read {} (relative to {beside}): {e}", path.display()))
     }
 }

@@ -102,6 +102,10 @@ pub enum Origin {
     Catalog,
     /// A file on disk; relative data paths resolve against its directory.
     File(PathBuf),
+    /// A catalog scenario that a file on disk builds on (a sweep over a catalog scenario,
+    /// this being the sweep file): a data path the catalog embeds reads as
+    /// [`Origin::Catalog`], any other resolves against this file's directory.
+    CatalogBeside(PathBuf),
 }
 
 /// A parsed, validated scenario.
@@ -189,7 +193,7 @@ impl Scenario {
     /// Parses scenario text; `origin` resolves relative data paths and names the file in errors.
     pub fn parse(name: &str, origin: Origin, text: &str) -> Result<Self, SpecError> {
         let file = match &origin {
-            Origin::Catalog => format!("catalog:{name}"),
+            Origin::Catalog | Origin::CatalogBeside(_) => format!("catalog:{name}"),
             Origin::File(p) => p.display().to_string(),
         };
         match kalibr_expansion(&file, &origin, text)? {
@@ -361,7 +365,7 @@ impl Scenario {
     /// The name errors use for the file.
     pub fn file_label(&self) -> String {
         match &self.origin {
-            Origin::Catalog => format!("catalog:{}", self.name),
+            Origin::Catalog | Origin::CatalogBeside(_) => format!("catalog:{}", self.name),
             Origin::File(p) => p.display().to_string(),
         }
     }
@@ -400,31 +404,10 @@ fn kalibr_expansion(
         }
     };
     let read = |key: &str, rel: &str| -> Result<(String, String), SpecError> {
-        let key = format!("rig.kalibr.{key}");
-        match origin {
-            Origin::Catalog => catalog::data(rel)
-                .map(|t| (t, rel.to_string()))
-                .ok_or_else(|| err(&key, format!("no embedded catalog data file `{rel}`"))),
-            Origin::File(p) => {
-                let path = p.parent().unwrap_or(Path::new(".")).join(rel);
-                sim::input_file::read(&path)
-                    .map(|b| {
-                        (
-                            String::from_utf8_lossy(&b).into_owned(),
-                            path.display().to_string(),
-                        )
-                    })
-                    .map_err(|e| {
-                        err(
-                            &key,
-                            format!(
-                                "cannot read {} (relative to the scenario file): {e}",
-                                path.display()
-                            ),
-                        )
-                    })
-            }
-        }
+        let text = origin
+            .read(rel)
+            .map_err(|m| err(&format!("rig.kalibr.{key}"), m))?;
+        Ok((text, origin.path_of(rel).display().to_string()))
     };
     let kalibr_err = |e: crate::dataset::kalibr::KalibrError| SpecError {
         file: e.file,

@@ -23,4 +23,5 @@ mod regress;
 mod report;
 mod settings;
 mod sweep;
+mod sweep_runs;
 mod units;

@@ -5,6 +5,16 @@ use std::process::ExitCode;
 
 use super::{BAD_INPUT, check_duration, check_out_dir, load_scenario, say};
 
+/// `vio sweep`'s switches.
+pub(super) struct SweepFlags {
+    /// `--resume`: run only what an interrupted sweep left.
+    pub resume: bool,
+    /// `--force`: replace a previous sweep's results.
+    pub force: bool,
+    /// `--keep-runs`: keep each run's folder under `OUT/runs/`.
+    pub keep_runs: bool,
+}
+
 /// `vio sweep`: exit 0 done, 2 bad input (or a run that failed), 130 interrupted (the runs
 /// done are kept for `--resume`).
 pub(super) fn sweep_command(
@@ -12,13 +22,18 @@ pub(super) fn sweep_command(
     out: &std::path::Path,
     shard: Option<&str>,
     jobs: Option<usize>,
-    (resume, force): (bool, bool),
+    flags: SweepFlags,
 ) -> ExitCode {
     use scenarios::studies::sweep::partial::{forget_rows, keep_row, kept_rows, partial_dir};
     use scenarios::studies::sweep::{
         Sweep,
-        run::{Shard, SweepControl},
+        run::{RUNS_DIR, Shard, SweepControl},
     };
+    let SweepFlags {
+        resume,
+        force,
+        keep_runs,
+    } = flags;
     let bad = |e: String| {
         eprintln!("vio sweep: error: {e}");
         ExitCode::from(BAD_INPUT)
@@ -50,9 +65,11 @@ pub(super) fn sweep_command(
     if let Err(e) = std::fs::write(out.join("sweep.json"), &json) {
         return bad(format!("--out {}: {e}", out.display()));
     }
-    let jobs = jobs.unwrap_or_else(|| {
-        std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
-    });
+    let runs_dir = out.join(RUNS_DIR);
+    if keep_runs && let Err(e) = std::fs::create_dir_all(&runs_dir) {
+        return bad(format!("--keep-runs: {}: {e}", runs_dir.display()));
+    }
+    let jobs = default_jobs(jobs);
     let stop = super::interrupt::on_ctrl_c(
         "stopping: the runs under way are dropped, the finished ones kept for --resume",
     );
@@ -70,6 +87,7 @@ pub(super) fn sweep_command(
                 eprintln!("{done}/{total} runs");
             }
         },
+        runs_dir: keep_runs.then_some(runs_dir.as_path()),
     };
     let new_rows = sweep.run(shard, jobs, &control);
     if terminal {
@@ -124,6 +142,97 @@ pub(super) fn sweep_command(
     ExitCode::SUCCESS
 }
 
+/// Worker threads: as asked, else the machine's cores.
+fn default_jobs(jobs: Option<usize>) -> usize {
+    jobs.unwrap_or_else(|| {
+        std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+    })
+}
+
+/// `vio sweep --plan`: the shard's runs, checked, and an estimate of their wall time; runs
+/// nothing of the sweep and writes nothing. Exit 0, or 2 on a sweep that would fail to start.
+pub(super) fn sweep_plan_command(
+    file: &std::path::Path,
+    shard: Option<&str>,
+    jobs: Option<usize>,
+) -> ExitCode {
+    use scenarios::studies::sweep::plan::estimate_wall_s;
+    use scenarios::studies::sweep::{Sweep, run::Shard};
+    let bad = |e: String| {
+        eprintln!("vio sweep --plan: error: {e}");
+        ExitCode::from(BAD_INPUT)
+    };
+    let sweep = match Sweep::load(file) {
+        Ok(s) => s,
+        Err(e) => return bad(e.to_string()),
+    };
+    let shard = match shard.map(Shard::parse).transpose() {
+        Ok(s) => s.unwrap_or(Shard::ALL),
+        Err(e) => return bad(e),
+    };
+    let runs = match sweep.plan(shard) {
+        Ok(r) => r,
+        Err(e) => return bad(e.to_string()),
+    };
+    let (points, seeds) = (sweep.points().len(), sweep.spec.seeds.len());
+    let mut text = format!(
+        "{} ({}): {points} points × {seeds} seeds = {} runs{}\n\nrun\tpoint\tseed\tsimulated_s",
+        sweep.spec.description,
+        file.display(),
+        points * seeds,
+        if shard == Shard::ALL {
+            String::new()
+        } else {
+            format!(", {} in shard {}/{}", runs.len(), shard.index, shard.count)
+        },
+    );
+    for a in &sweep.spec.axes {
+        text += &format!("\t{}", a.name);
+    }
+    text.push('\n');
+    for r in &runs {
+        text += &format!("{}\t{}\t{}\t{}", r.run, r.point, r.seed, r.simulated_s);
+        for (a, &i) in sweep.point(r.point).iter().enumerate() {
+            text += &format!("\t{}", sweep.label(a, i));
+        }
+        text.push('\n');
+    }
+    let simulated: f64 = runs.iter().map(|r| r.simulated_s).sum();
+    text += &format!("\n{simulated} simulated seconds in all\n");
+    say(&text);
+    // Probes of the first and last point (one when they are the same), 2 s each at most.
+    let mut probe_points: Vec<(usize, f64)> = Vec::new();
+    for r in [runs.first(), runs.last()].into_iter().flatten() {
+        if probe_points.iter().all(|&(p, _)| p != r.point) {
+            probe_points.push((r.point, r.simulated_s.min(2.0)));
+        }
+    }
+    let mut probes = Vec::new();
+    for (p, s) in probe_points {
+        match sweep.probe(p, s) {
+            Ok(probe) => probes.push(probe),
+            Err(e) => return bad(e),
+        }
+    }
+    let jobs = default_jobs(jobs);
+    if let Some(wall) = estimate_wall_s(&runs, &probes, jobs) {
+        let measured = probes
+            .iter()
+            .map(|p| {
+                format!(
+                    "point {}: {} s in {:.2} s",
+                    p.point, p.simulated_s, p.wall_s
+                )
+            })
+            .collect::<Vec<_>>()
+            .join(", ");
+        say(&format!(
+            "estimated wall time ≈ {wall:.0} s on {jobs} threads (from probes of {measured}; points that render more, or run longer, take longer)\n"
+        ));
+    }
+    ExitCode::SUCCESS
+}
+
 /// What a sweep finds in `--out` before it starts: a folder of another sweep's results is
 /// refused (or, with `force`, emptied of them); with `resume` the folder's `sweep.json`, if
 /// any, must be this sweep's.
@@ -158,6 +267,7 @@ fn prepare_sweep_out(
                 || name == "summary.csv"
                 || name == "summary.md"
                 || name == PARTIAL_DIR
+                || name == scenarios::studies::sweep::run::RUNS_DIR
                 || (name.contains("_vs_") && name.ends_with(".png"))
         })
         .collect();
@@ -175,8 +285,15 @@ fn prepare_sweep_out(
         ));
     }
     forget_rows(out)?;
-    for p in ours.iter().filter(|p| p.is_file()) {
-        std::fs::remove_file(p).map_err(|e| format!("{}: {e}", p.display()))?;
+    for p in &ours {
+        if p.is_file() {
+            std::fs::remove_file(p).map_err(|e| format!("{}: {e}", p.display()))?;
+        } else if p
+            .file_name()
+            .is_some_and(|n| n == scenarios::studies::sweep::run::RUNS_DIR)
+        {
+            std::fs::remove_dir_all(p).map_err(|e| format!("{}: {e}", p.display()))?;
+        }
     }
     Ok(())
 }

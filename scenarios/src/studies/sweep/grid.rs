@@ -102,9 +102,15 @@ impl Sweep {
             .map_err(|e| err("", None, format!("cannot read the sweep file: {e}")))?;
         let spec: SweepSpec = crate::spec::error::deserialize_toml(&text, &file)?;
         let at = |key: &str, m: String| err(key, crate::spec::error::line_of_key(&text, key), m);
-        // The base scenario: a catalog name, else a path relative to the sweep file.
+        // The base scenario: a catalog name, else a path relative to the sweep file. On a
+        // catalog scenario, a data path a value names that the catalog does not embed is the
+        // user's file, beside the sweep file.
         let (scenario_name, base_text, base_origin) = match crate::catalog::get(&spec.scenario) {
-            Some(e) => (e.name.to_string(), e.text.to_string(), Origin::Catalog),
+            Some(e) => (
+                e.name.to_string(),
+                e.text.to_string(),
+                Origin::CatalogBeside(path.to_path_buf()),
+            ),
             None => {
                 let p: PathBuf = path.parent().unwrap_or(Path::new(".")).join(&spec.scenario);
                 let t = sim::input_file::read_to_string(&p).map_err(|e| {
@@ -317,12 +323,23 @@ impl Sweep {
         let axis = &self.spec.axes[a];
         match &axis.labels {
             Some(l) => l[i].clone(),
-            None => format!("{}", self.x(a, i)),
+            // A string value (a model's name, a file) is its own label.
+            None => match &axis.values[i] {
+                toml::Value::String(v) => v.clone(),
+                _ => format!("{}", self.x(a, i)),
+            },
         }
     }
 
     /// The base scenario with the point's values set.
     pub fn scenario(&self, point: &[usize]) -> Result<Scenario, SpecError> {
+        let text = self.point_text(point)?;
+        self.parse_point(point, &text)
+    }
+
+    /// The base scenario's text with the point's values set (TOML as the `toml` crate writes
+    /// it: the base's comments are not kept).
+    pub fn point_text(&self, point: &[usize]) -> Result<String, SpecError> {
         let mut doc: toml::Table =
             self.base_text
                 .parse()
@@ -355,15 +372,19 @@ impl Sweep {
                 })?;
             }
         }
-        let text = toml::to_string(&doc).map_err(|e| SpecError {
+        toml::to_string(&doc).map_err(|e| SpecError {
             file: self.file.clone(),
             key: String::new(),
             line: None,
             message: e.to_string(),
-        })?;
+        })
+    }
+
+    /// The point's scenario from its text ([`Sweep::point_text`]).
+    pub(super) fn parse_point(&self, point: &[usize], text: &str) -> Result<Scenario, SpecError> {
         // The error names the sweep file (the point's values come from it), the axis that
         // set the refused key, and where the base scenario holds it.
-        Scenario::parse(&self.scenario_name, self.base_origin.clone(), &text).map_err(|e| {
+        Scenario::parse(&self.scenario_name, self.base_origin.clone(), text).map_err(|e| {
             let axis = self
                 .spec
                 .axes

@@ -32,11 +32,14 @@
 //! or `min` for `tracking_fraction`) and, optionally, a `cost` per value of an axis
 //! (`cost = [5, 50, 500]`); the sweep then writes `summary.csv` and `summary.md` (each point's
 //! mean and worst seed, its runs without a value, pass or FAIL) and names the cheapest passing
-//! point ([`summary`]).
+//! point ([`summary`]). `vio sweep --plan` lists the runs and estimates their wall time
+//! without running them ([`plan`]); `--keep-runs` keeps each run's folder
+//! ([`run::SweepControl::runs_dir`]).
 
 mod grid;
 pub mod merge;
 pub mod partial;
+pub mod plan;
 mod point;
 pub mod run;
 pub mod summary;

@@ -4,13 +4,14 @@
 
 use std::collections::BTreeSet;
 use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use serde::Serialize;
 
 use super::Sweep;
-use crate::run::{RunControl, RunInput, RunOptions, run_to_report};
+use crate::run::{ReportedRun, RunControl, RunInput, RunOptions, run_to_report};
 
 /// A slice of the runs: those whose index is `index` modulo `count`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -58,7 +59,19 @@ pub struct SweepControl<'a> {
     pub keep: &'a (dyn Fn(&RunRow) -> Result<(), String> + Sync),
     /// Called with (runs finished, runs to do).
     pub progress: &'a (dyn Fn(usize, usize) + Sync),
+    /// With `--keep-runs`: each finished run's files (those of `vio run --out`, and the
+    /// point's `scenario.toml`) are kept in `runs_dir/run-<index>/`, written whole or not at
+    /// all.
+    pub runs_dir: Option<&'a Path>,
 }
+
+/// The folder `--keep-runs` keeps run `run` in, under the sweep's output folder.
+pub fn run_dir(runs_dir: &Path, run: usize) -> PathBuf {
+    runs_dir.join(format!("run-{run}"))
+}
+
+/// The folder under `--out` that holds the kept runs.
+pub const RUNS_DIR: &str = "runs";
 
 /// One finished run: its index, point, seed and metric values.
 #[derive(Clone, Debug, PartialEq)]
@@ -173,7 +186,7 @@ impl Sweep {
                         }
                         let r = todo[k];
                         let (p, si) = (r / seeds.len(), r % seeds.len());
-                        let row = match self.run_one(&points[p], seeds[si], control.stop) {
+                        let row = match self.run_one((r, p), &points[p], seeds[si], control) {
                             Ok(None) => break,
                             Ok(Some(values)) => {
                                 let row = RunRow {
@@ -203,27 +216,46 @@ impl Sweep {
             .collect()
     }
 
-    /// One run's metric values; `None` when `stop` ended it early.
+    /// One run's metric values (the run and point indices, the point, the seed); `None` when
+    /// `control.stop` ended it early.
     fn run_one(
         &self,
+        (run_index, point_index): (usize, usize),
         point: &[usize],
         seed: u64,
-        stop: Option<&AtomicBool>,
+        control: &SweepControl<'_>,
     ) -> Result<Option<Vec<Option<f64>>>, String> {
-        let scenario = self.scenario(point).map_err(|e| e.to_string())?;
+        let text = self.point_text(point).map_err(|e| e.to_string())?;
+        let scenario = self.parse_point(point, &text).map_err(|e| e.to_string())?;
         let options = RunOptions {
             seed: Some(seed),
             duration_s: self.spec.duration_s,
             ..Default::default()
         };
-        let control = RunControl {
+        let run_control = RunControl {
             progress: None,
-            stop,
+            stop: control.stop,
         };
-        let run = run_to_report(RunInput::Scenario(&scenario), &options, control)
-            .map_err(|e| format!("{} seed {seed}: {e}", self.describe_point(point)))?;
+        let failed =
+            |e: &dyn std::fmt::Display| format!("{} seed {seed}: {e}", self.describe_point(point));
+        let run = run_to_report(RunInput::Scenario(&scenario), &options, run_control)
+            .map_err(|e| failed(&e))?;
         if run.report.interrupted_at_s.is_some() {
             return Ok(None);
+        }
+        if let Some(dir) = control.runs_dir {
+            let duration = self
+                .spec
+                .duration_s
+                .map_or(String::new(), |d| format!(" --duration {d}"));
+            let header = format!(
+                "# Sweep \"{}\", point {point_index} ({}), seed {seed}: \
+                 `vio run scenario.toml --seed {seed}{duration}` runs it again.\n",
+                self.spec.description,
+                self.describe_point(point),
+            );
+            keep_run_dir(&run_dir(dir, run_index), &(header + &text), &run)
+                .map_err(|e| failed(&e))?;
         }
         Ok(Some(
             self.metrics
@@ -274,4 +306,24 @@ impl Sweep {
         }
         s
     }
+}
+
+/// Writes a run's files and its scenario into `dir`, whole: into a sibling folder first,
+/// renamed into place once complete (a run kept before, by an interrupted sweep, is replaced).
+fn keep_run_dir(dir: &Path, scenario_text: &str, run: &ReportedRun) -> Result<(), String> {
+    let name = dir
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let tmp = dir.with_file_name(format!(".{name}.partial"));
+    let io = |p: &Path, e: std::io::Error| format!("{}: {e}", p.display());
+    if tmp.exists() {
+        std::fs::remove_dir_all(&tmp).map_err(|e| io(&tmp, e))?;
+    }
+    std::fs::create_dir_all(&tmp).map_err(|e| io(&tmp, e))?;
+    std::fs::write(tmp.join("scenario.toml"), scenario_text).map_err(|e| io(&tmp, e))?;
+    run.write_outputs(&tmp)?;
+    if dir.exists() {
+        std::fs::remove_dir_all(dir).map_err(|e| io(dir, e))?;
+    }
+    std::fs::rename(&tmp, dir).map_err(|e| io(dir, e))
 }
