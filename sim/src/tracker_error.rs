@@ -21,7 +21,7 @@ use serde::{Deserialize, Serialize};
 
 /// The tracker error model of one camera (all σ per axis, px): the table a scenario's
 /// `tracker_error` gives, and the fields of the fit a rendered run reports.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TrackerErrorModel {
     /// White jitter on every observation.

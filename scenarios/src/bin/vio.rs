@@ -109,13 +109,19 @@ enum Command {
     Bag(BagArgs),
     /// List the built-in scenarios.
     List,
-    /// Print the scenario's effective estimator and front-end settings as the TOML tables
-    /// `[estimator]`, `[estimator.solver]`, `[estimator.health]`, `[estimator.zero_velocity]` and `[camera.tracker]`: every
-    /// key a scenario file may set, with the value this scenario runs with.
+    /// Print the scenario's effective estimator, front-end and renderer settings as the TOML
+    /// tables `[estimator]`, `[estimator.solver]`, `[estimator.health]`,
+    /// `[estimator.zero_velocity]`, `[camera.tracker]`, `[camera.render]` and
+    /// `[camera.photometric]`, with the value this scenario runs with; `--keys` lists every
+    /// other key a scenario file may set (rig, trajectory, faults, expectations …) with its
+    /// type, unit, default and meaning, generated from the schema the parser uses.
     Settings {
         /// A catalog scenario name or a path to a scenario .toml file; default: the default
         /// scenario.
         scenario: Option<String>,
+        /// List every key of the scenario file format instead (no scenario is read).
+        #[arg(long, conflicts_with = "scenario")]
+        keys: bool,
     },
     /// Write a scenario's simulated measurements and ground truth: in the EuRoC ASL layout
     /// (`OUT/mav0/…`, the feature tracks as `OUT/features.csv`, the rig as Kalibr files
@@ -383,7 +389,12 @@ fn dispatch(cli: Cli) -> ExitCode {
             threads,
             batch_reference,
         } => nees_command(scenario, seeds, duration, out, threads, batch_reference),
-        Command::Settings { scenario } => {
+        Command::Settings { keys: true, .. } => {
+            use scenarios::spec::key_listing::{listing_text, scenario_keys};
+            say(&listing_text(&scenario_keys()));
+            ExitCode::SUCCESS
+        }
+        Command::Settings { scenario, .. } => {
             match load_scenario(scenario.as_deref()).map(|s| s.settings_toml()) {
                 Ok(Ok(text)) => {
                     say(&text);

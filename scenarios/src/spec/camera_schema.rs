@@ -7,7 +7,7 @@ use serde::Deserialize;
 use super::exact;
 
 /// Camera projection models.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum ModelSpec {
     /// Pinhole with radial-tangential distortion: `distortion = [k1, k2, p1, p2]`.
@@ -22,7 +22,7 @@ pub enum ModelSpec {
 
 /// One `[[rig.cameras]]` entry.
 #[allow(non_snake_case)]
-#[derive(Clone, Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CameraSpec {
     /// A built-in camera module (`catalog/sensors/camera/`, each with its sources) or a
@@ -55,6 +55,9 @@ pub struct CameraSpec {
     /// the Gaussian of `pixel_sigma_px` (which stays the estimator's default model): a
     /// built-in model's name, a `.toml` file, or the table itself (see
     /// [`super::tracker_error_model`]).
+    #[schemars(
+        with = "Option<super::key_listing::NameOrTable<sim::tracker_error::TrackerErrorModel>>"
+    )]
     pub tracker_error: Option<toml::Value>,
     /// Most features per frame (default 150).
     pub max_features: Option<usize>,
@@ -81,7 +84,7 @@ pub struct CameraSpec {
 /// times `1 + percent / 100`, its principal point shifted by the pixels given, its distortion
 /// coefficients offset by `distortion` (one per coefficient, or none). Every key defaults to no
 /// error.
-#[derive(Clone, Debug, Default, Deserialize)]
+#[derive(Clone, Debug, Default, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct IntrinsicsErrorSpec {
     /// `[fx, fy]` errors (%).
@@ -99,13 +102,14 @@ pub struct IntrinsicsErrorSpec {
 /// `h` rows tall is exposed `readout_ms · r / h` after the stamp, counted from the top
 /// (`top_to_bottom`, the default) or the bottom (`bottom_to_top`). The simulator exposes each
 /// row at its time; the estimator models it with `estimator.model_rolling_shutter` (default on).
-#[derive(Clone, Copy, Debug, Deserialize)]
+#[derive(Clone, Copy, Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RollingShutterSpec {
     /// Time from the first row to one past the last (ms), at most the frame period.
     pub readout_ms: f64,
     /// Which row is read first.
     #[serde(default)]
+    #[schemars(with = "String")]
     pub direction: estimator::camera::ReadoutDirection,
 }
 
@@ -122,7 +126,7 @@ impl RollingShutterSpec {
 /// `calibration_error = { rotation_deg = [x, y, z], translation_m = [x, y, z] }`: the
 /// estimator's `T_b_c` is the true one rotated by the rotation vector (degrees, body frame:
 /// `R = Exp(δθ)·R_true`) and shifted by the translation (m, body frame).
-#[derive(Clone, Copy, Debug, Default, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CalibrationErrorSpec {
     /// Rotation vector (deg, body frame).
@@ -135,7 +139,7 @@ pub struct CalibrationErrorSpec {
 
 /// A rigid transform: translation plus exactly one of a rotation matrix (rows) or a Hamilton
 /// quaternion `[qx, qy, qz, qw]`.
-#[derive(Clone, Copy, Debug, Deserialize)]
+#[derive(Clone, Copy, Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ExtrinsicSpec {
     /// Translation (m).

@@ -20,7 +20,7 @@ use crate::catalog;
 const KEY: &str = "rig.imu.error_model";
 
 /// An IMU error model file.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ImuErrorModelSpec {
     /// What the model is and where it came from.
@@ -35,7 +35,7 @@ pub struct ImuErrorModelSpec {
 }
 
 /// `[bias_instability]`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct BiasInstabilitySpec {
     /// Gyroscope Allan-deviation floor (rad/s).
@@ -47,7 +47,7 @@ pub struct BiasInstabilitySpec {
 }
 
 /// `[vibration]`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct VibrationSpec {
     /// At or below this ground-truth speed the rest profile alone (m/s).
@@ -65,7 +65,7 @@ pub struct VibrationSpec {
 }
 
 /// `[vibration.rest]` / `[vibration.flight]`.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ProfileSpec {
     /// Band noise.
@@ -77,7 +77,7 @@ pub struct ProfileSpec {
 }
 
 /// One band.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct BandSpec {
     /// Lower edge (Hz).
@@ -91,7 +91,7 @@ pub struct BandSpec {
 }
 
 /// One line.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct LineSpec {
     /// Frequency (Hz).

@@ -77,6 +77,7 @@ pub mod error;
 pub(crate) mod estimator_imu_noise;
 pub(crate) mod exact;
 pub mod imu_error_model;
+pub mod key_listing;
 mod mapping;
 mod named_model;
 pub(crate) mod overlay;

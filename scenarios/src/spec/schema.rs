@@ -11,7 +11,7 @@ use super::{exact, units};
 use estimator::Suite;
 
 /// A scenario file as written (see the module documentation).
-#[derive(Clone, Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ScenarioSpec {
     /// One line saying what the scenario exercises (shown by `vio list`).
@@ -36,6 +36,7 @@ pub struct ScenarioSpec {
     /// nested ones as tables (`[estimator.solver]`, `[estimator.health]`); unset keys keep
     /// the defaults. Read through [`super::Scenario::estimator_config`].
     #[serde(default)]
+    #[schemars(with = "serde_json::Map<String, serde_json::Value>")]
     pub estimator: toml::Table,
     /// Fault timeline.
     #[serde(default)]
@@ -46,7 +47,7 @@ pub struct ScenarioSpec {
 }
 
 /// The sensor suite.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum SuiteSpec {
     /// Stereo camera and IMU.
@@ -93,7 +94,7 @@ impl SuiteSpec {
 /// vignetting = 0.2
 /// read_noise = 1.0
 /// ```
-#[derive(Clone, Debug, Default, Deserialize)]
+#[derive(Clone, Debug, Default, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CameraModeSpec {
     /// `features` (projected landmarks with pixel noise) or `rendered` (images as well).
@@ -102,10 +103,12 @@ pub struct CameraModeSpec {
     /// Renderer settings: any [`sim::render::RenderConfig`] field by its name (unset keys keep
     /// its defaults; read through [`super::Scenario::render_config`]).
     #[serde(default)]
+    #[schemars(with = "serde_json::Map<String, serde_json::Value>")]
     pub render: toml::Table,
     /// Exposure, vignetting and noise: any [`sim::render::Photometric`] field (defaults: none
     /// of the effects); laid over `render.photometric`.
     #[serde(default)]
+    #[schemars(with = "serde_json::Map<String, serde_json::Value>")]
     pub photometric: toml::Table,
     /// Rendered mode: `klt` (default: the image front end tracks the rendered images) or
     /// `truth` (the simulator's ideal tracks of the same captures).
@@ -114,11 +117,12 @@ pub struct CameraModeSpec {
     /// The image front end's settings: any [`estimator::frontend::TrackerConfig`] field by
     /// its name (unset keys keep its defaults; read through [`super::Scenario::tracker_config`]).
     #[serde(default)]
+    #[schemars(with = "serde_json::Map<String, serde_json::Value>")]
     pub tracker: toml::Table,
 }
 
 /// Which features the estimator gets in a rendered scenario.
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum FrontendSpec {
     /// The image front end (`estimator::frontend::FeatureTracker`) on the rendered images
@@ -130,7 +134,7 @@ pub enum FrontendSpec {
 }
 
 /// Camera measurement mode.
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum CameraMode {
     /// Feature-level measurements only.
@@ -142,7 +146,7 @@ pub enum CameraMode {
 }
 
 /// `[world]`: scene and seed.
-#[derive(Clone, Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct WorldSpec {
     /// Scene preset.
@@ -166,7 +170,7 @@ impl Default for WorldSpec {
 }
 
 /// Scene presets.
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum SceneSpec {
     /// An 8 × 8 × 4 m Vicon room like EuRoC's V1/V2.
@@ -179,7 +183,7 @@ pub enum SceneSpec {
 }
 
 /// `[trajectory]`: duration, optional static start, and exactly one motion table.
-#[derive(Clone, Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TrajectorySpec {
     /// Run length (s); a replayed file may end earlier.
@@ -206,7 +210,7 @@ pub struct TrajectorySpec {
 
 /// `trajectory.ground_vehicle`: `x = cx + a·sin(ωt)`, `y = cy + b·sin(2ωt)` at height `cz`,
 /// level, the body's x axis along the velocity (see [`sim::motion::GroundVehicle`]).
-#[derive(Clone, Copy, Debug, Deserialize)]
+#[derive(Clone, Copy, Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct GroundVehicleSpec {
     /// Centre (m); `z` is the body's height.
@@ -239,7 +243,7 @@ impl TrajectorySpec {
 }
 
 /// `trajectory.static_start`.
-#[derive(Clone, Copy, Debug, Deserialize)]
+#[derive(Clone, Copy, Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct StaticStartSpec {
     /// Rest duration (s).
@@ -250,7 +254,7 @@ pub struct StaticStartSpec {
 
 /// One entry of `trajectory.stops`: the motion slows to rest from `at_s` (run time) over
 /// `ramp_s`, rests for `duration_s`, speeds up over `ramp_s` and continues where it stopped.
-#[derive(Clone, Copy, Debug, Deserialize)]
+#[derive(Clone, Copy, Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct StopSpec {
     /// Run time (s) at which the slow-down starts.
@@ -269,7 +273,7 @@ impl StopSpec {
 }
 
 /// `trajectory.figure_eight`.
-#[derive(Clone, Copy, Debug, Deserialize)]
+#[derive(Clone, Copy, Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct FigureEightSpec {
     /// Centre (m).
@@ -284,7 +288,7 @@ pub struct FigureEightSpec {
 }
 
 /// `trajectory.circle`.
-#[derive(Clone, Copy, Debug, Deserialize)]
+#[derive(Clone, Copy, Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CircleSpec {
     /// Centre (m).
@@ -298,7 +302,7 @@ pub struct CircleSpec {
 
 /// `trajectory.lissajous`: `p = center + amplitude ⊙ sin(2π·freq·t + phase)` with yaw, pitch and
 /// roll oscillations (see [`sim::motion::Lissajous`]).
-#[derive(Clone, Copy, Debug, Deserialize)]
+#[derive(Clone, Copy, Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct LissajousSpec {
     /// Centre (m).
@@ -335,7 +339,7 @@ pub struct LissajousSpec {
 }
 
 /// `trajectory.waypoints`.
-#[derive(Clone, Copy, Debug, Deserialize)]
+#[derive(Clone, Copy, Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct WaypointsSpec {
     /// Lower corner of the box the waypoints are drawn in (m).
@@ -353,7 +357,7 @@ pub struct WaypointsSpec {
 }
 
 /// `trajectory.replay`.
-#[derive(Clone, Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ReplaySpec {
     /// TUM or EuRoC ASL ground-truth file, relative to the scenario file.
@@ -377,7 +381,7 @@ pub struct ReplaySpec {
 }
 
 /// `trajectory.replay.placement`: where a recording sits in the scene.
-#[derive(Clone, Copy, Debug, Deserialize)]
+#[derive(Clone, Copy, Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PlacementSpec {
     /// Translation (m) added after the rotation.
@@ -389,7 +393,7 @@ pub struct PlacementSpec {
 }
 
 /// `trajectory.replay.time_unit`.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, schemars::JsonSchema)]
 pub enum TimeUnitSpec {
     /// Seconds.
     #[serde(rename = "s")]
@@ -406,7 +410,7 @@ pub enum TimeUnitSpec {
 }
 
 /// `[rig]`: synchronized cameras and the IMU.
-#[derive(Clone, Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RigSpec {
     /// Frame rate (Hz), up to the IMU's: frame `i` is captured at `i / rate_hz` rounded to the
@@ -445,7 +449,7 @@ pub struct RigSpec {
 
 /// `[rig.calibration_draw]`: per-axis standard deviations of the calibration error drawn per
 /// seed.
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CalibrationDrawSpec {
     /// The stereo pair's rotation against the IMU (deg, body frame).
@@ -463,7 +467,7 @@ pub struct CalibrationDrawSpec {
 }
 
 /// `[rig.gnss]`.
-#[derive(Clone, Copy, Debug, Deserialize)]
+#[derive(Clone, Copy, Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct GnssSpec {
     /// Fix rate (Hz).
@@ -478,7 +482,7 @@ pub struct GnssSpec {
 }
 
 /// `[rig.wheel]`.
-#[derive(Clone, Copy, Debug, Deserialize)]
+#[derive(Clone, Copy, Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct WheelSpec {
     /// Reading rate (Hz).
@@ -488,7 +492,7 @@ pub struct WheelSpec {
 }
 
 /// `rig.kalibr`: a Kalibr calibration as the rig (see [`crate::dataset::kalibr`]).
-#[derive(Clone, Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct KalibrSpec {
     /// `camchain-imucam.yaml`, relative to the scenario file: the cameras.
@@ -501,7 +505,7 @@ pub struct KalibrSpec {
 }
 
 /// `rig.track_ids`: how the feature-level cameras assign feature ids.
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum TrackIdsSpec {
     /// A new id for every track (what a tracker outputs).
@@ -512,7 +516,7 @@ pub enum TrackIdsSpec {
 }
 
 /// `[rig.imu]`.
-#[derive(Clone, Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ImuSpec {
     /// A built-in IMU model (`"adis16448"`, `"bmi160"`: `catalog/sensors/imu/`, each with its
@@ -562,7 +566,7 @@ pub struct ImuSpec {
 }
 
 /// Fault kinds.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum FaultKind {
     /// No frames (or empty frames with `black_frames = true`) on `[start_s, end_s)`.
@@ -593,7 +597,7 @@ pub enum FaultKind {
 }
 
 /// One `[[faults]]` entry: a kind and the keys that kind takes.
-#[derive(Clone, Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct FaultSpec {
     /// What goes wrong.
@@ -631,7 +635,7 @@ pub struct FaultSpec {
 }
 
 /// A bound on a metric: `min ≤ value ≤ max`, either side optional.
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Bound {
     /// Lower bound.
@@ -653,7 +657,7 @@ impl Bound {
 }
 
 /// `[expectations]`: bounds on the run's metrics.
-#[derive(Clone, Debug, Default, Deserialize)]
+#[derive(Clone, Debug, Default, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ExpectationsSpec {
     /// Position ATE RMSE after alignment (m).

@@ -16,6 +16,7 @@ mod imu_error_model;
 mod imu_model;
 mod input_fuzz;
 mod kalibr;
+mod key_listing;
 mod metrics;
 mod peer_openvins;
 mod recorded_imu_input;
