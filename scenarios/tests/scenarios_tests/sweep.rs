@@ -518,7 +518,7 @@ cost = [0, 10, 20]
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(!stderr.contains('\r'), "{stderr}");
     assert!(
-        stderr.contains("6/12 runs\n") || stderr.contains("12/12 runs\n"),
+        stderr.contains("6/12 runs after ") && stderr.contains("12/12 runs after "),
         "{stderr}"
     );
     let md = std::fs::read_to_string(out.join("summary.md")).unwrap();

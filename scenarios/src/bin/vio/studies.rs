@@ -75,24 +75,42 @@ pub(super) fn sweep_command(
     );
     let started = std::time::Instant::now();
     let terminal = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    // A terminal gets a bar with the runs done and an estimate of the time left; a log, a
+    // plain line per tenth of the runs.
+    let bar = indicatif::ProgressBar::with_draw_target(
+        None,
+        if terminal {
+            indicatif::ProgressDrawTarget::stderr()
+        } else {
+            indicatif::ProgressDrawTarget::hidden()
+        },
+    );
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "[{bar:40}] {pos}/{len} runs, {elapsed} elapsed, about {eta} left ",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+        .progress_chars("=> "),
+    );
     let control = SweepControl {
         done: kept.iter().map(|r| r.run).collect(),
         stop: Some(stop),
         keep: &|row| keep_row(out, &sweep, row),
         progress: &|done, total| {
-            // A terminal gets one line rewritten; a log, a line per tenth of the runs.
             if terminal {
-                eprint!("\r{done}/{total} runs");
+                bar.set_length(total as u64);
+                bar.set_position(done as u64);
             } else if done == total || done % total.div_ceil(10).max(1) == 0 {
-                eprintln!("{done}/{total} runs");
+                eprintln!(
+                    "{done}/{total} runs after {:.0} s",
+                    started.elapsed().as_secs_f64()
+                );
             }
         },
         runs_dir: keep_runs.then_some(runs_dir.as_path()),
     };
     let new_rows = sweep.run(shard, jobs, &control);
-    if terminal {
-        eprintln!();
-    }
+    bar.finish_and_clear();
     let mut rows = match new_rows {
         Ok(r) => r,
         Err(e) => return bad(e),
