@@ -7,6 +7,7 @@
 mod common;
 
 mod aiding;
+mod bag_integrity;
 mod calibration;
 mod camera_errors;
 mod consistency;

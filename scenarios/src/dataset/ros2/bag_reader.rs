@@ -61,6 +61,8 @@ impl BagFile {
         let err = |e: &dyn std::fmt::Display| {
             format!("{}: not a readable MCAP file: {e}", self.path.display())
         };
+        // The checks a checking reader makes, before anything is read as good.
+        super::bag_checksums::check(&self.bytes).map_err(|e| err(&e))?;
         let mut topics: BTreeMap<String, Topic<'_>> = BTreeMap::new();
         let stream = mcap::MessageStream::new(&self.bytes).map_err(|e| err(&e))?;
         for m in stream {

@@ -1,6 +1,7 @@
 //! ROS 2 bags in MCAP (rosbag2's default storage): the message types they hold, their CDR
 //! encoding, conversions from the estimator's geometry, and a writer and a reader of bags.
 
+mod bag_checksums;
 mod bag_reader;
 mod bag_writer;
 mod camera_info_rig;
