@@ -12,6 +12,10 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+/// The file `vio export` keeps in `mav0/` while it writes (removed when it finishes): a folder
+/// holding it is refused as incomplete.
+pub const INCOMPLETE_MARKER: &str = "EXPORT_INCOMPLETE";
+
 use estimator::geometry::Pose;
 use estimator::imu::ImuSample;
 use nalgebra::Vector3;
@@ -424,6 +428,13 @@ pub fn read_euroc_cameras(
         return Err(invalid(
             mav0,
             "not a folder (expected an EuRoC `mav0` folder)",
+        ));
+    }
+    let marker = mav0.join(INCOMPLETE_MARKER);
+    if marker.exists() {
+        return Err(invalid(
+            &marker,
+            "an export into this folder did not finish (it was stopped, or is still running): its files may be partial or mixed with an older export's; export again",
         ));
     }
     let no_rows = |p: PathBuf, what: &str| {

@@ -21,7 +21,7 @@ mod yaml;
 use std::path::{Path, PathBuf};
 
 pub use euroc_asl::{
-    CameraFrame, EurocCamera, EurocDataset, GroundTruthState, format_camera_csv,
+    CameraFrame, EurocCamera, EurocDataset, GroundTruthState, INCOMPLETE_MARKER, format_camera_csv,
     format_groundtruth_csv, format_imu_csv, parse_camera_csv, parse_groundtruth_csv, parse_imu_csv,
     read_camera_csv, read_euroc, read_euroc_cameras, read_groundtruth_csv, read_imu_csv,
     write_camera_csv, write_euroc, write_groundtruth_csv, write_imu_csv,

@@ -13,8 +13,10 @@
 //! measured and when. Feature ids are renumbered densely from 0 keeping their order (they fit
 //! in 31 bits): one id is one track (`rig.track_ids = "realistic"`, the default: a re-acquired
 //! landmark is a new track) or one landmark (`"landmark"`), shared by the cameras that see it.
+//! An export's output is whole or marked ([`out_folder`]).
 
 pub mod asl_folder;
+pub mod out_folder;
 pub mod rig;
 pub mod ros2_bag;
 mod sink;

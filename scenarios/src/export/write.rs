@@ -8,6 +8,7 @@ use sim::World;
 use sim::stream::Measurement;
 
 use super::asl_folder::AslFolder;
+use super::out_folder::{ClaimedFolder, complete_bag, partial_bag_path};
 use super::rig::export_rig;
 use super::ros2_bag::Ros2Bag;
 use super::sink::{ExportError, ExportSink, ExportSummary};
@@ -97,25 +98,39 @@ fn export_into(
 }
 
 /// Simulates `scenario` and writes its measurements and ground truth under `out` as an EuRoC ASL
-/// folder (see the module documentation).
+/// folder (see the module documentation): one export at a time, the folder marked incomplete
+/// until it ends ([`ClaimedFolder`]).
 pub fn export(
     scenario: &Scenario,
     options: &RunOptions,
     out: &Path,
 ) -> Result<ExportSummary, ExportError> {
-    export_into(scenario, options, |rig| {
+    let claimed = ClaimedFolder::claim(out)?;
+    let summary = export_into(scenario, options, |rig| {
         Ok(Box::new(AslFolder::new(out.to_path_buf(), rig)))
-    })
+    })?;
+    claimed.complete()?;
+    Ok(summary)
 }
 
 /// Simulates `scenario` and writes its measurements and ground truth as a ROS 2 bag (MCAP) at
-/// `path` (see [`super::ros2_bag`] for its topics).
+/// `path` (see [`super::ros2_bag`] for its topics): written beside it, renamed onto it once
+/// complete, so `path` is a whole bag or not there.
 pub fn export_bag(
     scenario: &Scenario,
     options: &RunOptions,
     path: &Path,
 ) -> Result<ExportSummary, ExportError> {
-    export_into(scenario, options, |rig| {
-        Ok(Box::new(Ros2Bag::create(path, rig)?))
-    })
+    let partial = partial_bag_path(path);
+    let written = export_into(scenario, options, |rig| {
+        Ok(Box::new(Ros2Bag::create(&partial, rig)?))
+    });
+    match written {
+        Ok(summary) => complete_bag(&partial, path).map(|()| summary),
+        Err(e) => {
+            // Best effort: the error is the export's.
+            let _ = std::fs::remove_file(&partial);
+            Err(e)
+        }
+    }
 }

@@ -11,6 +11,7 @@ mod bench;
 mod cli;
 mod dataset;
 mod evo_agreement;
+mod export_output;
 mod fuzz;
 mod imu_error_model;
 mod imu_model;
