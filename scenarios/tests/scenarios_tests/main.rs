@@ -13,6 +13,7 @@ mod dataset;
 mod evo_agreement;
 mod export_output;
 mod fuzz;
+mod image_stats;
 mod imu_error_model;
 mod imu_model;
 mod input_fuzz;

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use estimator::frontend::TrackerConfig;
-use scenarios::studies::image_statistics::{StaticSequence, measure, table};
+use scenarios::studies::image_statistics::{StaticSequence, measure, table, why_not_static};
 
 #[derive(clap::Args)]
 pub(super) struct ImageStatsArgs {
@@ -61,7 +61,15 @@ pub(super) fn image_stats_command(args: ImageStatsArgs) -> ExitCode {
             Err(e) => return bad(e),
         };
         match measure(&seq, &label, &config) {
-            Ok(s) => stats.push(s),
+            Ok(s) => match why_not_static(&s) {
+                None => stats.push(s),
+                Some(why) => {
+                    return bad(format!(
+                        "{}: not a static sequence: {why}; image-stats measures a camera at rest",
+                        mav0.display()
+                    ));
+                }
+            },
             Err(e) => return bad(format!("{}: front end: {e}", mav0.display())),
         }
     }

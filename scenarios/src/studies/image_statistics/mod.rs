@@ -4,12 +4,14 @@
 
 pub mod photometry;
 pub mod sequence;
+pub mod static_check;
 pub mod static_tracks;
 pub mod summary;
 pub mod texture;
 
 pub use photometry::{NoiseBin, Photometry, photometry};
 pub use sequence::StaticSequence;
+pub use static_check::why_not_static;
 pub use static_tracks::{StaticTracks, static_tracks};
 pub use summary::{ImageStatistics, measure, table};
 pub use texture::{Texture, texture};
