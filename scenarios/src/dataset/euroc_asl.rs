@@ -160,6 +160,33 @@ fn push_row(s: &mut String, t_ns: i64, values: &[f64]) {
 
 const IMU_NAMES: [&str; 7] = ["timestamp", "w_x", "w_y", "w_z", "a_x", "a_y", "a_z"];
 
+/// A reading no IMU can give: a component beyond the widest plausible full scale
+/// (`sim::plausible`: ±100 rad/s, ±10,000 m/s²), a units mistake (°/s as rad/s at high rate,
+/// mg as m/s²·10³) or a corrupt value, refused with its column before it is fitted or fused.
+/// `written`: the values as the file wrote them (for the message).
+fn check_full_scale(v: &[f64; 6], written: &[&str]) -> Result<(), String> {
+    use sim::plausible::{ACCEL_RANGE_M_S2, GYRO_RANGE_RAD_S};
+    for (k, &x) in v.iter().enumerate() {
+        let range = if k < 3 {
+            &GYRO_RANGE_RAD_S
+        } else {
+            &ACCEL_RANGE_M_S2
+        };
+        if x.abs() > range.hi {
+            return Err(format!(
+                "{} = {} {} is beyond any IMU's full scale (±{} {}: {})",
+                IMU_NAMES[k + 1],
+                written[k].trim(),
+                range.unit,
+                range.hi,
+                range.unit,
+                range.basis
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Parses `imu0/data.csv` text; `path` names the source in errors.
 pub fn parse_imu_csv(text: &str, path: &Path) -> Result<Vec<ImuSample>, DatasetError> {
     let mut out: Vec<ImuSample> = Vec::new();
@@ -168,6 +195,7 @@ pub fn parse_imu_csv(text: &str, path: &Path) -> Result<Vec<ImuSample>, DatasetE
             let f = split_csv(content, 7, "timestamp, 3 gyro, 3 accel")?;
             let t = parse_stamp_ns(f[0], IMU_NAMES[0])?;
             let v: [f64; 6] = parse_numbers(&f[1..], &IMU_NAMES[1..])?;
+            check_full_scale(&v, &f[1..])?;
             Ok(ImuSample {
                 t_ns: t,
                 gyro: Vector3::new(v[0], v[1], v[2]),

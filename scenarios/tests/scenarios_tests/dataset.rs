@@ -349,6 +349,23 @@ fn euroc_malformed_rows_name_file_and_line() {
     assert!(e.to_string().contains("not increasing"));
     let e = parse_imu_csv(&format!("{imu_header}1.5,0,0,0,0,0,0\n"), p).unwrap_err();
     assert!(e.to_string().contains("not an integer"));
+    // Readings beyond any IMU's full scale (a corrupt value, or milli-g written as m/s²): refused
+    // with the line and the column; the widest plausible readings pass.
+    let e = parse_imu_csv(&format!("{imu_header}1,0,1e300,0,0,0,9.8\n"), p).unwrap_err();
+    assert_names(&e, "mav0/imu0/data.csv", Some(2));
+    assert!(
+        e.to_string()
+            .contains("w_y = 1e300 rad/s is beyond any IMU's full scale"),
+        "{e}"
+    );
+    let e = parse_imu_csv(
+        &format!("{imu_header}1,0,0,0,0,0,9806.65\n2,0,0,0,0,0,10001\n"),
+        p,
+    )
+    .unwrap_err();
+    assert_names(&e, "mav0/imu0/data.csv", Some(3));
+    assert!(e.to_string().contains("a_z = 10001 m/s²"), "{e}");
+    assert!(parse_imu_csv(&format!("{imu_header}1,-100,0,100,-1e4,0,1e4\n"), p).is_ok());
 
     let g = Path::new("gt/data.csv");
     let row = "1403636580838555648,4.688319,-1.786938,0.783338,0.534108,-0.153029,-0.827383,-0.082152,-0.027876,0.033207,0.800006,-0.003172,0.021267,0.078502,-0.025266,0.136696,0.075593";
