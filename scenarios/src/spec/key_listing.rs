@@ -335,6 +335,33 @@ pub fn numeric(doc: &KeyDoc) -> bool {
     doc.kind.contains("number") || doc.kind.contains("integer")
 }
 
+/// A run metric in words with its unit, for a plot's axis: its `expectations` key's
+/// description without the parenthesized asides, and the unit in brackets (`ate_rmse_m`:
+/// "Position ATE RMSE after alignment [m]"); the name itself for a metric no expectation
+/// bounds.
+pub fn metric_label(metric: &str) -> String {
+    let key = format!("expectations.{metric}");
+    let Some(doc) = scenario_keys().into_iter().find(|k| k.key == key) else {
+        return metric.to_string();
+    };
+    let mut words = String::new();
+    let mut depth = 0usize;
+    for c in doc.description.chars() {
+        match c {
+            '(' => depth += 1,
+            ')' => depth = depth.saturating_sub(1),
+            _ if depth == 0 => words.push(c),
+            _ => {}
+        }
+    }
+    let words = words.split_whitespace().collect::<Vec<_>>().join(" ");
+    let words = words.trim_end_matches('.').trim_end().replace(" ,", ",");
+    match doc.unit {
+        Some(u) => format!("{words} [{u}]"),
+        None => words,
+    }
+}
+
 /// The listing `vio settings --keys` prints: one line per key, `key  kind  [unit]  (default
 /// …)  description`.
 pub fn listing_text(keys: &[KeyDoc]) -> String {
@@ -368,4 +395,26 @@ pub fn listing_text(keys: &[KeyDoc]) -> String {
         );
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::metric_label;
+
+    #[test]
+    fn a_metric_is_labelled_in_words_with_its_unit() {
+        assert_eq!(
+            metric_label("ate_rmse_m"),
+            "Position ATE RMSE after alignment [m]"
+        );
+        assert_eq!(
+            metric_label("gnss_aligned_at_s"),
+            "Time at which the GNSS alignment was initialized [s]"
+        );
+        assert_eq!(
+            metric_label("tracking_fraction"),
+            "Fraction of processed frames in tracking state"
+        );
+        assert_eq!(metric_label("no_such_metric"), "no_such_metric");
+    }
 }

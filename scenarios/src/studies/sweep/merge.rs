@@ -316,6 +316,7 @@ fn draw(
     };
     let root = BitMapBackend::with_buffer(buf, size).into_drawing_area();
     root.fill(&WHITE)?;
+    let label = crate::spec::key_listing::metric_label(&meta.metrics[metric]);
     let title = format!(
         "{}: {} vs {}",
         meta.description, meta.metrics[metric], ax.name
@@ -343,9 +344,9 @@ fn draw(
             ax.name.clone()
         })
         .y_desc(if ylog {
-            format!("{} (log scale)", meta.metrics[metric])
+            format!("{label} (log scale)")
         } else {
-            meta.metrics[metric].clone()
+            label
         })
         .x_labels(0)
         .disable_x_mesh()
