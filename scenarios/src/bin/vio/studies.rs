@@ -25,10 +25,7 @@ pub(super) fn sweep_command(
     flags: SweepFlags,
 ) -> ExitCode {
     use scenarios::studies::sweep::partial::{forget_rows, keep_row, kept_rows, partial_dir};
-    use scenarios::studies::sweep::{
-        Sweep,
-        run::{RUNS_DIR, Shard, SweepControl},
-    };
+    use scenarios::studies::sweep::run::{RUNS_DIR, Shard, SweepControl};
     let SweepFlags {
         resume,
         force,
@@ -38,12 +35,8 @@ pub(super) fn sweep_command(
         eprintln!("vio sweep: error: {e}");
         ExitCode::from(BAD_INPUT)
     };
-    let sweep = match Sweep::load(file) {
-        Ok(s) => s,
-        Err(e) => return bad(e.to_string()),
-    };
-    let shard_spec = match shard.map(Shard::parse).transpose() {
-        Ok(s) => s,
+    let (sweep, shard_spec) = match load_sweep(file, shard) {
+        Ok(loaded) => loaded,
         Err(e) => return bad(e),
     };
     let shard = shard_spec.unwrap_or(Shard::ALL);
@@ -160,6 +153,23 @@ pub(super) fn sweep_command(
     ExitCode::SUCCESS
 }
 
+/// The sweep file read and checked, and `--shard i/n` parsed (`None`: every run).
+fn load_sweep(
+    file: &std::path::Path,
+    shard: Option<&str>,
+) -> Result<
+    (
+        scenarios::studies::sweep::Sweep,
+        Option<scenarios::studies::sweep::run::Shard>,
+    ),
+    String,
+> {
+    use scenarios::studies::sweep::{Sweep, run::Shard};
+    let sweep = Sweep::load(file).map_err(|e| e.to_string())?;
+    let shard = shard.map(Shard::parse).transpose()?;
+    Ok((sweep, shard))
+}
+
 /// Worker threads: as asked, else the machine's cores.
 fn default_jobs(jobs: Option<usize>) -> usize {
     jobs.unwrap_or_else(|| {
@@ -175,17 +185,13 @@ pub(super) fn sweep_plan_command(
     jobs: Option<usize>,
 ) -> ExitCode {
     use scenarios::studies::sweep::plan::estimate_wall_s;
-    use scenarios::studies::sweep::{Sweep, run::Shard};
+    use scenarios::studies::sweep::run::Shard;
     let bad = |e: String| {
         eprintln!("vio sweep --plan: error: {e}");
         ExitCode::from(BAD_INPUT)
     };
-    let sweep = match Sweep::load(file) {
-        Ok(s) => s,
-        Err(e) => return bad(e.to_string()),
-    };
-    let shard = match shard.map(Shard::parse).transpose() {
-        Ok(s) => s.unwrap_or(Shard::ALL),
+    let (sweep, shard) = match load_sweep(file, shard) {
+        Ok((sweep, shard)) => (sweep, shard.unwrap_or(Shard::ALL)),
         Err(e) => return bad(e),
     };
     let runs = match sweep.plan(shard) {
