@@ -4,7 +4,7 @@
 //! --gt` writes. The file holds the keys of `[estimator.imu_noise]`; the table it gives stands
 //! where the string stood, so the estimator's own checks apply to it as to a written table.
 
-use super::named_model::is_preset_name;
+use super::named_model::{BuiltIn, model_text};
 use super::{Origin, SpecError};
 use crate::catalog;
 
@@ -24,20 +24,12 @@ pub(crate) fn resolve(
         return Ok(out);
     };
     let err = |m: String| SpecError::at(file, text, KEY, m);
-    let (source, body) = if is_preset_name(value) {
-        let body = catalog::estimator_imu_noise(value).ok_or_else(|| {
-            err(format!(
-                "no built-in estimator IMU noise model `{value}` (built in: {}; or name a .toml file)",
-                catalog::estimator_imu_noise_names().join(", ")
-            ))
-        })?;
-        (format!("preset:{value}"), body.to_string())
-    } else {
-        (
-            origin.path_of(value).display().to_string(),
-            origin.read(value).map_err(err)?,
-        )
+    let built_in = BuiltIn {
+        kind: "estimator IMU noise model",
+        get: catalog::estimator_imu_noise,
+        names: catalog::estimator_imu_noise_names,
     };
+    let (source, body) = model_text(origin, value, &built_in).map_err(err)?;
     let table: toml::Table = body
         .parse()
         .map_err(|e: toml::de::Error| err(format!("{source}: {}", e.message().trim())))?;

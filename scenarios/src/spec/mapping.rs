@@ -753,6 +753,15 @@ impl Scenario {
 }
 
 impl Origin {
+    /// The name errors use for the file of a scenario called `name`: `catalog:NAME`, or the
+    /// file's path.
+    pub(super) fn label(&self, name: &str) -> String {
+        match self {
+            Origin::Catalog | Origin::CatalogBeside(_) => format!("catalog:{name}"),
+            Origin::File(p) => p.display().to_string(),
+        }
+    }
+
     /// Where a data file named `rel` in the scenario lives: relative to the scenario file, or
     /// as the catalog's embedded path.
     pub(super) fn path_of(&self, rel: &str) -> std::path::PathBuf {

@@ -193,10 +193,7 @@ impl Scenario {
 
     /// Parses scenario text; `origin` resolves relative data paths and names the file in errors.
     pub fn parse(name: &str, origin: Origin, text: &str) -> Result<Self, SpecError> {
-        let file = match &origin {
-            Origin::Catalog | Origin::CatalogBeside(_) => format!("catalog:{name}"),
-            Origin::File(p) => p.display().to_string(),
-        };
+        let file = origin.label(name);
         match kalibr_expansion(&file, &origin, text)? {
             None => Self::parse_expanded(name, origin, text, &file),
             Some((expanded, sources)) => Self::parse_expanded(name, origin, &expanded, &file)
@@ -365,10 +362,7 @@ impl Scenario {
 
     /// The name errors use for the file.
     pub fn file_label(&self) -> String {
-        match &self.origin {
-            Origin::Catalog | Origin::CatalogBeside(_) => format!("catalog:{}", self.name),
-            Origin::File(p) => p.display().to_string(),
-        }
+        self.origin.label(&self.name)
     }
 
     /// An error at `key`, with the key's line.

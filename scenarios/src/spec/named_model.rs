@@ -1,9 +1,9 @@
 //! A model a scenario key names instead of writing it out: a built-in one from the catalog by
 //! its name, or a `.toml` file relative to the scenario (`rig.imu.error_model`,
-//! `rig.cameras[i].tracker_error`; `estimator.imu_noise` resolves the same way at the table
-//! stage).
+//! `rig.cameras[i].tracker_error`; at the table stage, before there is a `Scenario`,
+//! `estimator.imu_noise` and the sensors' `preset`).
 
-use super::{Scenario, SpecError};
+use super::{Origin, Scenario, SpecError};
 
 /// Whether a value names a built-in model rather than a file (no `.toml`, no `/`).
 pub(super) fn is_preset_name(value: &str) -> bool {
@@ -21,32 +21,38 @@ pub(super) struct BuiltIn {
     pub names: fn() -> Vec<&'static str>,
 }
 
+/// The source (`preset:NAME` or the file's path) and text of the model `value` names: a
+/// built-in one, or a file read through `origin`; the message says why not.
+pub(super) fn model_text(
+    origin: &Origin,
+    value: &str,
+    built_in: &BuiltIn,
+) -> Result<(String, String), String> {
+    if is_preset_name(value) {
+        let text = (built_in.get)(value).ok_or_else(|| {
+            format!(
+                "no built-in {} `{value}` (built in: {}; or name a .toml file)",
+                built_in.kind,
+                (built_in.names)().join(", ")
+            )
+        })?;
+        Ok((format!("preset:{value}"), text.to_string()))
+    } else {
+        Ok((
+            origin.path_of(value).display().to_string(),
+            origin.read(value)?,
+        ))
+    }
+}
+
 impl Scenario {
-    /// The source (`preset:NAME` or the file's path) and text of the model `value` names at
-    /// `key`: a built-in one, or a file read through the scenario's data files.
+    /// [`model_text`] for `value` at `key`, its error naming the key.
     pub(super) fn named_model_text(
         &self,
         key: &str,
         value: &str,
         built_in: &BuiltIn,
     ) -> Result<(String, String), SpecError> {
-        if is_preset_name(value) {
-            let text = (built_in.get)(value).ok_or_else(|| {
-                self.error(
-                    key,
-                    format!(
-                        "no built-in {} `{value}` (built in: {}; or name a .toml file)",
-                        built_in.kind,
-                        (built_in.names)().join(", ")
-                    ),
-                )
-            })?;
-            Ok((format!("preset:{value}"), text.to_string()))
-        } else {
-            Ok((
-                self.data_path(value).display().to_string(),
-                self.data_file(key, value)?,
-            ))
-        }
+        model_text(&self.origin, value, built_in).map_err(|m| self.error(key, m))
     }
 }

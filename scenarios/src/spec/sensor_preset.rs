@@ -7,26 +7,19 @@
 //! sensor `preset` is read as it always was.
 
 use super::error::{deserialize_toml, line_of_key};
-use super::named_model::is_preset_name;
+use super::named_model::{BuiltIn, model_text};
 use super::overlay::lay_over;
 use super::{Origin, SpecError};
 use crate::catalog;
 
-/// What a sensor preset is for errors, its catalog lookup and the built-in names.
-struct Kind {
-    what: &'static str,
-    get: fn(&str) -> Option<&'static str>,
-    names: fn() -> Vec<&'static str>,
-}
-
-const IMU: Kind = Kind {
-    what: "IMU model",
+const IMU: BuiltIn = BuiltIn {
+    kind: "IMU model",
     get: catalog::imu_preset,
     names: catalog::imu_preset_names,
 };
 
-const CAMERA: Kind = Kind {
-    what: "camera module",
+const CAMERA: BuiltIn = BuiltIn {
+    kind: "camera module",
     get: catalog::camera_preset,
     names: catalog::camera_preset_names,
 };
@@ -84,7 +77,7 @@ fn has_sensor_preset(t: &toml::Table) -> bool {
 /// One sensor's table with its preset laid under it (the `preset` key kept, for the record).
 fn expand_one(
     sensor: &mut toml::Table,
-    kind: &Kind,
+    kind: &BuiltIn,
     key: &str,
     origin: &Origin,
     text: &str,
@@ -102,26 +95,12 @@ fn expand_one(
         Some(other) => {
             return Err(at(format!(
                 "expected the name of a built-in {} or a .toml file, got a {}",
-                kind.what,
+                kind.kind,
                 other.type_str()
             )));
         }
     };
-    let (source, body) = if is_preset_name(&name) {
-        let body = (kind.get)(&name).ok_or_else(|| {
-            at(format!(
-                "no built-in {} `{name}` (built in: {}; or name a .toml file)",
-                kind.what,
-                (kind.names)().join(", ")
-            ))
-        })?;
-        (format!("{} preset:{name}", kind.what), body.to_string())
-    } else {
-        (
-            origin.path_of(&name).display().to_string(),
-            origin.read(&name).map_err(at)?,
-        )
-    };
+    let (source, body) = model_text(origin, &name, kind).map_err(at)?;
     let mut merged: toml::Table = deserialize_toml(&body, &source)?;
     if merged.contains_key("preset") {
         return Err(at(format!(
