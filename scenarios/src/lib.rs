@@ -5,8 +5,9 @@
 //!   evo's definitions.
 //! - [`spec`] — the scenario TOML schema and its mapping onto the simulator and the estimator;
 //! - [`catalog`] — the built-in scenarios (`scenarios/catalog/*.toml`, embedded);
-//! - [`run`] — the one run pipeline: a scenario or a recorded dataset → estimator → evaluated
-//!   report ([`run::run_to_report`]); [`run_output`] — what a run produced;
+//! - [`pipeline`] — the one run pipeline: a scenario or a recorded dataset → estimate → evaluated
+//!   report ([`pipeline::run_to_report`]); [`run`] — the runner that feeds our estimator;
+//!   [`run_output`] — what a run produced;
 //! - [`report`] — evaluation, `report.json` and its sections (window against batch, recovery,
 //!   replay and recorded-IMU checks, calibration), the TUM files, the human summary;
 //! - [`plot`] — `trajectory.png`;
@@ -27,6 +28,7 @@ pub mod frontend;
 pub mod images;
 pub mod imu_model;
 pub mod metrics;
+pub mod pipeline;
 pub mod plot;
 pub mod report;
 pub mod run;

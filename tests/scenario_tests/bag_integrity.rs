@@ -8,7 +8,8 @@
 use std::path::{Path, PathBuf};
 
 use crate::common;
-use scenarios::run::{BagOptions, ReportedRun, RunControl, RunError, RunInput, RunOptions};
+use scenarios::pipeline::{ReportedRun, RunInput};
+use scenarios::run::{BagOptions, RunControl, RunError, RunOptions};
 use scenarios::spec::SuiteSpec;
 
 fn fixture(compression: &str) -> PathBuf {
@@ -26,7 +27,7 @@ fn run(path: &Path) -> Result<ReportedRun, RunError> {
         seed: Some(1),
         ..Default::default()
     };
-    scenarios::run::run_to_report(
+    scenarios::pipeline::run_to_report(
         RunInput::Bag {
             path,
             options: &options,

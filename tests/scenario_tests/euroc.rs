@@ -11,11 +11,9 @@ use crate::common;
 use scenarios::dataset::{read_euroc, read_features_csv, write_euroc, write_features_csv};
 
 use scenarios::export::export;
+use scenarios::pipeline::{ReportedRun, RunInput, run_to_report};
 use scenarios::report::{self, Report};
-use scenarios::run::{
-    DEFAULT_SEED, EurocOptions, ReportedRun, RunControl, RunError, RunInput, RunOptions,
-    run_to_report,
-};
+use scenarios::run::{DEFAULT_SEED, EurocOptions, RunControl, RunError, RunOptions};
 use scenarios::spec::{Scenario, SuiteSpec};
 
 /// The first IMU stamp of EuRoC V1_01_easy (ns).

@@ -13,10 +13,8 @@ use scenarios::dataset::ros2::{
     PoseWithCovarianceStamped, TfMessage, TwistStamped, Vector3Stamped,
 };
 use scenarios::export::{GNSS_ORIGIN, export_bag};
-use scenarios::run::{
-    BagOptions, EurocOptions, ReportedRun, RunControl, RunError, RunInput, RunOptions,
-    run_to_report,
-};
+use scenarios::pipeline::{ReportedRun, RunInput, run_to_report};
+use scenarios::run::{BagOptions, EurocOptions, RunControl, RunError, RunOptions};
 use scenarios::spec::Scenario;
 
 /// Both runs last this long (s).

@@ -7,7 +7,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use scenarios::catalog;
-use scenarios::run::{RunInput, RunOptions};
+use scenarios::pipeline::RunInput;
+use scenarios::run::RunOptions;
 use scenarios::spec::Scenario;
 
 #[path = "vio/attended.rs"]

@@ -1,5 +1,5 @@
-//! The runner: one pipeline from a scenario (simulated) or a recording (an EuRoC folder, a ROS 2
-//! bag) to an evaluated report ([`run_to_report`]), over one driver loop that feeds either source to the estimator.
+//! The runner: a scenario (simulated) or a recording (an EuRoC folder, a ROS 2 bag) fed to the
+//! estimator over one driver loop, to a [`RunOutput`]; [`crate::pipeline`] evaluates and reports it.
 
 mod driver;
 mod error;
@@ -7,7 +7,6 @@ mod euroc_folder;
 mod filter_checkpoints;
 mod lookahead;
 mod options;
-mod pipeline;
 mod recorded;
 mod recorder;
 mod ros2_bag;
@@ -20,9 +19,12 @@ pub use crate::run_output::{
 };
 pub use error::RunError;
 pub use euroc_folder::EurocOptions;
+pub(crate) use euroc_folder::replay_euroc;
 pub use options::{RunControl, RunOptions};
-pub use pipeline::{ReportedRun, RunInput, run_scenario, run_to_report};
 pub use recorded::DEFAULT_SEED;
+pub(crate) use recorded::RecordedRun;
 pub(crate) use recorder::Recorder;
+pub(crate) use ros2_bag::replay_bag;
 pub use ros2_bag::{BagOptions, GROUNDTRUTH_TOPIC};
+pub(crate) use simulated::simulate;
 pub use simulated::{image_frontend, measurement_stream, stream_result};

@@ -13,8 +13,9 @@ use serde::{Deserialize, Serialize};
 
 use std::path::Path;
 
+use crate::pipeline::{RunInput, run_to_report};
 use crate::report::Stats;
-use crate::run::{EurocOptions, RunControl, RunInput, RunOptions, run_to_report};
+use crate::run::{EurocOptions, RunControl, RunOptions};
 use crate::spec::{Scenario, SuiteSpec};
 
 /// One row of the benchmark.

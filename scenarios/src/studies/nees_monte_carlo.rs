@@ -29,9 +29,8 @@ use serde::Serialize;
 use sim::stream::GroundTruth;
 
 use crate::metrics::{self, Alignment, Sim3};
-use crate::run::{
-    ReportedRun, RunControl, RunError, RunInput, RunOptions, RunOutput, run_to_report,
-};
+use crate::pipeline::{ReportedRun, RunInput, run_to_report};
+use crate::run::{RunControl, RunError, RunOptions, RunOutput};
 use crate::spec::{Scenario, SuiteSpec};
 
 /// The metrics, in report order: name and degrees of freedom.

@@ -23,8 +23,9 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::pipeline::{RunInput, run_to_report};
 use crate::report::Report;
-use crate::run::{RunControl, RunInput, RunOptions, run_to_report};
+use crate::run::{RunControl, RunOptions};
 use crate::spec::Scenario;
 use std::sync::atomic::{AtomicBool, Ordering};
 

@@ -690,7 +690,8 @@ fn empty_files_are_errors_a_bom_is_not_data_and_unused_camera_folders_are_not_re
 
 #[test]
 fn a_run_on_images_refuses_a_camera_that_lists_none_naming_its_file() {
-    use scenarios::run::{EurocOptions, RunControl, RunInput, RunOptions, run_to_report};
+    use scenarios::pipeline::{RunInput, run_to_report};
+    use scenarios::run::{EurocOptions, RunControl, RunOptions};
     use scenarios::spec::SuiteSpec;
     let mav0 = fixture_copy("no-images");
     std::fs::write(mav0.join("cam0/data.csv"), "#timestamp [ns],filename\n").unwrap();

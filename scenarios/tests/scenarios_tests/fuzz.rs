@@ -11,7 +11,8 @@
 
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
-use scenarios::run::{RunOptions, run_scenario};
+use scenarios::pipeline::run_scenario;
+use scenarios::run::RunOptions;
 use scenarios::spec::{Origin, Scenario};
 
 use crate::common::numbers;

@@ -17,7 +17,8 @@ use std::time::Duration;
 
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed, TestRunner};
-use scenarios::run::{EurocOptions, RunControl, RunInput, RunOptions, run_to_report};
+use scenarios::pipeline::{RunInput, run_to_report};
+use scenarios::run::{EurocOptions, RunControl, RunOptions};
 use scenarios::spec::SuiteSpec;
 
 use crate::common::{numbers, scratch, vio};

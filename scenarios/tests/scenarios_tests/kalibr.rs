@@ -281,10 +281,10 @@ fn a_run_on_the_exported_kalibr_rig_gives_the_same_estimate() {
         duration_s: Some(4.0),
         ..Default::default()
     };
-    let a = scenarios::run::run_scenario(&original, &options).unwrap();
-    let b = scenarios::run::run_scenario(&from_kalibr, &options).unwrap();
+    let a = scenarios::pipeline::run_scenario(&original, &options).unwrap();
+    let b = scenarios::pipeline::run_scenario(&from_kalibr, &options).unwrap();
     assert!(a.output.frames.len() > 50);
-    let poses = |d: &scenarios::run::ReportedRun| {
+    let poses = |d: &scenarios::pipeline::ReportedRun| {
         d.output
             .frames
             .iter()

@@ -3,8 +3,9 @@
 
 use scenarios::dataset::read_tum;
 use scenarios::metrics::{Alignment, EvalOptions, RpeOptions, evaluate};
+use scenarios::pipeline::run_scenario;
 use scenarios::report;
-use scenarios::run::{RunOptions, run_scenario};
+use scenarios::run::RunOptions;
 use scenarios::spec::Scenario;
 
 #[test]

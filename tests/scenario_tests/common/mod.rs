@@ -1,5 +1,5 @@
 //! Shared helpers of the scenario tests: each catalog scenario runs once per test binary
-//! through the library's one pipeline (`scenarios::run::run_scenario`), edited catalog
+//! through the library's one pipeline (`scenarios::pipeline::run_scenario`), edited catalog
 //! scenarios, and scratch folders.
 
 #![allow(dead_code)]
@@ -7,8 +7,9 @@
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 
+use scenarios::pipeline::ReportedRun;
 use scenarios::report;
-use scenarios::run::{ReportedRun, RunOptions};
+use scenarios::run::RunOptions;
 use scenarios::spec::Scenario;
 
 /// A finished run of `scenario`: the scenario and the pipeline's [`ReportedRun`] (its context,
@@ -49,7 +50,8 @@ pub fn run_catalog(name: &str, duration_s: Option<f64>) -> Arc<Done> {
 
 /// Runs `scenario` with `options` to its report (printing the summary); panics on a run error.
 pub fn run_with(scenario: Scenario, options: &RunOptions) -> Done {
-    let run = scenarios::run::run_scenario(&scenario, options).unwrap_or_else(|e| panic!("{e}"));
+    let run =
+        scenarios::pipeline::run_scenario(&scenario, options).unwrap_or_else(|e| panic!("{e}"));
     println!("{}", report::summary(&run.report, None));
     Done { scenario, run }
 }

@@ -7,8 +7,9 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use scenarios::pipeline::{ReportedRun, RunInput, run_to_report};
 use scenarios::report;
-use scenarios::run::{ReportedRun, RunControl, RunError, RunInput, RunOptions, run_to_report};
+use scenarios::run::{RunControl, RunError, RunOptions};
 
 use super::{BAD_INPUT, say};
 

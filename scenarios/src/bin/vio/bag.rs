@@ -3,7 +3,9 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use scenarios::run::{BagOptions, RunInput};
+use scenarios::run::BagOptions;
+
+use scenarios::pipeline::RunInput;
 
 use super::recording::{check_recording_args, recording_options, run_recording};
 

@@ -5,7 +5,9 @@
 use std::path::Path;
 use std::process::ExitCode;
 
-use scenarios::run::{RunInput, RunOptions};
+use scenarios::run::RunOptions;
+
+use scenarios::pipeline::RunInput;
 use scenarios::spec::SuiteSpec;
 
 use super::{BAD_INPUT, check_duration, check_out_dir, finish_attended, run_attended};

@@ -5,7 +5,8 @@ use std::time::Instant;
 
 use super::Sweep;
 use super::run::Shard;
-use crate::run::{RunControl, RunInput, RunOptions, run_to_report};
+use crate::pipeline::{RunInput, run_to_report};
+use crate::run::{RunControl, RunOptions};
 use crate::spec::SpecError;
 
 /// One run of the plan.

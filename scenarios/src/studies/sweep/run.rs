@@ -11,7 +11,8 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use serde::Serialize;
 
 use super::Sweep;
-use crate::run::{ReportedRun, RunControl, RunInput, RunOptions, run_to_report};
+use crate::pipeline::{ReportedRun, RunInput, run_to_report};
+use crate::run::{RunControl, RunOptions};
 
 /// A slice of the runs: those whose index is `index` modulo `count`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -3,12 +3,11 @@
 
 use std::path::Path;
 
-use super::euroc_folder::replay_euroc;
-use super::recorded::RecordedRun;
-use super::ros2_bag::replay_bag;
-use super::simulated::simulate;
-use super::{BagOptions, EurocOptions, RunControl, RunError, RunOptions, RunOutput};
 use crate::report::{self, Evaluation, Report, RunContext};
+use crate::run::{
+    BagOptions, EurocOptions, RecordedRun, RunControl, RunError, RunOptions, RunOutput, replay_bag,
+    replay_euroc, simulate,
+};
 use crate::spec::Scenario;
 
 /// What to run.
