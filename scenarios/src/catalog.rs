@@ -224,6 +224,29 @@ pub fn camera_preset_names() -> Vec<&'static str> {
     names_in(CAMERA_PRESETS)
 }
 
+/// Built-in estimator adapters (`estimator_adapter = "<name>"`), each a file in
+/// `catalog/estimators/` whose scripts are in the source tree (`tools/peer/`).
+const ESTIMATOR_ADAPTERS: &[(&str, &str)] = &[
+    (
+        "openvins-images",
+        include_str!("../catalog/estimators/openvins-images.toml"),
+    ),
+    (
+        "openvins-tracks",
+        include_str!("../catalog/estimators/openvins-tracks.toml"),
+    ),
+];
+
+/// A built-in estimator adapter's text by name.
+pub fn estimator_adapter(name: &str) -> Option<&'static str> {
+    named(ESTIMATOR_ADAPTERS, name)
+}
+
+/// The names of the built-in estimator adapters.
+pub fn estimator_adapter_names() -> Vec<&'static str> {
+    names_in(ESTIMATOR_ADAPTERS)
+}
+
 /// Built-in sensor presets (`preset = "<name>"`), each a partial scenario in
 /// `catalog/presets/`.
 const PRESETS: &[(&str, &str)] = &[(

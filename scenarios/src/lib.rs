@@ -12,6 +12,7 @@
 //!   replay and recorded-IMU checks, calibration), the TUM files, the human summary;
 //! - [`plot`] — `trajectory.png`;
 //! - [`export`] — a scenario's measurements as an EuRoC ASL folder and `features.csv`;
+//! - [`external`] — an outside estimator (`estimator_adapter`) run on the export and scored;
 //! - [`frontend`] — the image front end's statistics in a run;
 //! - [`images`], [`tracks_image`] — `vio render`: images, depth, and the front end's tracks;
 //! - [`studies`] — `vio regress` (the regression catalog against a baseline, JUnit XML),
@@ -24,6 +25,7 @@
 pub mod catalog;
 pub mod dataset;
 pub mod export;
+pub mod external;
 pub mod frontend;
 pub mod images;
 pub mod imu_model;

@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use crate::external::run_outside;
 use crate::report::{self, Evaluation, Report, RunContext};
 use crate::run::{
     BagOptions, EurocOptions, RecordedRun, RunControl, RunError, RunOptions, RunOutput, replay_bag,
@@ -72,8 +73,19 @@ pub fn run_to_report(
     };
     let (context, output, without_truth, truth_biases) = match input {
         RunInput::Scenario(scenario) => {
-            let output = simulate(scenario, options, &mut control)?;
-            (RunContext::with_run(scenario, &output), output, 0, true)
+            let output = match scenario.adapter() {
+                None => simulate(scenario, options, &mut control)?,
+                Some(adapter) => run_outside(scenario, adapter, options, &mut control)?,
+            };
+            // An outside estimator reports poses only: its biases' errors are unknown.
+            let biases = output.outside.is_none();
+            let without_truth = output.outside.as_ref().map_or(0, |o| o.without_truth);
+            (
+                RunContext::with_run(scenario, &output),
+                output,
+                without_truth,
+                biases,
+            )
         }
         RunInput::Euroc { mav0, options: e } => recorded(
             replay_euroc(mav0, e, options, &mut control)?,

@@ -114,6 +114,33 @@ pub struct Event {
     pub kind: EventKind,
 }
 
+/// An outside estimator's run (`estimator_adapter`): which program, how it ended, and why it
+/// failed when it did ([`crate::external`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct OutsideRun {
+    /// The adapter's name.
+    pub name: String,
+    /// Where the adapter was read from (`preset:NAME` or its file).
+    pub adapter: String,
+    /// The command as run (placeholders replaced).
+    pub command: Vec<String>,
+    /// How the program ended, in words (`exited with status 0`).
+    pub exit: String,
+    /// Its wall time (s; for the report only).
+    pub wall_s: f64,
+    /// Its log (stdout and stderr), when it was kept.
+    pub log: Option<std::path::PathBuf>,
+    /// Why the run fails (a crash, a time-out, no or a malformed trajectory, another frame);
+    /// `None` when its trajectory was scored.
+    pub failure: Option<String>,
+    /// The log's last lines, when the run failed.
+    pub log_tail: Option<String>,
+    /// Poses it wrote.
+    pub poses: usize,
+    /// Poses outside the ground truth's span (not scored).
+    pub without_truth: usize,
+}
+
 /// Everything a run produced.
 #[derive(Clone, Debug)]
 pub struct RunOutput {
@@ -151,6 +178,8 @@ pub struct RunOutput {
     pub frontend_tracks: Option<TrackSummary>,
     /// The batch reference, when asked for.
     pub batch_reference: Option<BatchReference>,
+    /// The outside estimator that produced the estimates (`None`: ours).
+    pub outside: Option<OutsideRun>,
     /// Simulated time (s) at which the run was stopped early ([`RunControl::stop`](crate::run::RunControl::stop)); `None`
     /// when it ran to the end.
     pub interrupted_at_s: Option<f64>,
@@ -177,6 +206,7 @@ impl RunOutput {
             frontend: None,
             frontend_tracks: None,
             batch_reference: None,
+            outside: None,
             interrupted_at_s: None,
         }
     }

@@ -72,6 +72,15 @@ enum Command {
         /// frames and points, the pose covariance, errors and state over time, events.
         #[arg(long)]
         mcap: bool,
+        /// The estimator: `ours` (default), a built-in adapter (`openvins-tracks`,
+        /// `openvins-images`) or an adapter .toml file (the scenario key `estimator_adapter`;
+        /// the book's "Bring your own estimator"). Its files go to `OUT/estimator/`.
+        #[arg(long)]
+        estimator: Option<String>,
+        /// Set a scenario key before the run: `--set rig.imu.rate_hz=400` (repeatable; the
+        /// value as TOML, else as a string; checked like the file's own keys).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        settings: Vec<String>,
     },
     /// Monte-Carlo consistency: run the scenario with seeds 1..=N and write the NEES of the
     /// observable states (body velocity, biases, roll/pitch, relative pose over 0.5 s) averaged over the runs, with their
@@ -144,6 +153,9 @@ enum Command {
         /// Simulated duration (s) instead of the scenario's `trajectory.duration_s`.
         #[arg(long)]
         duration: Option<f64>,
+        /// Set a scenario key before the export: `--set rig.imu.rate_hz=400` (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        settings: Vec<String>,
     },
     /// Render one capture of a scenario: every camera's image and depth at time `--at`,
     /// written as `OUT/cam<i>.png`, `OUT/cam<i>_depth.png` (16-bit, millimetres) and
@@ -184,6 +196,11 @@ enum Command {
         /// the file).
         #[arg(long)]
         update_baseline: bool,
+        /// Run every scenario with this estimator (`ours`, a built-in adapter or an adapter
+        /// .toml file); its baseline is then CATALOG/baseline.NAME.json by default (NAME the
+        /// value's file stem) and its JUnit cases are named `ADAPTER.SCENARIO`.
+        #[arg(long)]
+        estimator: Option<String>,
     },
     /// Run a sweep (a base scenario over a grid of parameter values × seeds; see
     /// `scenarios/sweeps/`): `OUT/results.csv`, `OUT/sweep.json` and, without `--shard`, a plot
@@ -313,8 +330,16 @@ fn dispatch(cli: Cli) -> ExitCode {
             duration,
             batch_reference,
             mcap,
+            estimator,
+            mut settings,
         } => run_command(
             scenario,
+            {
+                if let Some(e) = estimator {
+                    settings.push(estimator_setting(&e));
+                }
+                settings
+            },
             out,
             RunOptions {
                 seed,
@@ -330,6 +355,7 @@ fn dispatch(cli: Cli) -> ExitCode {
             format,
             seed,
             duration,
+            settings,
         } => {
             let bag = match format.as_str() {
                 "asl" => false,
@@ -339,7 +365,7 @@ fn dispatch(cli: Cli) -> ExitCode {
                     return ExitCode::from(BAD_INPUT);
                 }
             };
-            let scenario = match load_scenario(scenario.as_deref()) {
+            let scenario = match load_scenario_with(scenario.as_deref(), &settings) {
                 Ok(s) => s,
                 Err(code) => return code,
             };
@@ -431,7 +457,8 @@ fn dispatch(cli: Cli) -> ExitCode {
             baseline,
             junit,
             update_baseline,
-        } => regress_command(&catalog, baseline, junit, update_baseline),
+            estimator,
+        } => regress_command(&catalog, baseline, junit, update_baseline, estimator),
         Command::Sweep {
             file,
             out,
@@ -497,6 +524,31 @@ fn dispatch(cli: Cli) -> ExitCode {
             }
         },
     }
+}
+
+/// `--estimator VALUE` as the `--set` of `estimator_adapter`: a file named on the command line
+/// is relative to the working folder.
+fn estimator_setting(value: &str) -> String {
+    let value = match std::path::absolute(value) {
+        Ok(abs) if value.ends_with(".toml") || value.contains('/') => abs.display().to_string(),
+        _ => value.to_string(),
+    };
+    format!("estimator_adapter={}", toml::Value::String(value))
+}
+
+/// [`load_scenario`] with `--set KEY=VALUE` settings laid on it.
+fn load_scenario_with(name: Option<&str>, settings: &[String]) -> Result<Scenario, ExitCode> {
+    let fail = |m: String| {
+        eprintln!("error: {m}");
+        ExitCode::from(BAD_INPUT)
+    };
+    let settings = settings
+        .iter()
+        .map(|s| scenarios::spec::parse_setting(s))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(fail)?;
+    Scenario::load_with_settings(name.unwrap_or(catalog::DEFAULT), &settings)
+        .map_err(|e| fail(e.to_string()))
 }
 
 fn load_scenario(name: Option<&str>) -> Result<Scenario, ExitCode> {
@@ -624,8 +676,13 @@ fn check_out_dir(dir: &std::path::Path) -> Result<(), ExitCode> {
     })
 }
 
-fn run_command(scenario: Option<String>, out: Option<PathBuf>, options: RunOptions) -> ExitCode {
-    let scenario = match load_scenario(scenario.as_deref()) {
+fn run_command(
+    scenario: Option<String>,
+    settings: Vec<String>,
+    out: Option<PathBuf>,
+    options: RunOptions,
+) -> ExitCode {
+    let scenario = match load_scenario_with(scenario.as_deref(), &settings) {
         Ok(s) => s,
         Err(code) => return code,
     };
@@ -643,7 +700,12 @@ fn run_command(scenario: Option<String>, out: Option<PathBuf>, options: RunOptio
             let _ = std::fs::remove_dir(&out_dir);
         }
     };
-    let run = match run_attended(&scenario.name, RunInput::Scenario(&scenario), &options) {
+    let run = match run_attended(
+        &scenario.name,
+        RunInput::Scenario(&scenario),
+        &options,
+        &out_dir,
+    ) {
         Ok(r) => r,
         Err(e) => {
             eprintln!("error: {e}");

@@ -38,6 +38,7 @@ pub use sensor_yaml::{
     CameraSensor, ImuSensor, SensorYaml, format_sensor_yaml, parse_sensor_yaml, read_sensor_yaml,
     write_sensor_yaml,
 };
+pub(crate) use tum::parse_seconds;
 pub use tum::{StampedPose, format_tum, parse_tum, read_tum, write_tum};
 
 /// An error from a dataset reader or writer. Its message always names the file, and for

@@ -16,7 +16,7 @@ use super::static_trajectory::StaticTrajectoryReport;
 use super::window_vs_batch::{self, BatchReport};
 use super::window_vs_filter::{self, FilterReport};
 use crate::frontend::FrontendStats;
-use crate::run_output::{EventKind, RunOutput};
+use crate::run_output::{EventKind, OutsideRun, RunOutput};
 
 /// Median, 99th percentile and maximum (ms).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
@@ -195,6 +195,10 @@ pub struct Report {
     /// Simulated time (s) at which the run was interrupted (Ctrl-C); `null` when complete. An
     /// interrupted run does not pass.
     pub interrupted_at_s: Option<f64>,
+    /// The outside estimator that produced the estimates: its adapter, command, how it ended,
+    /// and why the run fails when it does (absent for ours).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub estimator: Option<OutsideRun>,
     /// Checked expectations.
     pub expectations: Vec<ExpectationResult>,
     /// True when every expectation holds.
@@ -377,9 +381,11 @@ pub fn build_report(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> Rep
         batch_reference: window_vs_batch::batch_report(run, eval.alignment),
         filter_reference: window_vs_filter::filter_report(run, eval.alignment),
         replay: ctx.replay.clone(),
+        // An outside estimator reports poses only: no calibration, velocity or GNSS frame.
         calibration: ctx
             .calibration_truth
             .as_ref()
+            .filter(|_| run.outside.is_none())
             .and_then(|t| calibration_error::calibration_report(t, run)),
         static_trajectory: eval
             .static_trajectory
@@ -394,9 +400,10 @@ pub fn build_report(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> Rep
                 RestSpeeds::SIMULATED
             },
         )
-        .filter(|_| ctx.ground_truth),
+        .filter(|_| ctx.ground_truth && run.outside.is_none()),
         gnss: gnss::gnss_report(run).filter(|_| ctx.ground_truth),
         interrupted_at_s: run.interrupted_at_s,
+        estimator: run.outside.clone(),
         expectations: Vec::new(),
         passed: true,
         vio_version: env!("CARGO_PKG_VERSION"),
@@ -432,7 +439,9 @@ pub fn build_report(ctx: &RunContext, run: &RunOutput, eval: &Evaluation) -> Rep
             }
         })
         .collect();
-    report.passed =
-        report.expectations.iter().all(|e| e.passed) && report.interrupted_at_s.is_none();
+    let outside_failed = run.outside.as_ref().is_some_and(|o| o.failure.is_some());
+    report.passed = report.expectations.iter().all(|e| e.passed)
+        && report.interrupted_at_s.is_none()
+        && !outside_failed;
     report
 }

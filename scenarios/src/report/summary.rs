@@ -280,10 +280,43 @@ pub fn summary(report: &Report, out_dir: Option<&Path>) -> String {
             );
         }
     }
+    let failure = r.estimator.as_ref().and_then(|o| {
+        let _ = writeln!(
+            s,
+            "estimator     {} ({}): {} after {:.1} s, {} poses{}",
+            o.name,
+            o.adapter,
+            o.exit,
+            o.wall_s,
+            o.poses,
+            o.log
+                .as_ref()
+                .map(|l| format!("; log {}", l.display()))
+                .unwrap_or_default()
+        );
+        o.failure.as_ref()
+    });
+    if let Some(tail) = r.estimator.as_ref().and_then(|o| o.log_tail.as_ref()) {
+        let _ = writeln!(s, "its log ends:");
+        for line in tail
+            .lines()
+            .rev()
+            .take(10)
+            .collect::<Vec<_>>()
+            .into_iter()
+            .rev()
+        {
+            let _ = writeln!(s, "  | {line}");
+        }
+    }
     let _ = write!(
         s,
         "result        {}",
         match (r.passed, r.interrupted_at_s) {
+            _ if failure.is_some() => format!(
+                "FAIL (the estimator {})",
+                failure.map_or("", |f| f.strip_prefix("the estimator ").unwrap_or(f))
+            ),
             (true, _) => "PASS".to_string(),
             (false, Some(t)) => format!("FAIL (interrupted at t = {t:.2} s: partial run)"),
             (false, None) => "FAIL (an expectation is not met)".to_string(),

@@ -14,8 +14,8 @@ mod simulated;
 mod stage;
 
 pub use crate::run_output::{
-    BatchReference, Event, EventKind, FilterCheckpoint, FrameRecord, FrameTiming, RunOutput,
-    WindowScene,
+    BatchReference, Event, EventKind, FilterCheckpoint, FrameRecord, FrameTiming, OutsideRun,
+    RunOutput, WindowScene,
 };
 pub use error::RunError;
 pub use euroc_folder::EurocOptions;

@@ -30,6 +30,9 @@ pub struct RunControl<'a> {
     /// output covers the run so far
     /// ([`RunOutput::interrupted_at_s`](super::RunOutput::interrupted_at_s)).
     pub stop: Option<&'a AtomicBool>,
+    /// Where an outside estimator's files go and stay (`estimator_adapter`: the export it reads,
+    /// the folder it writes, its log); `None`: a temporary folder, removed after the run.
+    pub workspace: Option<&'a std::path::Path>,
 }
 
 impl RunControl<'_> {

@@ -73,7 +73,9 @@ use crate::catalog;
 mod calibration_draw;
 mod calibration_truth;
 mod camera_schema;
+mod dotted_key;
 pub mod error;
+pub mod estimator_adapter;
 pub(crate) mod estimator_imu_noise;
 pub(crate) mod exact;
 pub mod imu_error_model;
@@ -91,7 +93,9 @@ mod validate;
 
 pub use calibration_draw::DrawnCalibrationError;
 pub use calibration_truth::CalibrationTruth;
+pub use dotted_key::{parse_setting, set_key};
 pub use error::SpecError;
+pub use estimator_adapter::{AdapterInput, AdapterValues, EstimatorAdapter};
 pub use imu_error_model::{ImuErrorModel, ImuErrorModelSpec};
 pub use recorded_imu::RecordedImuLog;
 pub use schema::*;
@@ -135,6 +139,8 @@ pub struct Scenario {
     recorded_imu: Option<Arc<RecordedImuLog>>,
     /// The simulated IMU's error model, read and checked once (`rig.imu.error_model`).
     imu_error_model: Option<Arc<ImuErrorModel>>,
+    /// The outside estimator it runs, read and checked once (`estimator_adapter`); `None`: ours.
+    adapter: Option<Arc<EstimatorAdapter>>,
 }
 
 impl Scenario {
@@ -247,6 +253,7 @@ impl Scenario {
             recording: None,
             recorded_imu: None,
             imu_error_model: None,
+            adapter: None,
         };
         s.validate()?;
         let models = (0..s.spec.rig.cameras.len())
@@ -264,7 +271,8 @@ impl Scenario {
             ..s
         };
         s.validate_free_space()?;
-        Ok(s)
+        let adapter = s.load_estimator_adapter()?.map(Arc::new);
+        Ok(Self { adapter, ..s })
     }
 
     /// The effective settings as TOML: `[estimator]` (the rig's cameras and IMU noise left
@@ -358,6 +366,11 @@ impl Scenario {
             Some(r) => Some(r.shift_ns),
             None => self.recording_start_s().map(|t0| (t0 * 1e9).round() as i64),
         }
+    }
+
+    /// The outside estimator this scenario runs (`estimator_adapter`); `None`: ours.
+    pub fn adapter(&self) -> Option<&EstimatorAdapter> {
+        self.adapter.as_deref()
     }
 
     /// The name errors use for the file.

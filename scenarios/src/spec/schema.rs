@@ -44,6 +44,11 @@ pub struct ScenarioSpec {
     /// Bounds on the run's metrics that `vio run` checks.
     #[serde(default)]
     pub expectations: ExpectationsSpec,
+    /// The estimator that runs: `ours` (this project's, the default) or an outside program
+    /// through an adapter: a built-in adapter's name (`openvins-tracks`, `openvins-images`) or
+    /// an adapter `.toml` file relative to the scenario (`vio run --estimator`; the book's
+    /// "Bring your own estimator"). The `[estimator]` table configures ours only.
+    pub estimator_adapter: Option<String>,
 }
 
 /// The sensor suite.

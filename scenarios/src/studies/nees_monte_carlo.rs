@@ -156,6 +156,7 @@ pub fn run_nees_until(
                     let control = RunControl {
                         progress: None,
                         stop,
+                        workspace: None,
                     };
                     let out = run_to_report(RunInput::Scenario(scenario), &run_options, control);
                     if out

@@ -91,6 +91,8 @@ pub enum Verdict {
 pub struct Check {
     /// Scenario name.
     pub scenario: String,
+    /// The outside estimator that ran it (`None`: ours).
+    pub estimator: Option<String>,
     /// Metric name.
     pub metric: &'static str,
     /// This run's value.
@@ -132,7 +134,11 @@ impl Check {
 
 /// Compares one scenario's report with the baseline.
 pub fn compare(name: &str, report: &Report, baseline: &Baseline) -> Vec<Check> {
-    compare_values(name, &|m| report.metric(m), baseline)
+    let mut checks = compare_values(name, &|m| report.metric(m), baseline);
+    for c in &mut checks {
+        c.estimator = report.estimator.as_ref().map(|o| o.name.clone());
+    }
+    checks
 }
 
 /// Compares the metrics `value_of` gives with the baseline of scenario `name`.
@@ -170,6 +176,7 @@ pub fn compare_values(
             };
             Check {
                 scenario: name.to_string(),
+                estimator: None,
                 metric,
                 value,
                 baseline: base,
@@ -261,7 +268,11 @@ pub fn junit(checks: &[Check]) -> String {
         let _ = write!(
             s,
             "    <testcase classname=\"{}\" name=\"{}\"",
-            xml_escape(&c.scenario),
+            // An outside estimator's cases are its own: `ESTIMATOR.SCENARIO`.
+            xml_escape(&match &c.estimator {
+                Some(e) => format!("{e}.{}", c.scenario),
+                None => c.scenario.clone(),
+            }),
             c.metric
         );
         if c.failed() {
@@ -388,11 +399,12 @@ pub fn check_baseline(
     Ok(())
 }
 
-/// Runs every scenario file; `(name, report)` in order, or the first error. Once `stop` is set
-/// (Ctrl-C) no scenario starts and the one under way stops and is dropped: the list ends
-/// with the last scenario that finished.
+/// Runs every scenario file with `settings` set (`--estimator`: `estimator_adapter`); `(name,
+/// report)` in order, or the first error. Once `stop` is set (Ctrl-C) no scenario starts and
+/// the one under way stops and is dropped: the list ends with the last scenario that finished.
 pub fn run_catalog(
     files: &[PathBuf],
+    settings: &[(String, toml::Value)],
     progress: &mut dyn FnMut(&str),
     stop: Option<&AtomicBool>,
 ) -> Result<Vec<(String, Report)>, String> {
@@ -402,11 +414,12 @@ pub fn run_catalog(
             break;
         }
         let path = f.to_string_lossy().into_owned();
-        let scenario = Scenario::load(&path).map_err(|e| e.to_string())?;
+        let scenario = Scenario::load_with_settings(&path, settings).map_err(|e| e.to_string())?;
         progress(&scenario.name);
         let control = RunControl {
             progress: None,
             stop,
+            workspace: None,
         };
         let run = run_to_report(
             RunInput::Scenario(&scenario),
@@ -517,6 +530,7 @@ mod tests {
     #[test]
     fn junit_escapes_and_counts_failures() {
         let c = Check {
+            estimator: None,
             scenario: "a<b>".into(),
             metric: "ate_rmse_m",
             value: Some(2.0),

@@ -20,6 +20,7 @@ mod input_fuzz;
 mod kalibr;
 mod key_listing;
 mod metrics;
+mod outside_estimator;
 mod peer_openvins;
 mod recorded_imu_input;
 mod regress;

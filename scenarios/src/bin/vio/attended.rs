@@ -13,11 +13,13 @@ use scenarios::run::{RunControl, RunError, RunOptions};
 
 use super::{BAD_INPUT, say};
 
-/// Runs `input` (called `label` on the progress bar) to its report.
+/// Runs `input` (called `label` on the progress bar) to its report; an outside estimator's files
+/// go to `OUT/estimator/`.
 pub fn run_attended(
     label: &str,
     input: RunInput,
     options: &RunOptions,
+    out_dir: &Path,
 ) -> Result<ReportedRun, RunError> {
     let stop = super::interrupt::on_ctrl_c("stopping the run and writing what it has");
     let terminal = std::io::stderr().is_terminal();
@@ -51,6 +53,7 @@ pub fn run_attended(
     let control = RunControl {
         progress: Some(&mut progress),
         stop: Some(stop),
+        workspace: Some(&out_dir.join("estimator")),
     };
     let result = run_to_report(input, options, control);
     bar.finish_and_clear();

@@ -68,7 +68,7 @@ pub fn run_recording(
     if let Err(code) = check_out_dir(out_dir) {
         return code;
     }
-    let run = match run_attended(tag, input, options) {
+    let run = match run_attended(tag, input, options, out_dir) {
         Ok(r) => r,
         Err(e) => {
             eprintln!("error: {e}");

@@ -412,13 +412,31 @@ pub(super) fn regress_command(
     baseline: Option<PathBuf>,
     junit: Option<PathBuf>,
     update: bool,
+    estimator: Option<String>,
 ) -> ExitCode {
     use scenarios::studies::regress;
     let bad = |e: String| {
         eprintln!("vio regress: error: {e}");
         ExitCode::from(BAD_INPUT)
     };
-    let baseline_path = baseline.unwrap_or_else(|| catalog.join("baseline.json"));
+    let settings = match estimator.as_deref().filter(|e| *e != "ours") {
+        None => Vec::new(),
+        Some(e) => match scenarios::spec::parse_setting(&super::estimator_setting(e)) {
+            Ok(s) => vec![s],
+            Err(m) => return bad(m),
+        },
+    };
+    // Each estimator has its own baseline.
+    let default_baseline = match estimator.as_deref().filter(|e| *e != "ours") {
+        None => "baseline.json".to_string(),
+        Some(e) => format!(
+            "baseline.{}.json",
+            std::path::Path::new(e)
+                .file_stem()
+                .map_or(e.into(), |s| s.to_string_lossy())
+        ),
+    };
+    let baseline_path = baseline.unwrap_or_else(|| catalog.join(default_baseline));
     let files = match regress::catalog_files(catalog) {
         Ok(f) => f,
         Err(e) => return bad(e),
@@ -453,11 +471,15 @@ pub(super) fn regress_command(
     let stop = super::interrupt::on_ctrl_c(
         "stopping: the scenario under way is dropped, the finished ones compared",
     );
-    let reports =
-        match regress::run_catalog(&files, &mut |name| eprintln!("running {name}"), Some(stop)) {
-            Ok(r) => r,
-            Err(e) => return bad(e),
-        };
+    let reports = match regress::run_catalog(
+        &files,
+        &settings,
+        &mut |name| eprintln!("running {name}"),
+        Some(stop),
+    ) {
+        Ok(r) => r,
+        Err(e) => return bad(e),
+    };
     let interrupted = super::interrupt::interrupted();
     if interrupted && update {
         eprintln!(

@@ -7,7 +7,7 @@ use serde::Deserialize;
 
 use super::point::{Point, point_of};
 use super::summary::TargetSpec;
-use crate::spec::{Origin, Scenario, SpecError};
+use crate::spec::{Origin, Scenario, SpecError, set_key};
 
 /// The default metrics of a sweep.
 pub const DEFAULT_METRICS: &[&str] = &[
@@ -417,51 +417,4 @@ impl Sweep {
             .collect::<Vec<_>>()
             .join(", ")
     }
-}
-
-/// Sets `value` at a dotted key with array indices (`rig.cameras[1].T_b_c.translation_m[1]`),
-/// creating missing tables; the key's last part may be new, its parents' arrays must exist.
-fn set_key(doc: &mut toml::Table, key: &str, value: toml::Value) -> Result<(), String> {
-    let mut parts: Vec<(String, Vec<usize>)> = Vec::new();
-    for part in key.split('.') {
-        let (name, rest) = part.split_at(part.find('[').unwrap_or(part.len()));
-        let idx = rest
-            .split(['[', ']'])
-            .filter(|s| !s.is_empty())
-            .map(|s| s.parse::<usize>().map_err(|_| format!("bad index `{s}`")))
-            .collect::<Result<Vec<_>, _>>()?;
-        if name.is_empty() {
-            return Err("empty key part".into());
-        }
-        parts.push((name.to_string(), idx));
-    }
-    let mut table = doc;
-    let last = parts.len() - 1;
-    for (n, (name, idx)) in parts.into_iter().enumerate() {
-        if n == last && idx.is_empty() {
-            table.insert(name, value);
-            return Ok(());
-        }
-        let mut cur = table
-            .entry(name.clone())
-            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
-        for (m, &i) in idx.iter().enumerate() {
-            let arr = cur
-                .as_array_mut()
-                .ok_or_else(|| format!("`{name}` is not an array"))?;
-            let len = arr.len();
-            let slot = arr
-                .get_mut(i)
-                .ok_or_else(|| format!("`{name}` has {len} elements, no [{i}]"))?;
-            if n == last && m == idx.len() - 1 {
-                *slot = value;
-                return Ok(());
-            }
-            cur = slot;
-        }
-        table = cur
-            .as_table_mut()
-            .ok_or_else(|| format!("`{name}` is not a table"))?;
-    }
-    Ok(())
 }

@@ -233,9 +233,14 @@ impl Sweep {
             duration_s: self.spec.duration_s,
             ..Default::default()
         };
+        // An outside estimator's files stay with the kept run (else in a temporary folder).
+        let workspace = control
+            .runs_dir
+            .map(|dir| run_dir(dir, run_index).join("estimator"));
         let run_control = RunControl {
             progress: None,
             stop: control.stop,
+            workspace: workspace.as_deref(),
         };
         let failed =
             |e: &dyn std::fmt::Display| format!("{} seed {seed}: {e}", self.describe_point(point));
