@@ -3,6 +3,15 @@
 //! the second camera on) and `imu.yaml` (noise densities, random walks, rate), as Kalibr writes
 //! them and as OpenVINS-style estimators read them.
 //!
+//! Beside Kalibr's keys, each camera carries documented extra keys that other readers ignore:
+//! the rig's exact `T_b_c` (`vio_T_b_c_*`), the pixel σ the estimator is told
+//! (`vio_pixel_sigma_px`), and a rolling shutter's readout and direction
+//! (`vio_rolling_shutter_readout_s`, `vio_rolling_shutter_direction`, beside Kalibr's own
+//! `line_delay_nanoseconds`). `timeshift_cam_imu` follows Kalibr: `t_imu = t_cam + shift`; it is the
+//! scenario's `rig.time_offset_s` (a frame taken at IMU time `t` is stamped `t − offset`, so
+//! with a positive offset the first camera stamps, in `features.csv` and `cam<i>/data.csv`, can
+//! be negative).
+//!
 //! The round trip through [`super::kalibr`] is exact: every number is written in its shortest
 //! round-trip form (with a decimal point and a signed exponent, so YAML 1.1 readers such as
 //! PyYAML take it as a float), Kalibr's `T_cam_imu` rotation is the transpose of the rig's (exact),
@@ -14,6 +23,13 @@ use estimator::imu::ImuNoise;
 use nalgebra::{Matrix3, Vector3};
 
 use super::kalibr::{QUATERNION_KEY, TRANSLATION_KEY, invert_rigid};
+
+/// The extra key of a camera's pixel noise σ (px): what the estimator is told.
+pub const PIXEL_SIGMA_KEY: &str = "vio_pixel_sigma_px";
+/// The extra key of a rolling shutter's readout (s): first row to one past the last.
+pub const READOUT_KEY: &str = "vio_rolling_shutter_readout_s";
+/// The extra key of a rolling shutter's direction (`top_to_bottom`, `bottom_to_top`).
+pub const DIRECTION_KEY: &str = "vio_rolling_shutter_direction";
 
 /// One camera of a Kalibr camchain.
 #[derive(Clone, Debug, PartialEq)]
@@ -42,6 +58,12 @@ pub struct KalibrCamera {
     pub rostopic: String,
     /// `t_imu = t_cam + timeshift_cam_imu` (s).
     pub timeshift_cam_imu: f64,
+    /// A rolling shutter's time from one row to the next (ns; Kalibr's rolling-shutter key
+    /// `line_delay_nanoseconds`), its readout (s) and which row is read first (`top_to_bottom`,
+    /// `bottom_to_top`); `None`: a global shutter.
+    pub rolling_shutter: Option<(f64, f64, &'static str)>,
+    /// The pixel noise σ (px) the estimator is told, when known.
+    pub pixel_sigma_px: Option<f64>,
 }
 
 /// The IMU of a Kalibr `imu.yaml`.
@@ -186,6 +208,13 @@ pub fn format_camchain(cameras: &[KalibrCamera], header: &str) -> String {
             "  timeshift_cam_imu: {}\n",
             yaml_f64(c.timeshift_cam_imu)
         ));
+        if let Some((line_delay_ns, _, _)) = c.rolling_shutter {
+            // Kalibr's rolling-shutter calibration writes the row-to-row delay.
+            out.push_str(&format!(
+                "  line_delay_nanoseconds: {}\n",
+                yaml_f64(line_delay_ns)
+            ));
+        }
         // The rig's own values: T_cam_imu's inversion in doubles gives the translation back
         // only to rounding for a generic rotation (see `camera_from_imu`).
         out.push_str(
@@ -197,6 +226,16 @@ pub fn format_camchain(cameras: &[KalibrCamera], header: &str) -> String {
         ));
         if let Some(q) = c.quaternion_xyzw {
             out.push_str(&format!("  {QUATERNION_KEY}: {}\n", yaml_list(&q)));
+        }
+        if let Some(sigma) = c.pixel_sigma_px {
+            out.push_str(&format!("  {PIXEL_SIGMA_KEY}: {}\n", yaml_f64(sigma)));
+        }
+        if let Some((_, readout_s, direction)) = c.rolling_shutter {
+            // Row r of an image is read r · line_delay after its stamp (the first row's).
+            out.push_str(&format!(
+                "  {READOUT_KEY}: {}\n  {DIRECTION_KEY}: {direction}\n",
+                yaml_f64(readout_s)
+            ));
         }
         previous = Some((r_c_b, t_c_b));
     }

@@ -13,6 +13,11 @@
 //! measured and when. Feature ids are renumbered densely from 0 keeping their order (they fit
 //! in 31 bits): one id is one track (`rig.track_ids = "realistic"`, the default: a re-acquired
 //! landmark is a new track) or one landmark (`"landmark"`), shared by the cameras that see it.
+//! Stamps: the IMU's and the ground truth's are true time; a camera's are its own clock, `t −
+//! rig.time_offset_s` for a frame taken at true time `t` (Kalibr's `timeshift_cam_imu` in the
+//! camchain), so a positive offset can give the first frames negative stamps. Each camera's
+//! Kalibr entry also carries its rolling-shutter readout (`line_delay_nanoseconds` and the
+//! `vio_rolling_shutter_*` keys) and the pixel σ the estimator is told (`vio_pixel_sigma_px`).
 //! An export's output is whole or marked ([`out_folder`]).
 
 pub mod asl_folder;

@@ -130,6 +130,17 @@ pub(crate) fn export_rig(scenario: &Scenario, est: &EstimatorConfig) -> ExportRi
             quaternion_xyzw,
             rostopic: image_topic(i),
             timeshift_cam_imu: spec.rig.time_offset_s,
+            rolling_shutter: c.rolling_shutter.as_ref().map(|rs| {
+                (
+                    rs.readout_ms * 1e6 / f64::from(c.resolution[1]),
+                    rs.readout_ms * 1e-3,
+                    match rs.direction {
+                        estimator::camera::ReadoutDirection::TopToBottom => "top_to_bottom",
+                        estimator::camera::ReadoutDirection::BottomToTop => "bottom_to_top",
+                    },
+                )
+            }),
+            pixel_sigma_px: Some(cam.pixel_sigma),
         });
     }
     let header = format!(

@@ -343,3 +343,37 @@ fn arbitrary_rigs_survive_the_kalibr_round_trip_bit_for_bit() {
     }
     assert_eq!(cases, 48);
 }
+
+#[test]
+fn the_exported_kalibr_files_carry_the_readout_the_noise_and_the_offset() {
+    let setting = |s: &str| scenarios::spec::parse_setting(s).unwrap();
+    let scenario = Scenario::load_with_settings(
+        "room_figure8_stereo_imu",
+        &[
+            setting("rig.cameras[1].rolling_shutter={ readout_ms = 30.0, direction = \"bottom_to_top\" }"),
+            setting("rig.cameras[1].pixel_sigma_px=0.7"),
+            setting("rig.time_offset_s=0.004"),
+        ],
+    )
+    .unwrap();
+    let (camchain, _) = scenarios::export::kalibr_files(&scenario).unwrap();
+    let cam1 = &camchain[camchain.find("cam1:").unwrap()..];
+    let cam0 = &camchain[..camchain.find("cam1:").unwrap()];
+    // 30 ms over 480 rows: 62.5 µs from a row to the next.
+    for line in [
+        "  line_delay_nanoseconds: 62500.0\n",
+        "  vio_rolling_shutter_readout_s: 0.03\n",
+        "  vio_rolling_shutter_direction: bottom_to_top\n",
+        "  vio_pixel_sigma_px: 0.7\n",
+        "  timeshift_cam_imu: 0.004\n",
+    ] {
+        assert!(cam1.contains(line), "{line}: {cam1}");
+    }
+    // A global shutter writes no readout.
+    assert!(
+        !cam0.contains("line_delay") && !cam0.contains("rolling"),
+        "{cam0}"
+    );
+    // Read back as a rig, the files are still Kalibr files.
+    scenarios::dataset::kalibr::camera_sensors(&camchain, "camchain-imucam.yaml").unwrap();
+}

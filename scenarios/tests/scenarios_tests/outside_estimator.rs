@@ -176,7 +176,10 @@ fn an_outside_estimator_sweeps_beside_ours() {
     let csv = std::fs::read_to_string(out.join("results.csv")).unwrap();
     let rows: Vec<&str> = csv.lines().skip(1).collect();
     assert_eq!(rows.len(), 4, "{csv}");
-    assert!(csv.starts_with("run,point,seed,estimator,ate_rmse_m\n"), "{csv}");
+    assert!(
+        csv.starts_with("run,point,seed,estimator,ate_rmse_m\n"),
+        "{csv}"
+    );
     // The estimator column holds the axis value's index: 0 ours, 1 the test estimator.
     for index in ["0", "1"] {
         let of: Vec<&&str> = rows
