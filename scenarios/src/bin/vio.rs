@@ -514,9 +514,13 @@ fn dispatch(cli: Cli) -> ExitCode {
         Command::ImuModel(args) => imu_model_command(args),
         Command::ImageStats(args) => image_stats_command(args),
         Command::Eval(args) => match eval(&args) {
-            Ok(report) => {
+            Ok((report, passed)) => {
                 say(&report);
-                ExitCode::SUCCESS
+                if passed {
+                    ExitCode::SUCCESS
+                } else {
+                    ExitCode::from(1)
+                }
             }
             Err(e) => {
                 eprintln!("vio eval: error: {e}");

@@ -29,6 +29,16 @@ impl Evaluation {
     }
 }
 
+/// The alignment a suite's estimate is scored with, by `vio run`, `sweep`, `regress` and (by
+/// default) `vio eval`: position + yaw with an IMU (gravity is observed, 4 DoF are not), a rigid
+/// SE(3) alignment for stereo-only (its world frame is the first camera pose).
+pub fn default_alignment(suite: SuiteSpec) -> Alignment {
+    match suite {
+        SuiteSpec::StereoImu | SuiteSpec::MonoImu => Alignment::PosYaw,
+        SuiteSpec::Stereo => Alignment::Se3,
+    }
+}
+
 /// Metrics of a run against ground truth.
 #[derive(Clone, Debug)]
 pub struct Evaluation {
@@ -122,10 +132,7 @@ pub fn evaluate(run: &RunOutput, suite: SuiteSpec) -> Evaluation {
         .iter()
         .map(|&i| run.frames[i].truth.pose)
         .collect();
-    let alignment = match suite {
-        SuiteSpec::StereoImu | SuiteSpec::MonoImu => Alignment::PosYaw,
-        SuiteSpec::Stereo => Alignment::Se3,
-    };
+    let alignment = default_alignment(suite);
     let (ate, static_trajectory) = match metrics::ate_or_anchored(&gt, &est, alignment) {
         Ok((ate, st)) => (Ok(ate), st),
         Err(e) => (Err(e), None),

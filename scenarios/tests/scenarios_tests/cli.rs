@@ -72,27 +72,93 @@ fn eval_prints_evo_ate() {
         );
         assert!(stdout.contains("RPE trans (m) Δ=1 m"), "{stdout}");
     }
-    // Default alignment is SE3 (evo -a); posyaw also runs.
-    let out = vio(&[
-        "eval",
-        "--gt",
-        gt.to_str().unwrap(),
-        "--est",
-        est.to_str().unwrap(),
-    ]);
-    let stdout = String::from_utf8(out.stdout).unwrap();
+    // The default alignment is the suite's, as `vio run` scores: SE(3) (evo -a) for stereo,
+    // position+yaw with an IMU (the default suite), and the output says which.
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "eval",
+            "--gt",
+            gt.to_str().unwrap(),
+            "--est",
+            est.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        String::from_utf8(vio_ok(&args).stdout).unwrap()
+    };
+    let stereo = run(&["--suite", "stereo"]);
+    assert!(
+        stereo.contains("alignment: se3 (the stereo default, as vio run uses)"),
+        "{stereo}"
+    );
     let evo = evo_value(&dir, "ape_se3_trans", "rmse");
-    assert!((printed_rmse(&stdout, "ATE trans (m)") - evo).abs() <= 1e-6);
-    let out = vio(&[
+    assert!((printed_rmse(&stereo, "ATE trans (m)") - evo).abs() <= 1e-6);
+    let default = run(&[]);
+    assert!(
+        default.contains("alignment: posyaw (the stereo_imu default"),
+        "{default}"
+    );
+    assert_eq!(
+        printed_rmse(&default, "ATE trans (m)"),
+        printed_rmse(&run(&["--align", "posyaw"]), "ATE trans (m)")
+    );
+}
+
+/// `vio eval --json` carries the figures the table prints; `--max-ate` / `--max-rot` turn them
+/// into a verdict: exit 1 naming the bound that fails, 0 when both hold; a bound that is no
+/// bound is bad input.
+#[test]
+fn eval_gives_json_and_fails_past_its_thresholds() {
+    let dir = evo_dir("mh01");
+    let (gt, est) = (dir.join("gt.tum"), dir.join("est.tum"));
+    let base = [
         "eval",
         "--gt",
         gt.to_str().unwrap(),
         "--est",
         est.to_str().unwrap(),
-        "--align",
-        "posyaw",
+    ];
+    let with = |extra: &[&str]| {
+        let mut args = base.to_vec();
+        args.extend_from_slice(extra);
+        vio(&args)
+    };
+    let out = with(&["--json", "--suite", "stereo"]);
+    assert_eq!(out.status.code(), Some(0));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let ate = v["tables"][0]["metrics"]["ATE trans (m)"]["rmse"]
+        .as_f64()
+        .unwrap();
+    assert!((ate - evo_value(&dir, "ape_se3_trans", "rmse")).abs() <= 1e-6);
+    assert_eq!(v["passed"], true);
+    let rot = v["tables"][0]["metrics"]["ATE rot (deg)"]["rmse"]
+        .as_f64()
+        .unwrap();
+    let (ate_s, rot_s) = (format!("{}", ate * 1.01), format!("{}", rot * 1.01));
+    let out = with(&[
+        "--suite",
+        "stereo",
+        "--max-ate",
+        &ate_s,
+        "--max-rot",
+        &rot_s,
     ]);
     assert_eq!(out.status.code(), Some(0));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("result PASS"));
+    let (ate_s, rot_s) = (format!("{}", ate * 0.99), format!("{}", rot * 0.99));
+    let out = with(&["--suite", "stereo", "--max-ate", &ate_s]);
+    assert_eq!(out.status.code(), Some(1));
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        stdout.contains("result FAIL: ATE") && stdout.contains("> --max-ate"),
+        "{stdout}"
+    );
+    let out = with(&["--suite", "stereo", "--max-rot", &rot_s, "--json"]);
+    assert_eq!(out.status.code(), Some(1));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["passed"], false);
+    assert!(v["failures"][0].as_str().unwrap().contains("--max-rot"));
+    let out = with(&["--max-ate", "-1"]);
+    assert_eq!(out.status.code(), Some(2));
 }
 
 /// An RPE step that is no step (0, negative, NaN, or not whole in frames) is refused with exit

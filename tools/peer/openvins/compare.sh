@@ -71,7 +71,7 @@ sed -e "s/@PIXEL_SIGMA@/$sigma/" -e "s/@CAMERAS@/$cameras/" "$here/estimator_con
 "$driver" "$run/ov/estimator_config.yaml" "$run/export" "$run/openvins.tum" "$run/openvins_timing.csv" \
   >"$run/openvins.log" 2>&1 || { tail -n 20 "$run/openvins.log" >&2; exit 1; }
 
-"$vio" eval --gt "$run/ours/groundtruth.tum" --est "$run/ours/estimate.tum" --common-with "$run/openvins.tum" \
+"$vio" eval --align se3 --gt "$run/ours/groundtruth.tum" --est "$run/ours/estimate.tum" --common-with "$run/openvins.tum" \
   >"$run/eval.txt"
 # The first ATE table is ours, the second OpenVINS's, both on the common frames.
 read -r ours_ate ov_ate < <(awk '/^ATE trans/ {printf "%s ", $5} END {print ""}' "$run/eval.txt")
@@ -91,7 +91,7 @@ if [ -n "$ov_poses" ] && [ "$ov_poses" -gt 0 ] && [ $((10 * common)) -lt $((9 * 
   first=$(awk '!/^#/ && NF {printf "%.9f", $1 - 0.001; exit}' "$run/openvins.tum")
   awk -v t0="$first" '!/^#/ && NF && $1 >= t0' "$run/ours/estimate.tum" >"$run/ours_from_openvins_start.tum"
   gt200=$run/export/mav0/state_groundtruth_estimate0/data.csv
-  score() { "$vio" eval --gt "$gt200" --est "$1" --t-max-diff 0.003 | awk '/^ATE (trans|rot)/ {printf "%s ", $5}'; }
+  score() { "$vio" eval --align se3 --gt "$gt200" --est "$1" --t-max-diff 0.003 | awk '/^ATE (trans|rot)/ {printf "%s ", $5}'; }
   read -r ours_ate ours_rot < <(score "$run/ours_from_openvins_start.tum"; echo)
   read -r ov_ate ov_rot < <(score "$run/openvins.tum"; echo)
   scored_on=ground_truth_200hz

@@ -5,8 +5,12 @@ use std::path::{Path, PathBuf};
 use clap::ValueEnum;
 use scenarios::dataset::{StampedPose, read_groundtruth_csv, read_tum};
 use scenarios::metrics::{
-    Alignment, EvalOptions, PairsFrom, RpeDelta, RpeOptions, associate_trajectories, evaluate,
+    Alignment, EvalOptions, PairsFrom, RpeDelta, RpeOptions, Stats, associate_trajectories,
+    evaluate,
 };
+use scenarios::report::default_alignment;
+use scenarios::spec::SuiteSpec;
+use serde_json::json;
 
 #[derive(Clone, Copy, ValueEnum)]
 enum AlignArg {
@@ -18,6 +22,16 @@ enum AlignArg {
     Posyaw,
     /// No alignment.
     None,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum SuiteArg {
+    /// Stereo camera and IMU.
+    StereoImu,
+    /// One camera and the IMU.
+    MonoImu,
+    /// Stereo camera only.
+    Stereo,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -45,9 +59,23 @@ pub(super) struct EvalArgs {
     /// Estimated trajectory (TUM).
     #[arg(long)]
     est: PathBuf,
-    /// Alignment of the estimate before computing errors.
-    #[arg(long, value_enum, default_value = "se3")]
-    align: AlignArg,
+    /// Alignment of the estimate before computing errors [default: the suite's, as `vio run`,
+    /// `sweep` and `regress` use: posyaw with an IMU, se3 for stereo].
+    #[arg(long, value_enum)]
+    align: Option<AlignArg>,
+    /// The suite that made the estimate: picks the default alignment.
+    #[arg(long, value_enum, default_value = "stereo-imu")]
+    suite: SuiteArg,
+    /// Print the results as JSON (one object: the alignment, each table's statistics, the
+    /// thresholds and whether they hold).
+    #[arg(long)]
+    json: bool,
+    /// Fail (exit 1) when the estimate's ATE translation RMSE exceeds this (m).
+    #[arg(long)]
+    max_ate: Option<f64>,
+    /// Fail (exit 1) when the estimate's ATE rotation RMSE exceeds this (deg).
+    #[arg(long)]
+    max_rot: Option<f64>,
     /// Max. timestamp difference for association, in seconds (evo `--t_max_diff`).
     #[arg(long, default_value_t = 0.01)]
     t_max_diff: f64,
@@ -79,7 +107,7 @@ fn read_ground_truth(path: &Path) -> Result<Vec<StampedPose>, String> {
     read_tum(path).map_err(|e| e.to_string())
 }
 
-pub(super) fn eval(args: &EvalArgs) -> Result<String, String> {
+pub(super) fn eval(args: &EvalArgs) -> Result<Evaluated, String> {
     let gt = read_ground_truth(&args.gt)?;
     let est = read_tum(&args.est).map_err(|e| e.to_string())?;
     if !(args.t_max_diff.is_finite() && args.t_max_diff >= 0.0) {
@@ -112,12 +140,32 @@ pub(super) fn eval(args: &EvalArgs) -> Result<String, String> {
         PairsArg::Gt => PairsFrom::Reference,
         PairsArg::Est => PairsFrom::Estimate,
     };
-    let alignment = match args.align {
-        AlignArg::Se3 => Alignment::Se3,
-        AlignArg::Sim3 => Alignment::Sim3,
-        AlignArg::Posyaw => Alignment::PosYaw,
-        AlignArg::None => Alignment::None,
+    let suite = match args.suite {
+        SuiteArg::StereoImu => SuiteSpec::StereoImu,
+        SuiteArg::MonoImu => SuiteSpec::MonoImu,
+        SuiteArg::Stereo => SuiteSpec::Stereo,
     };
+    let alignment = match args.align {
+        None => default_alignment(suite),
+        Some(AlignArg::Se3) => Alignment::Se3,
+        Some(AlignArg::Sim3) => Alignment::Sim3,
+        Some(AlignArg::Posyaw) => Alignment::PosYaw,
+        Some(AlignArg::None) => Alignment::None,
+    };
+    let alignment_note = match args.align {
+        None => format!(
+            "{alignment} (the {} default, as vio run uses)",
+            suite.as_str()
+        ),
+        Some(_) => format!("{alignment} (--align)"),
+    };
+    for (name, v) in [("--max-ate", args.max_ate), ("--max-rot", args.max_rot)] {
+        if let Some(v) = v
+            && !(v.is_finite() && v >= 0.0)
+        {
+            return Err(format!("{name} must be a bound ≥ 0, got {v}"));
+        }
+    }
     let mut rpe = vec![RpeOptions {
         delta,
         pairs_from,
@@ -133,7 +181,8 @@ pub(super) fn eval(args: &EvalArgs) -> Result<String, String> {
     };
     let max_diff_ns = opts.max_diff_ns;
     let Some(other_path) = &args.common_with else {
-        return table(&gt, &est, &args.gt, &args.est, args.t_max_diff, &opts);
+        let scored = score(&gt, &est, &args.gt, &args.est, args.t_max_diff, &opts)?;
+        return Ok(finish(args, &alignment_note, None, &[scored]));
     };
     let other = read_tum(other_path).map_err(|e| e.to_string())?;
     let common = associate_trajectories(&est, &other, max_diff_ns).map_err(|e| {
@@ -144,7 +193,7 @@ pub(super) fn eval(args: &EvalArgs) -> Result<String, String> {
         )
     })?;
     let first = |v: &[StampedPose]| v.first().map_or(f64::NAN, |s| s.t_ns as f64 * 1e-9);
-    let mut out = format!(
+    let common_line = format!(
         "common frames: {} of {} ({}) and {} ({}), from {:.3} s (they start at {:.3} s and {:.3} s)\n\n",
         common.pairs.len(),
         est.len(),
@@ -155,35 +204,111 @@ pub(super) fn eval(args: &EvalArgs) -> Result<String, String> {
         first(&est),
         first(&other)
     );
-    out.push_str(&table(
-        &gt,
-        &common.gt,
-        &args.gt,
-        &args.est,
-        args.t_max_diff,
-        &opts,
-    )?);
-    out.push('\n');
-    out.push_str(&table(
-        &gt,
-        &common.est,
-        &args.gt,
-        other_path,
-        args.t_max_diff,
-        &opts,
-    )?);
-    Ok(out)
+    let tables = [
+        score(&gt, &common.gt, &args.gt, &args.est, args.t_max_diff, &opts)?,
+        score(
+            &gt,
+            &common.est,
+            &args.gt,
+            other_path,
+            args.t_max_diff,
+            &opts,
+        )?,
+    ];
+    Ok(finish(
+        args,
+        &alignment_note,
+        Some((common.pairs.len(), common_line)),
+        &tables,
+    ))
 }
 
-/// The metrics table of `est` against `gt`.
-fn table(
+/// What `vio eval` prints and its verdict: `(output, thresholds hold)`.
+pub(super) type Evaluated = (String, bool);
+
+/// One estimate's scores against the ground truth: its table as text and its figures.
+struct Scored {
+    text: String,
+    json: serde_json::Value,
+    ate_m: Option<f64>,
+    rot_deg: Option<f64>,
+}
+
+/// The thresholds checked on the first table (the `--est` estimate): the failures, in words.
+fn threshold_failures(args: &EvalArgs, s: &Scored) -> Vec<String> {
+    let mut out = Vec::new();
+    for (name, bound, value, unit) in [
+        ("--max-ate", args.max_ate, s.ate_m, "m"),
+        ("--max-rot", args.max_rot, s.rot_deg, "deg"),
+    ] {
+        let Some(bound) = bound else { continue };
+        match value {
+            Some(v) if v <= bound => {}
+            Some(v) => out.push(format!("ATE {v:.6} {unit} > {name} {bound}")),
+            None => out.push(format!("no ATE to check against {name} {bound}")),
+        }
+    }
+    out
+}
+
+/// The output (text or `--json`) of the tables, with the thresholds' verdict.
+fn finish(
+    args: &EvalArgs,
+    alignment: &str,
+    common: Option<(usize, String)>,
+    tables: &[Scored],
+) -> Evaluated {
+    let failures = threshold_failures(args, &tables[0]);
+    let thresholds = args.max_ate.is_some() || args.max_rot.is_some();
+    let passed = failures.is_empty();
+    if args.json {
+        let v = json!({
+            "alignment": alignment,
+            "common_frames": common.as_ref().map(|c| c.0),
+            "tables": tables.iter().map(|t| t.json.clone()).collect::<Vec<_>>(),
+            "max_ate_m": args.max_ate,
+            "max_rot_deg": args.max_rot,
+            "failures": failures,
+            "passed": passed,
+        });
+        return (
+            serde_json::to_string_pretty(&v).expect("plain data") + "\n",
+            passed,
+        );
+    }
+    let mut out = common.map(|c| c.1).unwrap_or_default();
+    out.push_str(&format!("alignment: {alignment}\n\n"));
+    for (i, t) in tables.iter().enumerate() {
+        if i > 0 {
+            out.push('\n');
+        }
+        out.push_str(&t.text);
+    }
+    if thresholds {
+        out.push_str(&if passed {
+            "\nresult PASS\n".to_string()
+        } else {
+            format!("\nresult FAIL: {}\n", failures.join("; "))
+        });
+    }
+    (out, passed)
+}
+
+/// The statistics as JSON.
+fn stats_json(s: &Stats) -> serde_json::Value {
+    json!({"n": s.count, "rmse": s.rmse, "mean": s.mean, "median": s.median, "std": s.std,
+           "min": s.min, "max": s.max})
+}
+
+/// The metrics table of `est` against `gt`, as text and JSON.
+fn score(
     gt: &[StampedPose],
     est: &[StampedPose],
     gt_path: &Path,
     est_path: &Path,
     t_max_diff: f64,
     opts: &EvalOptions,
-) -> Result<String, String> {
+) -> Result<Scored, String> {
     let alignment = opts.alignment;
     let ev = evaluate(gt, est, opts)
         .map_err(|e| format!("{} vs {}: {e}", gt_path.display(), est_path.display()))?;
@@ -220,11 +345,13 @@ fn table(
         "{:<24} {:>6} {:>12} {:>12} {:>12} {:>12} {:>12} {:>12}\n",
         "metric", "n", "rmse", "mean", "median", "std", "min", "max"
     ));
+    let mut rows: Vec<(String, serde_json::Value)> = Vec::new();
     let mut row = |name: String, s: &scenarios::metrics::Stats| {
         out.push_str(&format!(
             "{:<24} {:>6} {:>12.9} {:>12.9} {:>12.9} {:>12.9} {:>12.9} {:>12.9}\n",
             name, s.count, s.rmse, s.mean, s.median, s.std, s.min, s.max
         ));
+        rows.push((name, stats_json(s)));
     };
     match &ev.static_trajectory {
         // Too short or static to align: errors from the first pose instead of the ATE.
@@ -256,9 +383,29 @@ fn table(
             Err(e) => missing.push(format!("RPE Δ={}: {e}", o.delta)),
         }
     }
-    for m in missing {
-        out.push_str(&m);
+    for m in &missing {
+        out.push_str(m);
         out.push('\n');
     }
-    Ok(out)
+    let (ate_m, rot_deg) = match &ev.static_trajectory {
+        Some(_) => (None, None),
+        None => (
+            Some(ev.ate.translation.rmse),
+            Some(ev.ate.rotation_deg.rmse),
+        ),
+    };
+    let json = json!({
+        "ground_truth": gt_path.display().to_string(),
+        "estimate": est_path.display().to_string(),
+        "matched": ev.matched.pairs.len(),
+        "static_trajectory": ev.static_trajectory.as_ref().map(|s| s.reason.clone()),
+        "metrics": rows.into_iter().collect::<serde_json::Map<_, _>>(),
+        "missing": missing,
+    });
+    Ok(Scored {
+        text: out,
+        json,
+        ate_m,
+        rot_deg,
+    })
 }
