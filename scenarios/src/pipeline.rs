@@ -99,6 +99,11 @@ pub fn run_to_report(
         ),
     };
     let mut evaluation = report::evaluate(&output, context.suite);
+    if output.outside.is_some() && output.frames_in > 0 {
+        // An outside estimator's poses are its tracked frames: the fraction is of the frames
+        // it was given (one that starts late, or stops, tracks less).
+        evaluation.tracking_fraction = output.frames.len() as f64 / output.frames_in as f64;
+    }
     if !truth_biases {
         // A ground truth of poses: the biases' errors are unknown, not zero.
         evaluation.gyro_bias_error_rad_s = None;

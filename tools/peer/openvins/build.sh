@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # Builds OpenVINS without ROS (its ov_msckf library, with ov_core and ov_init) at a pinned commit,
-# and `ov_feature_driver`, the small program of this folder that feeds it `vio export` data.
+# and the two small programs of this folder that feed it `vio export` data: `ov_feature_driver`
+# (our feature tracks) and `ov_image_driver` (the rendered images, through its own front end).
 #
 #   bash tools/peer/openvins/build.sh
 #
 # Source: OPENVINS_SRC=/path/to/open_vins (a checkout) or, by default, a clone of the public
 # repository at $OPENVINS_COMMIT into $OPENVINS_WORK/src. Debian/Ubuntu packages are installed
-# when missing (Eigen, OpenCV, Boost, Ceres, CMake; root or sudo needed). Prints the driver's
+# when missing (Eigen, OpenCV, Boost, Ceres, CMake; root or sudo needed). Prints the drivers'
 # path last. Idempotent: a second run only rebuilds what changed.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
@@ -49,3 +50,4 @@ cmake -S "$here" -B "$work/build-driver" -DCMAKE_BUILD_TYPE=Release -DOPENVINS_S
   -DOPENVINS_LIB_DIR="$work/build-ov" >"$work/cmake-driver.log" 2>&1 || { cat "$work/cmake-driver.log" >&2; exit 1; }
 cmake --build "$work/build-driver" -j"$jobs"
 echo "$work/build-driver/ov_feature_driver"
+echo "$work/build-driver/ov_image_driver"
