@@ -133,6 +133,15 @@ pub fn run_nees_until(
             message: "vio nees needs an IMU suite (stereo_imu or mono_imu)".into(),
         });
     }
+    if let Some(a) = scenario.adapter() {
+        return Err(RunError::Estimator {
+            file: scenario.file_label(),
+            message: format!(
+                "vio nees needs the estimator's covariance, and the outside estimator `{}` (estimator_adapter) reports poses only",
+                a.name
+            ),
+        });
+    }
     let n = options.seeds.len();
     let results: Mutex<Vec<Option<Result<ReportedRun, RunError>>>> =
         Mutex::new((0..n).map(|_| None).collect());

@@ -7,7 +7,8 @@
 #    track lost and found again is a new id) and the ground truth as an ASL folder, with the rig as
 #    Kalibr files;
 # 2. `vio euroc` runs our estimator on that folder's tracks, with the scenario's settings;
-# 3. `ov_feature_driver` (build.sh) runs OpenVINS on the same tracks and IMU samples, with
+# 3. `run_adapter.sh tracks` (the built-in adapter `openvins-tracks`; build.sh builds its
+#    `ov_feature_driver`) runs OpenVINS on the same tracks and IMU samples, with
 #    estimator_config.yaml beside this script (the pixel σ: PIXEL_SIGMA, default 1);
 #    its log ($run/openvins.log) ends with its timing and its final camera-IMU time offset;
 # 4. `vio eval` scores both against the same ground truth with SE(3) alignment (evo's `-a`) on
@@ -40,8 +41,6 @@ case "$suite" in
   stereo_imu | mono_imu) ;;
   *) echo "compare.sh: $name is a $suite scenario; OpenVINS needs an IMU and cameras (stereo_imu, mono_imu)" >&2; exit 2 ;;
 esac
-cameras=2
-[ "$suite" = mono_imu ] && cameras=1
 
 run=$out_root/$name-s$seed${duration:+-${duration}s}
 rm -rf "$run"
@@ -51,25 +50,13 @@ dur_args=()
 
 "$vio" export "$settings" --seed "$seed" "${dur_args[@]}" --out "$run/export" >"$run/export.log"
 
-# OpenVINS reads Kalibr files through OpenCV, which wants the %YAML line and a block sequence
-# indented under its key, and IMU intrinsics keys that Kalibr writes only for its
-# scale-misalignment models (identity here: the exported IMU is calibrated).
-indent_sequences() { sed 's/^\( *\)- /\1  - /'; }
-{ echo "%YAML:1.0"; indent_sequences <"$run/export/camchain-imucam.yaml"; } >"$run/ov/kalibr_imucam_chain.yaml"
-{
-  echo "%YAML:1.0"
-  cat "$run/export/imu.yaml"
-  for m in Tw R_IMUtoGYRO Ta R_IMUtoACC; do
-    printf '  %s:\n  - [1.0, 0.0, 0.0]\n  - [0.0, 1.0, 0.0]\n  - [0.0, 0.0, 1.0]\n' "$m"
-  done
-  printf '  Tg:\n  - [0.0, 0.0, 0.0]\n  - [0.0, 0.0, 0.0]\n  - [0.0, 0.0, 0.0]\n'
-} | indent_sequences >"$run/ov/kalibr_imu_chain.yaml"
-sed -e "s/@PIXEL_SIGMA@/$sigma/" -e "s/@CAMERAS@/$cameras/" "$here/estimator_config.yaml" >"$run/ov/estimator_config.yaml"
-
 "$vio" euroc "$run/export" --suite "$suite" --features "$run/export/features.csv" --settings "$settings" \
   --pixel-sigma "$sigma" --out "$run/ours" >"$run/ours.log" 2>&1
-"$driver" "$run/ov/estimator_config.yaml" "$run/export" "$run/openvins.tum" "$run/openvins_timing.csv" \
+# OpenVINS on the same tracks, as the built-in adapter `openvins-tracks` runs it.
+PIXEL_SIGMA=$sigma OV_DRIVER_DIR=$(dirname "$driver") bash "$here/run_adapter.sh" tracks "$run/export" "$run/ov" "$suite" \
   >"$run/openvins.log" 2>&1 || { tail -n 20 "$run/openvins.log" >&2; exit 1; }
+mv "$run/ov/estimate.tum" "$run/openvins.tum"
+mv "$run/ov/timing.csv" "$run/openvins_timing.csv"
 
 "$vio" eval --align se3 --gt "$run/ours/groundtruth.tum" --est "$run/ours/estimate.tum" --common-with "$run/openvins.tum" \
   >"$run/eval.txt"

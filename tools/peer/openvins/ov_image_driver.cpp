@@ -43,77 +43,17 @@
 #include "utils/quat_ops.h"
 #include "utils/sensor_data.h"
 
+#define DRIVER_NAME "ov_image_driver"
+#include "asl_io.h"
+
 namespace {
 
-[[noreturn]] void fail(const std::string &what) {
-  std::cerr << "ov_image_driver: " << what << std::endl;
-  std::exit(2);
-}
-
-std::vector<std::string> split_csv(const std::string &line) {
-  std::vector<std::string> out;
-  std::stringstream ss(line);
-  std::string field;
-  while (std::getline(ss, field, ',')) {
-    out.push_back(field);
-  }
-  return out;
-}
-
-int64_t parse_i64(const std::string &s, const std::string &file, size_t line) {
-  try {
-    size_t used = 0;
-    long long v = std::stoll(s, &used);
-    if (used != s.size()) {
-      throw std::invalid_argument(s);
-    }
-    return v;
-  } catch (const std::exception &) {
-    fail(file + ":" + std::to_string(line) + ": `" + s + "` is not an integer");
-  }
-}
-
-double parse_f64(const std::string &s, const std::string &file, size_t line) {
-  try {
-    size_t used = 0;
-    double v = std::stod(s, &used);
-    if (used != s.size()) {
-      throw std::invalid_argument(s);
-    }
-    return v;
-  } catch (const std::exception &) {
-    fail(file + ":" + std::to_string(line) + ": `" + s + "` is not a number");
-  }
-}
-
-std::vector<ov_core::ImuData> read_imu(const std::string &file) {
-  std::ifstream in(file);
-  if (!in) {
-    fail(file + ": cannot open");
-  }
-  std::vector<ov_core::ImuData> out;
-  std::string line;
-  size_t n = 0;
-  while (std::getline(in, line)) {
-    n++;
-    if (line.empty() || line[0] == '#') {
-      continue;
-    }
-    auto f = split_csv(line);
-    if (f.size() != 7) {
-      fail(file + ":" + std::to_string(n) + ": expected 7 columns (t_ns, w xyz, a xyz)");
-    }
-    ov_core::ImuData d;
-    d.timestamp = parse_i64(f[0], file, n) * 1e-9;
-    d.wm << parse_f64(f[1], file, n), parse_f64(f[2], file, n), parse_f64(f[3], file, n);
-    d.am << parse_f64(f[4], file, n), parse_f64(f[5], file, n), parse_f64(f[6], file, n);
-    if (!out.empty() && d.timestamp <= out.back().timestamp) {
-      fail(file + ":" + std::to_string(n) + ": timestamps not increasing");
-    }
-    out.push_back(d);
-  }
-  return out;
-}
+using asl_io::fail;
+using asl_io::parse_f64;
+using asl_io::parse_i64;
+using asl_io::percentile;
+using asl_io::read_imu;
+using asl_io::split_csv;
 
 // One camera's images: `(t_ns, png path)` from its `data.csv`, in order.
 std::vector<std::pair<int64_t, std::string>> read_images(const std::string &cam_dir) {
@@ -145,15 +85,6 @@ std::vector<std::pair<int64_t, std::string>> read_images(const std::string &cam_
     out.emplace_back(t, cam_dir + "/data/" + name);
   }
   return out;
-}
-
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) {
-    return 0.0;
-  }
-  std::sort(v.begin(), v.end());
-  size_t k = (size_t)std::min<double>(v.size() - 1, std::max(0.0, std::ceil(p * v.size()) - 1));
-  return v[k];
 }
 
 }  // namespace

@@ -28,7 +28,8 @@ case "$suite" in
   mono_imu) cameras=1 ;;
   *) echo "run_adapter.sh: suite $suite: OpenVINS needs an IMU (stereo_imu, mono_imu)" >&2; exit 2 ;;
 esac
-sigma=$(sed -n 's/^  vio_pixel_sigma_px: *\([0-9.eE+-]*\).*/\1/p' "$dataset/camchain-imucam.yaml" | head -n1)
+# The pixel σ the estimator is told (PIXEL_SIGMA overrides it; compare.sh sets it).
+sigma=${PIXEL_SIGMA:-$(sed -n 's/^  vio_pixel_sigma_px: *\([0-9.eE+-]*\).*/\1/p' "$dataset/camchain-imucam.yaml" | head -n1)}
 sigma=${sigma:-1}
 ov=$out/openvins
 mkdir -p "$ov"
