@@ -113,8 +113,8 @@ fn run_with(
 /// same scenario, seed and duration it writes OpenVINS's trajectory to the same bytes, and
 /// scored as compare.sh scores it (SE(3), the frames both produced) it gives compare.sh's
 /// OpenVINS figure to 1e-6 m. Its own report uses the suite's alignment, as for ours, and
-/// equals `vio eval`'s default on its files. Measured here (20 s, seed 1): 354 poses, ATE
-/// 0.0074 m position+yaw; compare.sh's 0.0059 m on 354 common frames.
+/// equals `vio eval`'s default on its files. Measured here (20 s, seed 1): 354 poses (one past
+/// the ground truth's end), ATE 0.0074 m position+yaw; compare.sh's 0.0059 m on 354 common frames.
 #[test]
 #[ignore = "builds OpenVINS (tools/peer/openvins/build.sh; ~15 min on 2 cores the first time)"]
 fn the_openvins_tracks_adapter_reproduces_compare_sh() {
@@ -137,7 +137,8 @@ fn the_openvins_tracks_adapter_reproduces_compare_sh() {
         "20",
         run.path(),
     );
-    assert_eq!(report["passed"], true, "{report}");
+    // Scored (its 2 s of initialization keep it under the scenario's 0.9 tracking over 20 s).
+    assert!(report["estimator"]["failure"].is_null(), "{report}");
     let dir = cmp.path().join("room_figure8_stereo_imu-s1-20s");
     let theirs = std::fs::read(dir.join("openvins.tum")).unwrap();
     let ours = std::fs::read(run.path().join("estimator/out/estimate.tum")).unwrap();
@@ -171,7 +172,7 @@ fn the_openvins_tracks_adapter_reproduces_compare_sh() {
         &[
             &dir.join("ours/groundtruth.tum"),
             &dir.join("ours/estimate.tum"),
-            &run.path().join("estimate.tum"),
+            &run.path().join("estimator/out/estimate.tum"),
         ],
         &["--align", "se3"],
     );
