@@ -29,6 +29,9 @@ impl Evaluation {
     }
 }
 
+/// [`default_alignment`] in words, for the outputs of many runs (sweeps, regressions).
+pub const ALIGNMENT_RULE: &str = "ATE after each run's suite alignment, as vio run and vio eval align it: position+yaw with an IMU, SE(3) for stereo";
+
 /// The alignment a suite's estimate is scored with, by `vio run`, `sweep`, `regress` and (by
 /// default) `vio eval`: position + yaw with an IMU (gravity is observed, 4 DoF are not), a rigid
 /// SE(3) alignment for stereo-only (its world frame is the first camera pose).

@@ -58,7 +58,7 @@ mod write;
 
 pub use calibration_error::{CalibrationReport, CalibrationSample, ExtrinsicError};
 pub use context::RunContext;
-pub use evaluation::{Evaluation, RPE_DELTA_M, default_alignment, evaluate};
+pub use evaluation::{ALIGNMENT_RULE, Evaluation, RPE_DELTA_M, default_alignment, evaluate};
 pub use gnss::{GnssReport, gnss_report};
 pub use recorded_imu::RecordedImuReport;
 pub use replay::ReplayReport;

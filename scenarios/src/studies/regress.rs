@@ -235,6 +235,7 @@ pub fn table(checks: &[Check]) -> String {
         );
     }
     let failed = checks.iter().filter(|c| c.failed()).count();
+    let _ = writeln!(s, "{}", crate::report::ALIGNMENT_RULE);
     let _ = writeln!(
         s,
         "{} checks, {} regressed, {} improved, {} new",

@@ -25,6 +25,7 @@ mod peer_openvins;
 mod recorded_imu_input;
 mod regress;
 mod report;
+mod set_option;
 mod settings;
 mod sweep;
 mod sweep_runs;

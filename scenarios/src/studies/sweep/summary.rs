@@ -218,7 +218,8 @@ impl Summary {
         s
     }
 
-    /// `summary.md`: the table in Markdown, the target and the cheapest passing point.
+    /// `summary.md`: the alignment, the table in Markdown, the target and the cheapest passing
+    /// point.
     pub fn markdown(&self, input: &SummaryInput<'_>) -> String {
         let mut s = String::new();
         if let Some(t) = input.target {
@@ -228,6 +229,9 @@ impl Summary {
                 t.describe(),
                 input.seeds
             );
+        }
+        if input.metrics.iter().any(|m| m.starts_with("ate_")) {
+            let _ = writeln!(s, "{}\n", crate::report::ALIGNMENT_RULE);
         }
         let mut head: Vec<String> = input.axes.iter().map(|a| a.0.to_string()).collect();
         for m in input.metrics {
