@@ -107,6 +107,13 @@ enum Command {
         /// the whole run so far at each checkpoint).
         #[arg(long)]
         batch_reference: bool,
+        /// The estimator, as for `vio run`: an outside one takes part when its adapter names a
+        /// `covariance` file (its newest state's covariance; the relative pose is ours only).
+        #[arg(long)]
+        estimator: Option<String>,
+        /// Set a scenario key before the runs, as for `vio run` (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        settings: Vec<String>,
     },
     /// Run the image front end and the estimator on a recorded EuRoC ASL folder (`mav0/`:
     /// `imu0`, `cam0`, `cam1` with `data.csv`, PNG images and `sensor.yaml`; ground truth
@@ -415,7 +422,22 @@ fn dispatch(cli: Cli) -> ExitCode {
             out,
             threads,
             batch_reference,
-        } => nees_command(scenario, seeds, duration, out, threads, batch_reference),
+            estimator,
+            mut settings,
+        } => {
+            if let Some(e) = estimator {
+                settings.push(estimator_setting(&e));
+            }
+            nees_command(
+                scenario,
+                &settings,
+                seeds,
+                duration,
+                out,
+                threads,
+                batch_reference,
+            )
+        }
         Command::Settings { keys: true, .. } => {
             use scenarios::spec::key_listing::{listing_text, scenario_keys};
             say(&listing_text(&scenario_keys()));

@@ -5,6 +5,8 @@
 
 mod outside_run;
 pub mod program;
+pub mod stamped_rows;
+pub mod state_covariance;
 pub mod trajectory;
 
 pub use outside_run::run_outside;

@@ -6,8 +6,10 @@
 //! Files (the workspace: `vio run`'s `OUT/estimator/`, else a temporary folder): `dataset/` or
 //! `bag.mcap` (the input), `out/` (`{out}`, what the program writes), `estimator.log` (its
 //! stdout and stderr). A program that crashes, is killed past its time limit, writes nothing,
-//! or writes a malformed, non-finite, empty or wrongly framed trajectory leaves an output with
-//! no frames and its [`OutsideRun::failure`]: the report fails naming the cause.
+//! or writes a malformed, non-finite, empty or wrongly framed trajectory (or, when the adapter
+//! names one, no or a malformed covariance file) leaves an output with no frames and its
+//! [`OutsideRun::failure`]: the report fails naming the cause. The covariance file's states
+//! join their poses' estimates, for `vio nees`.
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -18,6 +20,7 @@ use sim::World;
 use sim::stream::GroundTruth;
 
 use super::program::{log_tail, run_program};
+use super::state_covariance::read_state_covariance;
 use super::trajectory::{frame_check, read_timing, read_trajectory};
 use crate::dataset::StampedPose;
 use crate::export::{ExportError, export, export_bag};
@@ -204,6 +207,10 @@ fn score(
         Some(t) if out_dir.join(t).exists() => read_timing(&out_dir.join(t), &poses)?,
         _ => Default::default(),
     };
+    let mut states = match &adapter.covariance {
+        Some(c) => read_state_covariance(&out_dir.join(c), &poses)?,
+        None => Default::default(),
+    };
     let mut truth_stream = world.stream();
     let mut pairs: Vec<(StampedPose, GroundTruth)> = Vec::with_capacity(poses.len());
     for p in &poses {
@@ -229,8 +236,15 @@ fn score(
         .into_iter()
         .map(|(p, gt)| {
             let backend_s = timing.get(&p.t_ns).copied().unwrap_or(0.0);
+            let mut estimate = outside_estimate(&p, suite, backend_s);
+            if let Some(s) = states.remove(&p.t_ns) {
+                estimate.v_w = s.v_w;
+                estimate.ba = s.ba;
+                estimate.bg = s.bg;
+                estimate.covariance = Some(s.covariance);
+            }
             FrameRecord {
-                estimate: outside_estimate(&p, suite, backend_s),
+                estimate,
                 truth: gt,
                 timing: FrameTiming {
                     frontend_s: 0.0,

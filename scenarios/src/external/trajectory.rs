@@ -8,6 +8,7 @@ use std::path::Path;
 use estimator::geometry::Pose;
 use nalgebra::Matrix3;
 
+use super::stamped_rows::{nearest_stamp, read_stamped_rows};
 use crate::dataset::{StampedPose, read_tum};
 
 /// The trajectory at `path`, or why it cannot be scored (a failure of the estimator, in words).
@@ -33,55 +34,24 @@ pub fn read_trajectory(path: &Path) -> Result<Vec<StampedPose>, String> {
 const TIMING_MATCH_S: f64 = 0.05;
 
 /// The per-pose processing times (s) of a timing file, by pose stamp (ns): rows `t seconds`
-/// (comma or space separated, `#` comments, a first row of column names allowed), `t` in
-/// seconds — or in nanoseconds when the header names the column `t_ns`. A row is the time of
-/// the pose nearest its stamp within 50 ms; rows of frames without a pose (before the estimator
-/// initialized) match none and are left out. Malformed rows are refused naming the line.
+/// (see [`read_stamped_rows`] for the form). A row is the time of the pose nearest its stamp
+/// within 50 ms; rows of frames without a pose (before the estimator initialized) match none
+/// and are left out. Malformed rows are refused naming the line.
 pub fn read_timing(path: &Path, poses: &[StampedPose]) -> Result<BTreeMap<i64, f64>, String> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("its timing file {}: {e}", path.display()))?;
+    let rows = read_stamped_rows(path, "its timing file", 1, "t seconds")?;
     let stamps: Vec<i64> = poses.iter().map(|p| p.t_ns).collect();
     let mut out = BTreeMap::new();
-    let mut nanoseconds = false;
-    let mut first = true;
-    for (i, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
+    for row in rows {
+        let s = row.values[0];
+        if s < 0.0 {
+            return Err(format!(
+                "its timing file {}:{}: `{s}` is not a time ≥ 0 s",
+                path.display(),
+                row.line
+            ));
         }
-        let bad = |m: &str| format!("its timing file {}:{}: {m}", path.display(), i + 1);
-        let fields: Vec<&str> = line
-            .split(|c: char| c == ',' || c.is_whitespace())
-            .filter(|f| !f.is_empty())
-            .collect();
-        let [t, s] = fields[..] else {
-            return Err(bad("expected 2 columns `t seconds`"));
-        };
-        if std::mem::take(&mut first) && t.parse::<f64>().is_err() {
-            nanoseconds = t == "t_ns";
-            continue;
-        }
-        let t_ns = if nanoseconds {
-            t.parse::<i64>()
-                .map_err(|_| bad(&format!("`{t}` is not a stamp in nanoseconds")))?
-        } else {
-            crate::dataset::parse_seconds(t).map_err(|m| bad(&m))?
-        };
-        let s: f64 = s
-            .parse()
-            .ok()
-            .filter(|s: &f64| s.is_finite() && *s >= 0.0)
-            .ok_or_else(|| bad(&format!("`{s}` is not a time ≥ 0 s")))?;
-        let k = stamps.partition_point(|&p| p < t_ns);
-        let nearest = [k.checked_sub(1), Some(k)]
-            .into_iter()
-            .flatten()
-            .filter_map(|j| stamps.get(j))
-            .min_by_key(|&&p| (p - t_ns).abs());
-        if let Some(&p) = nearest
-            && ((p - t_ns).abs() as f64) <= TIMING_MATCH_S * 1e9
-        {
-            out.entry(p).or_insert(s);
+        if let Some(k) = nearest_stamp(&stamps, row.t_ns, (TIMING_MATCH_S * 1e9) as i64) {
+            out.entry(stamps[k]).or_insert(s);
         }
     }
     Ok(out)

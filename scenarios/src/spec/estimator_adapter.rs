@@ -10,6 +10,7 @@
 //! input = "asl_features"                           # asl_images | asl_features | mcap
 //! trajectory = "estimate.tum"                      # under {out}: TUM, body = IMU frame, IMU clock
 //! timing = "timing.csv"                            # optional, under {out}: `t_s,seconds` rows
+//! covariance = "state.txt"                         # optional, under {out}: state and covariance
 //! time_limit_s = 600                               # the process is killed past it
 //! ```
 //!
@@ -72,6 +73,7 @@ struct AdapterSpec {
     #[serde(default = "default_trajectory")]
     trajectory: String,
     timing: Option<String>,
+    covariance: Option<String>,
     #[serde(default = "default_time_limit")]
     time_limit_s: f64,
 }
@@ -104,6 +106,9 @@ pub struct EstimatorAdapter {
     pub trajectory: PathBuf,
     /// Its per-pose timing file, relative to `{out}`.
     pub timing: Option<PathBuf>,
+    /// Its newest-state covariance file, relative to `{out}`, for `vio nees` (its form: the
+    /// `external::state_covariance` module).
+    pub covariance: Option<PathBuf>,
     /// Wall-clock limit (s).
     pub time_limit_s: f64,
     /// `{here}`: the adapter file's folder.
@@ -217,6 +222,11 @@ impl EstimatorAdapter {
             .as_deref()
             .map(|t| relative("timing", t))
             .transpose()?;
+        let covariance = spec
+            .covariance
+            .as_deref()
+            .map(|t| relative("covariance", t))
+            .transpose()?;
         if !(spec.time_limit_s.is_finite()
             && spec.time_limit_s > 0.0
             && spec.time_limit_s <= MAX_TIME_LIMIT_S)
@@ -237,6 +247,7 @@ impl EstimatorAdapter {
             input: spec.input,
             trajectory,
             timing,
+            covariance,
             time_limit_s: spec.time_limit_s,
             here: here.to_path_buf(),
         })
@@ -371,6 +382,11 @@ mod tests {
                 GOOD.to_string() + "trajectory = \"../x.tum\"\n",
                 "trajectory",
                 "no `..`",
+            ),
+            (
+                GOOD.to_string() + "covariance = \"/tmp/c.txt\"\n",
+                "covariance",
+                "relative, no `..`",
             ),
             (
                 GOOD.to_string() + "time_limit_s = 0\n",

@@ -16,6 +16,10 @@
 //! average over time lies in that band. Only frames at which every run is tracking and has a
 //! covariance count. Quantiles by the Wilson–Hilferty approximation (relative error < 1 % for
 //! N·dof ≥ 10, < 0.02 % at N·dof = 75: 25 runs of 3 dof).
+//!
+//! An outside estimator (`estimator_adapter`) takes part when its adapter names a covariance
+//! file (`external::state_covariance`): its newest state's NEES is read the same way, over
+//! [`OUTSIDE_METRICS`].
 
 use std::collections::BTreeMap;
 use std::sync::Mutex;
@@ -41,6 +45,10 @@ pub const METRICS: [(&str, usize); 5] = [
     ("roll_pitch", 2),
     ("relative_pose", 6),
 ];
+
+/// The metrics of an outside estimator, whose covariance file holds the newest state's
+/// covariance only (no relative pose's).
+pub const OUTSIDE_METRICS: [&str; 4] = ["velocity", "accel_bias", "gyro_bias", "roll_pitch"];
 
 /// Settings of a NEES study.
 #[derive(Clone, Debug)]
@@ -133,13 +141,21 @@ pub fn run_nees_until(
             message: "vio nees needs an IMU suite (stereo_imu or mono_imu)".into(),
         });
     }
-    if let Some(a) = scenario.adapter() {
+    if let Some(a) = scenario.adapter()
+        && a.covariance.is_none()
+    {
         return Err(RunError::Estimator {
             file: scenario.file_label(),
             message: format!(
-                "vio nees needs the estimator's covariance, and the outside estimator `{}` (estimator_adapter) reports poses only",
+                "vio nees needs the estimator's covariance, and the outside estimator `{}` (estimator_adapter) names no covariance file (the adapter's `covariance` key)",
                 a.name
             ),
+        });
+    }
+    if scenario.adapter().is_some() && options.batch_reference {
+        return Err(RunError::Estimator {
+            file: scenario.file_label(),
+            message: "vio nees --batch-reference solves our estimator's full-information filter beside our window; an outside estimator (estimator_adapter) has neither".into(),
         });
     }
     let n = options.seeds.len();
@@ -408,7 +424,10 @@ fn report(scenario: &Scenario, options: &NeesOptions, runs: &[ReportedRun]) -> N
             add_to_sums(&mut filter_sums, t, &filter);
         }
     }
-    let metrics = metrics_of(&sums, n);
+    let mut metrics = metrics_of(&sums, n);
+    if scenario.adapter().is_some() {
+        metrics.retain(|m| OUTSIDE_METRICS.contains(&m.name));
+    }
     let filter_reference = options.batch_reference.then(|| FilterNees {
         window: metrics_of(&window_sums, n),
         filter: metrics_of(&filter_sums, n),

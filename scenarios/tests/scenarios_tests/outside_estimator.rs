@@ -264,3 +264,75 @@ fn a_regression_of_an_outside_estimator_is_caught() {
         "{xml}"
     );
 }
+
+/// `vio nees` of the default scenario (4 s, 6 seeds) with the test estimator in `mode`: exit
+/// code, stdout and stderr, `nees.json` when written.
+fn nees(mode: &str, dir: &Path) -> (Option<i32>, String, Option<serde_json::Value>) {
+    let out = dir.join(mode);
+    let o = vio(&[
+        "nees",
+        "--seeds",
+        "6",
+        "--duration",
+        "4",
+        "--estimator",
+        adapter(mode).to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let said = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let report = std::fs::read_to_string(out.join("nees.json"))
+        .ok()
+        .map(|t| serde_json::from_str(&t).unwrap());
+    (o.status.code(), said, report)
+}
+
+#[test]
+fn an_outside_estimators_covariance_is_tested_by_vio_nees() {
+    let dir = scratch("outside-nees");
+    // Every state off by a draw of the covariance it states: every NEES inside its band.
+    let (code, said, report) = nees("consistent", dir.path());
+    assert_eq!(code, Some(0), "{said}");
+    let report = report.expect("nees.json");
+    let metrics = report["metrics"].as_array().unwrap();
+    let names: Vec<&str> = metrics
+        .iter()
+        .map(|m| m["name"].as_str().unwrap())
+        .collect();
+    // The relative pose's covariance is ours only: not tested, not failed.
+    assert_eq!(names, ["velocity", "accel_bias", "gyro_bias", "roll_pitch"]);
+    for m in metrics {
+        let (nees, dof) = (
+            m["time_average"].as_f64().unwrap(),
+            m["dof"].as_f64().unwrap(),
+        );
+        assert!(m["inside"].as_bool().unwrap(), "{m}");
+        // Within 15 % of its degrees of freedom: 6 seeds × ~80 frames of χ² draws.
+        assert!((nees / dof - 1.0).abs() < 0.15, "{}: {nees}", m["name"]);
+    }
+    // The same draws, a covariance 25× too small: every NEES about 25× its dof, FAIL.
+    let (code, said, report) = nees("overconfident", dir.path());
+    assert_eq!(code, Some(1), "{said}");
+    assert!(said.contains("FAIL"), "{said}");
+    for m in report.expect("nees.json")["metrics"].as_array().unwrap() {
+        let (nees, dof) = (
+            m["time_average"].as_f64().unwrap(),
+            m["dof"].as_f64().unwrap(),
+        );
+        assert!(!m["inside"].as_bool().unwrap(), "{m}");
+        assert!(
+            (nees / dof / 25.0 - 1.0).abs() < 0.15,
+            "{}: {nees}",
+            m["name"]
+        );
+    }
+    // An adapter with no covariance file is refused naming the key.
+    let (code, said, report) = nees("good", dir.path());
+    assert_eq!(code, Some(2), "{said}");
+    assert!(said.contains("names no covariance file"), "{said}");
+    assert!(report.is_none());
+}

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use super::{BAD_INPUT, check_duration, check_out_dir, load_scenario, say};
+use super::{BAD_INPUT, check_duration, check_out_dir, load_scenario_with, say};
 
 /// `vio sweep`'s switches.
 pub(super) struct SweepFlags {
@@ -534,13 +534,14 @@ pub(super) fn regress_command(
 /// error and becomes exit code 2.
 pub(super) fn nees_command(
     scenario: Option<String>,
+    settings: &[String],
     seeds: u64,
     duration: Option<f64>,
     out: Option<PathBuf>,
     threads: Option<usize>,
     batch_reference: bool,
 ) -> ExitCode {
-    let scenario = match load_scenario(scenario.as_deref()) {
+    let scenario = match load_scenario_with(scenario.as_deref(), settings) {
         Ok(s) => s,
         Err(code) => return code,
     };
