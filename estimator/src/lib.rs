@@ -15,9 +15,11 @@
 //! - [`problem`]: the nonlinear least-squares problem and its solver;
 //! - [`factors`]: the residuals (IMU, reprojection, prior, GNSS, wheel, calibration);
 //! - [`frontend`]: the KLT image front end; [`camera`]: camera models; [`imu`]:
-//!   preintegration; [`aiding_samples`]: GNSS and wheel inputs; [`geometry`]: poses and rotations.
+//!   preintegration; [`bias_process`]: the biases' Gauss–Markov model; [`aiding_samples`]: GNSS
+//!   and wheel inputs; [`geometry`]: poses and rotations.
 
 pub mod aiding_samples;
+pub mod bias_process;
 pub mod camera;
 pub mod factors;
 pub mod frontend;

@@ -12,8 +12,9 @@ use nalgebra::Vector3;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-/// Allan-deviation peak of a first-order Gauss–Markov process per unit steady-state deviation.
-pub const ALLAN_PEAK_PER_SIGMA: f64 = 0.6174;
+/// Allan-deviation peak of a first-order Gauss–Markov process per unit steady-state deviation
+/// (the estimator's model of the same process uses the same constant).
+pub use estimator::bias_process::ALLAN_PEAK_PER_SIGMA;
 
 /// Bias instability of both sensors.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -2,6 +2,7 @@
 
 use nalgebra::{Matrix3, SMatrix, UnitQuaternion, Vector3};
 
+use crate::bias_process::BiasProcess;
 use crate::geometry::{Pose, right_jacobian, right_jacobian_inv, skew, so3_log};
 use crate::imu::{BiasJacobian, ImuError, O_BA, O_BG, O_P, O_R, O_V, Preintegration};
 use crate::problem::{Factor, write_row_major};
@@ -13,6 +14,11 @@ use crate::problem::{Factor, write_row_major};
 /// `r_p = R_iᵀ(p_j − p_i − v_i Δt − ½gΔt²) − α̂`, `r_θ = Log(γ̂ᵀ R_iᵀ R_j)`,
 /// `r_v = R_iᵀ(v_j − v_i − gΔt) − β̂`, `r_ba = ba_j − ba_i`, `r_bg = bg_j − bg_i`,
 /// where α̂, β̂, γ̂ are the first-order bias-corrected deltas.
+///
+/// With a bias process ([`ImuFactor::with_bias_process`]) a fifth block holds the biases'
+/// constant mean `c = [c_a, c_g]` (6) and the bias rows are the Gauss–Markov step
+/// `r_ba = ba_j − φ ba_i − (1 − φ) c_a` (likewise `r_bg`), `φ = e^{−Δt/T}`, the wander's drive
+/// variance `σ_b²(1 − φ²)` added to the random walk's ([`crate::bias_process`]).
 #[derive(Clone, Debug)]
 pub struct ImuFactor {
     dt: f64,
@@ -23,22 +29,46 @@ pub struct ImuFactor {
     lin_bg: Vector3<f64>,
     bias_jacobian: BiasJacobian,
     sqrt_info: SMatrix<f64, 15, 15>,
+    /// `(φ_a, φ_g)` of the bias process; `None`: the biases random-walk (`φ = 1`, no mean).
+    keep: Option<(f64, f64)>,
 }
 
 const SIZES: [usize; 4] = [7, 9, 7, 9];
 const TANGENTS: [usize; 4] = [6, 9, 6, 9];
+const SIZES_WITH_MEAN: [usize; 5] = [7, 9, 7, 9, 6];
+const TANGENTS_WITH_MEAN: [usize; 5] = [6, 9, 6, 9, 6];
 
 impl ImuFactor {
     /// Snapshots `preint` into a factor. Fails if the interval is empty or its covariance is not
     /// positive definite.
     pub fn new(preint: &Preintegration) -> Result<Self, ImuError> {
+        Self::build(preint, None)
+    }
+
+    /// [`ImuFactor::new`] with the biases' Gauss–Markov wander about a mean: the factor then
+    /// takes the mean `[c_a, c_g]` as its fifth block.
+    pub fn with_bias_process(
+        preint: &Preintegration,
+        process: &BiasProcess,
+    ) -> Result<Self, ImuError> {
+        Self::build(preint, Some(process))
+    }
+
+    fn build(preint: &Preintegration, process: Option<&BiasProcess>) -> Result<Self, ImuError> {
         if preint.dt() <= 0.0 {
             return Err(ImuError::NonIncreasingTime {
                 t_ns: preint.end_ns(),
                 prev_t_ns: preint.start_ns(),
             });
         }
-        let cov = preint.covariance();
+        let mut cov = *preint.covariance();
+        if let Some(p) = process {
+            let (var_a, var_g) = p.drive_variances(preint.dt());
+            for i in 0..3 {
+                cov[(O_BA + i, O_BA + i)] += var_a;
+                cov[(O_BG + i, O_BG + i)] += var_g;
+            }
+        }
         let sym = 0.5 * (cov + cov.transpose());
         // Σ = C Cᵀ ⇒ Σ⁻¹ = C⁻ᵀ C⁻¹, so C⁻¹ whitens the residual.
         let chol = sym.cholesky().ok_or(ImuError::NonFiniteSample {
@@ -59,6 +89,7 @@ impl ImuFactor {
             lin_bg: *preint.linearized_bg(),
             bias_jacobian: *preint.bias_jacobian(),
             sqrt_info,
+            keep: process.map(|p| (p.keep(preint.dt()), p.keep(preint.dt()))),
         })
     }
 
@@ -67,7 +98,8 @@ impl ImuFactor {
         &self.sqrt_info
     }
 
-    /// Unwhitened residual at the given states (for diagnostics and tests).
+    /// Unwhitened residual at the given states (for diagnostics and tests); with a bias
+    /// process, at a zero bias mean.
     pub fn raw_residual(
         &self,
         pose_i: &Pose,
@@ -80,7 +112,13 @@ impl ImuFactor {
         let mut pj = [0.0; 7];
         pose_i.write_slice(&mut pi);
         pose_j.write_slice(&mut pj);
-        self.compute(&[&pi, sb_i, &pj, sb_j], r.as_mut_slice(), None, false);
+        let mean = [0.0; 6];
+        self.compute(
+            &[&pi, sb_i, &pj, sb_j, &mean],
+            r.as_mut_slice(),
+            None,
+            false,
+        );
         r
     }
 
@@ -98,6 +136,11 @@ impl ImuFactor {
         let v3 = |s: &[f64], o: usize| Vector3::new(s[o], s[o + 1], s[o + 2]);
         let (vi, bai, bgi) = (v3(sb_i, 0), v3(sb_i, 3), v3(sb_i, 6));
         let (vj, baj, bgj) = (v3(sb_j, 0), v3(sb_j, 3), v3(sb_j, 6));
+        let (keep_a, keep_g) = self.keep.unwrap_or((1.0, 1.0));
+        let (mean_a, mean_g) = match self.keep {
+            Some(_) => (v3(params[4], 0), v3(params[4], 3)),
+            None => (Vector3::zeros(), Vector3::zeros()),
+        };
 
         let dt = self.dt;
         let g = crate::gravity_w();
@@ -125,8 +168,10 @@ impl ImuFactor {
         r.fixed_rows_mut::<3>(O_P).copy_from(&(ri_t * dp_w - alpha));
         r.fixed_rows_mut::<3>(O_R).copy_from(&r_theta);
         r.fixed_rows_mut::<3>(O_V).copy_from(&(ri_t * dv_w - beta));
-        r.fixed_rows_mut::<3>(O_BA).copy_from(&(baj - bai));
-        r.fixed_rows_mut::<3>(O_BG).copy_from(&(bgj - bgi));
+        r.fixed_rows_mut::<3>(O_BA)
+            .copy_from(&(baj - keep_a * bai - (1.0 - keep_a) * mean_a));
+        r.fixed_rows_mut::<3>(O_BG)
+            .copy_from(&(bgj - keep_g * bgi - (1.0 - keep_g) * mean_g));
         if whiten {
             r = self.sqrt_info * r;
         }
@@ -160,8 +205,10 @@ impl ImuFactor {
             jm.fixed_view_mut::<3, 3>(O_V, 0).copy_from(&-ri_t);
             jm.fixed_view_mut::<3, 3>(O_V, 3).copy_from(&-j_v_ba);
             jm.fixed_view_mut::<3, 3>(O_V, 6).copy_from(&-j_v_bg);
-            jm.fixed_view_mut::<3, 3>(O_BA, 3).copy_from(&-i3);
-            jm.fixed_view_mut::<3, 3>(O_BG, 6).copy_from(&-i3);
+            jm.fixed_view_mut::<3, 3>(O_BA, 3)
+                .copy_from(&(-keep_a * i3));
+            jm.fixed_view_mut::<3, 3>(O_BG, 6)
+                .copy_from(&(-keep_g * i3));
             let jm = if whiten { self.sqrt_info * jm } else { jm };
             write_row_major(&jm, out);
         }
@@ -180,6 +227,17 @@ impl ImuFactor {
             let jm = if whiten { self.sqrt_info * jm } else { jm };
             write_row_major(&jm, out);
         }
+        if self.keep.is_some()
+            && let Some(out) = jacobians.get_mut(4).and_then(|j| j.as_deref_mut())
+        {
+            let mut jm = SMatrix::<f64, 15, 6>::zeros();
+            jm.fixed_view_mut::<3, 3>(O_BA, 0)
+                .copy_from(&(-(1.0 - keep_a) * i3));
+            jm.fixed_view_mut::<3, 3>(O_BG, 3)
+                .copy_from(&(-(1.0 - keep_g) * i3));
+            let jm = if whiten { self.sqrt_info * jm } else { jm };
+            write_row_major(&jm, out);
+        }
     }
 }
 
@@ -188,10 +246,16 @@ impl Factor for ImuFactor {
         15
     }
     fn parameter_block_sizes(&self) -> &[usize] {
-        &SIZES
+        match self.keep {
+            Some(_) => &SIZES_WITH_MEAN,
+            None => &SIZES,
+        }
     }
     fn parameter_tangent_sizes(&self) -> &[usize] {
-        &TANGENTS
+        match self.keep {
+            Some(_) => &TANGENTS_WITH_MEAN,
+            None => &TANGENTS,
+        }
     }
     fn evaluate(
         &self,

@@ -34,6 +34,8 @@ pub(super) enum BlockRef {
     Point(u64),
     /// The GNSS alignment `T_g_w` (see [`super::aiding`]).
     GnssAlignment,
+    /// The biases' constant mean (see [`super::bias_mean`]).
+    BiasMean,
 }
 
 /// The marginalization prior and the window states it constrains, in its block order.

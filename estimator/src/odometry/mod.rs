@@ -14,6 +14,7 @@
 
 mod aiding_fusion;
 mod batch_reference;
+mod bias_mean;
 mod calibration_gates;
 mod chi2;
 pub mod config;

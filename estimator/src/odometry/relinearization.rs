@@ -285,7 +285,10 @@ pub(super) fn gauge_directions(
                     null[3][off + i] = yaw[i];
                 }
             }
-            BlockRef::Extrinsic(_) | BlockRef::Td | BlockRef::GnssAlignment => {}
+            BlockRef::Extrinsic(_)
+            | BlockRef::Td
+            | BlockRef::GnssAlignment
+            | BlockRef::BiasMean => {}
         }
         off += t;
     }

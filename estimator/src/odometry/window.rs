@@ -11,6 +11,7 @@ use std::sync::Arc;
 use nalgebra::Vector3;
 
 use super::aiding_fusion::Aiding;
+use super::bias_mean::{self, BiasMean};
 use super::calibration_gates::CalibrationGates;
 use super::config::EstimatorConfig;
 use super::features::{FeatureManager, Track};
@@ -24,8 +25,7 @@ use crate::factors::{
     ProjectionTwoFrameOneCam, ProjectionTwoFrameTwoCam, WorldPointProjection,
 };
 use crate::geometry::Pose;
-use crate::imu::ImuNoise;
-use crate::problem::{BlockId, BlockKind, Euclidean, Factor, LinearFactor, PoseManifold, Problem};
+use crate::problem::{BlockId, BlockKind, Euclidean, Factor, PoseManifold, Problem};
 
 impl Window {
     /// Observations of the solved landmarks and points in the newest frame.
@@ -71,6 +71,8 @@ pub(super) struct Window {
     pub calibration: CalibrationGates,
     /// GNSS fixes, wheel readings and the GNSS alignment.
     pub aiding: Aiding,
+    /// The biases' mean when the IMU model has a bias process (see [`super::bias_mean`]).
+    pub bias_mean: Option<BiasMean>,
 }
 
 impl Window {
@@ -87,6 +89,7 @@ impl Window {
             rest: BTreeMap::new(),
             calibration: CalibrationGates::default(),
             aiding: Aiding::default(),
+            bias_mean: None,
         }
     }
 
@@ -175,6 +178,15 @@ impl Window {
         if imu_active {
             self.aiding.add_alignment_block(&mut built);
         }
+        let process = config.imu_noise_model.bias_process();
+        let mean_block = bias_mean::add_block(
+            self.bias_mean.as_ref(),
+            &self.frames,
+            self.prior.as_ref(),
+            process.as_ref(),
+            imu_active,
+            &mut built,
+        );
         if !imu_active {
             // Vision only: the oldest pose fixes the gauge.
             let oldest = self.frames.front().map(|f| f.seq);
@@ -210,23 +222,33 @@ impl Window {
                 let (a, b) = (&self.frames[k - 1], &self.frames[k]);
                 let sb_a = built.block(BlockRef::SpeedBias(a.seq)).expect("sb");
                 let sb_b = built.block(BlockRef::SpeedBias(b.seq)).expect("sb");
-                let Some(factor) = b.preint.as_ref().and_then(|p| ImuFactor::new(p).ok()) else {
-                    // No IMU interval (a dropout): the biases still follow their random walk.
+                // With a bias process its mean is there too (the IMU is active).
+                let with_mean = process.as_ref().zip(mean_block);
+                let factor = b.preint.as_ref().and_then(|p| match with_mean {
+                    Some((process, _)) => ImuFactor::with_bias_process(p, process).ok(),
+                    None => ImuFactor::new(p).ok(),
+                });
+                let Some(factor) = factor else {
+                    // No IMU interval (a dropout): the biases still follow their model.
                     let dt = (b.t_ns - a.t_ns) as f64 * 1e-9;
-                    let factor = bias_random_walk(dt, &config.imu_noise);
+                    let factor =
+                        bias_mean::bias_step(dt, &config.imu_noise, with_mean.map(|(p, _)| p));
+                    let mut ids = vec![sb_a, sb_b];
+                    ids.extend(with_mean.map(|(_, c)| c));
                     let r = built
                         .problem
-                        .add_factor(Arc::new(factor), None, &[sb_a, sb_b])
+                        .add_factor(Arc::new(factor), None, &ids)
                         .expect("sizes match");
                     built.imu.push((r, k));
                     continue;
                 };
-                let ids = [
+                let mut ids = vec![
                     built.block(BlockRef::Pose(a.seq)).expect("pose"),
                     sb_a,
                     built.block(BlockRef::Pose(b.seq)).expect("pose"),
                     sb_b,
                 ];
+                ids.extend(with_mean.map(|(_, c)| c));
                 let r = built
                     .problem
                     .add_factor(Arc::new(factor), None, &ids)
@@ -534,6 +556,9 @@ impl Window {
             self.td = built.problem.values(b)[0];
         }
         self.aiding.write_back_alignment(built);
+        if let Some(mean) = bias_mean::read_back(built) {
+            self.bias_mean = Some(mean);
+        }
         for (k, b) in &built.points {
             if let Some(x) = self.points.get_mut(k) {
                 let v = built.problem.values(*b);
@@ -643,22 +668,4 @@ impl Window {
         }
         dropped
     }
-}
-
-/// The biases' random walk over `dt` seconds between two speed-bias blocks
-/// `[v, ba, bg]`: `(ba_j − ba_i) / (σ_ba √dt)` and `(bg_j − bg_i) / (σ_bg √dt)`, the velocity
-/// unconstrained. Joins frames that no IMU interval joins, so the bias estimate survives an IMU
-/// dropout.
-fn bias_random_walk(dt: f64, noise: &ImuNoise) -> LinearFactor {
-    let dt = dt.max(1e-6);
-    // A floor keeps the weights finite for noise-free configurations.
-    let w_a = 1.0 / (noise.accelerometer_random_walk * dt.sqrt()).max(1e-9);
-    let w_g = 1.0 / (noise.gyroscope_random_walk * dt.sqrt()).max(1e-9);
-    let mut a_i = vec![0.0; 6 * 9];
-    for r in 0..3 {
-        a_i[r * 9 + 3 + r] = -w_a;
-        a_i[(r + 3) * 9 + 6 + r] = -w_g;
-    }
-    let a_j: Vec<f64> = a_i.iter().map(|v| -v).collect();
-    LinearFactor::new(vec![a_i, a_j], vec![0.0; 6], vec![9, 9]).expect("finite weights")
 }

@@ -26,6 +26,8 @@ pub(super) struct WindowProblem {
     /// they go into the prior with their frame.
     pub frame_factors: Vec<(ResidualId, u64)>,
     pub prior: Option<ResidualId>,
+    /// The frame the biases' mean is tied to, when the problem holds the mean.
+    pub bias_mean_anchor: Option<u64>,
 }
 
 impl WindowProblem {
@@ -46,6 +48,7 @@ impl WindowProblem {
             point_obs: Vec::new(),
             frame_factors: Vec::new(),
             prior: None,
+            bias_mean_anchor: None,
         }
     }
 

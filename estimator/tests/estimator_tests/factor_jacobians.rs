@@ -6,6 +6,7 @@ use crate::common;
 use std::sync::Arc;
 
 use common::{check, pose, rotation, small_rotation, speed_bias, vec3};
+use estimator::bias_process::BiasProcess;
 use estimator::camera::{ReadoutDirection, RollingShutter};
 use estimator::factors::{
     AnchorBearing, FeatureMeasurement, ImuFactor, PointForm, PointProjection,
@@ -24,6 +25,7 @@ use proptest::prelude::*;
 const POSE: PoseManifold = PoseManifold;
 const R1: Euclidean = Euclidean::new(1);
 const R3: Euclidean = Euclidean::new(3);
+const R6: Euclidean = Euclidean::new(6);
 const R9: Euclidean = Euclidean::new(9);
 
 /// An IMU interval of `n` samples at `rate_hz` with smoothly varying random motion.
@@ -90,6 +92,38 @@ proptest! {
             speed_bias(v_pred + dv, ba_j, bg_j),
         ];
         check(&factor, &params, &[&POSE, &R9, &POSE, &R9]);
+    }
+
+    #[test]
+    fn imu_factor_with_a_bias_process_jacobians(
+        n in prop_oneof![1usize..4, 10usize..40],
+        lin_ba in vec3(0.5), lin_bg in vec3(0.1), pose_i in pose(20.0), v_i in vec3(3.0),
+        dq in small_rotation(0.3), dp in vec3(0.5), dba in vec3(0.05), dbg in vec3(0.01),
+        ba_j in vec3(0.5), bg_j in vec3(0.1), c_a in vec3(0.5), c_g in vec3(0.1),
+        correlation_s in 0.01..100.0f64,
+    ) {
+        let preint = preintegration(n, 200.0, Vector3::zeros(), Vector3::new(0.0, 0.0, 9.81), lin_ba, lin_bg);
+        let process = BiasProcess::from_allan_floors(4e-4, 1e-2, correlation_s);
+        let factor = ImuFactor::with_bias_process(&preint, &process).unwrap();
+        let ba_i = lin_ba + dba;
+        let bg_i = lin_bg + dbg;
+        let (pred, v_pred) = preint.predict(&pose_i, &v_i, &ba_i, &bg_i);
+        let pose_j = Pose::new(pred.q * dq, pred.p + dp);
+        let params = vec![
+            pose_i.to_array().to_vec(),
+            speed_bias(v_i, ba_i, bg_i),
+            pose_j.to_array().to_vec(),
+            speed_bias(v_pred, ba_j, bg_j),
+            vec![c_a.x, c_a.y, c_a.z, c_g.x, c_g.y, c_g.z],
+        ];
+        check(&factor, &params, &[&POSE, &R9, &POSE, &R9, &R6]);
+        // The bias rows are the Gauss–Markov step (raw, at a zero mean): b_j − φ b_i.
+        let keep = process.keep(preint.dt());
+        let raw = factor.raw_residual(&pose_i, &params[1], &pose_j, &params[3]);
+        for k in 0..3 {
+            prop_assert!((raw[9 + k] - (ba_j[k] - keep * ba_i[k])).abs() < 1e-12);
+            prop_assert!((raw[12 + k] - (bg_j[k] - keep * bg_i[k])).abs() < 1e-12);
+        }
     }
 
     #[test]

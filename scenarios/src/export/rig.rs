@@ -73,12 +73,13 @@ fn sensor_yaml_distortion(kalibr: &str) -> &str {
 }
 
 /// The rig of `scenario` with the estimator's configuration `est`: the IMU noise the estimator
-/// assumes (`[estimator.imu_noise]` over the sensor's) and each camera's `T_b_c` as the
+/// assumes (`[estimator.imu_noise]` over the sensor's; a bias instability folded into the
+/// random walks, which is all a Kalibr file can say) and each camera's `T_b_c` as the
 /// estimator starts from it (a camera's `calibration_error` and the seed's drawn calibration
 /// error included, as a calibration tool would have reported it).
 pub(crate) fn export_rig(scenario: &Scenario, est: &EstimatorConfig) -> ExportRig {
     let spec = &scenario.spec;
-    let noise: ImuNoise = est.assumed_imu_noise();
+    let noise: ImuNoise = est.assumed_imu_noise_as_random_walks();
     let imu = ImuSensor {
         comment: format!("vio simulated IMU, scenario {}", scenario.name),
         t_bs: Pose::identity(),

@@ -238,11 +238,14 @@ pub struct EstimatorNoise {
     pub gyroscope_noise_density: f64,
     /// Accelerometer white noise density (m/s²/√Hz).
     pub accelerometer_noise_density: f64,
-    /// Gyroscope bias random walk (rad/s²/√Hz); `None` without a sensor.yaml or a fitted
-    /// bias instability (the sensor's own is kept).
+    /// Gyroscope bias random walk (rad/s²/√Hz): the sensor.yaml's; `None` without one (the
+    /// sensor's own is kept).
     pub gyroscope_random_walk: Option<f64>,
     /// Accelerometer bias random walk (m/s³/√Hz); as the gyroscope's.
     pub accelerometer_random_walk: Option<f64>,
+    /// The fitted bias instability for the estimator's Gauss–Markov model: Allan floors
+    /// (gyroscope rad/s, accelerometer m/s²) and correlation time (s).
+    pub bias_instability: Option<(f64, f64, f64)>,
     /// Per axis (x, y, z), the in-flight residual's white-equivalent density over the band.
     pub per_axis: SensorPair<[f64; 3]>,
     /// Each value's reasoning, written beside it in the file.

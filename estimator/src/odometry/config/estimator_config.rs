@@ -500,6 +500,20 @@ impl EstimatorConfig {
         self.imu_noise_model.applied_to(self.imu_noise)
     }
 
+    /// [`EstimatorConfig::assumed_imu_noise`] for an estimator whose biases only random-walk
+    /// (the Kalibr files an outside estimator reads): a bias process's spread over times short
+    /// against its correlation time, `σ_b·√(2/T)`, added in quadrature to each random walk.
+    pub fn assumed_imu_noise_as_random_walks(&self) -> ImuNoise {
+        let mut n = self.assumed_imu_noise();
+        if let Some(p) = self.imu_noise_model.bias_process() {
+            let spread = |sigma: f64| sigma * (2.0 / p.correlation_s).sqrt();
+            let walk = |rw: f64, sigma: f64| (rw.powi(2) + spread(sigma).powi(2)).sqrt();
+            n.gyroscope_random_walk = walk(n.gyroscope_random_walk, p.sigma_gyro);
+            n.accelerometer_random_walk = walk(n.accelerometer_random_walk, p.sigma_accel);
+        }
+        n
+    }
+
     /// The settings' defaults with an empty rig (stereo+IMU, no cameras, EuRoC IMU noise; not
     /// valid on its own); what a deserialized configuration starts from.
     pub fn settings_default() -> Self {

@@ -7,6 +7,7 @@
 //! value in the estimator's model; unset keys keep the sensor's. `vio imu-model --gt` measures
 //! the values for a platform from a flight log.
 
+use crate::bias_process::BiasProcess;
 use crate::imu::ImuNoise;
 
 /// The estimator's own IMU noise densities, each replacing the sensor's (Kalibr units).
@@ -25,6 +26,17 @@ pub struct ImuNoiseModel {
     /// Accelerometer bias random walk (m/s³/√Hz).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub accelerometer_random_walk: Option<f64>,
+    /// Gyroscope bias instability, its Allan-deviation floor (rad/s): with the two keys below,
+    /// the biases wander as a Gauss–Markov process about a constant the estimator holds
+    /// ([`crate::bias_process`]); the random walks above are then the sensor's own, beside it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gyroscope_bias_instability: Option<f64>,
+    /// Accelerometer bias instability, its Allan-deviation floor (m/s²).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub accelerometer_bias_instability: Option<f64>,
+    /// The bias instability's correlation time (s).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bias_correlation_time_s: Option<f64>,
 }
 
 impl ImuNoiseModel {
@@ -46,13 +58,35 @@ impl ImuNoiseModel {
         }
     }
 
+    /// The biases' Gauss–Markov wander, when all three of its keys are set (the validation
+    /// refuses one or two of them).
+    pub fn bias_process(&self) -> Option<BiasProcess> {
+        Some(BiasProcess::from_allan_floors(
+            self.gyroscope_bias_instability?,
+            self.accelerometer_bias_instability?,
+            self.bias_correlation_time_s?,
+        ))
+    }
+
+    /// The bias-instability keys set, of three.
+    pub fn bias_process_keys_set(&self) -> usize {
+        [
+            self.gyroscope_bias_instability,
+            self.accelerometer_bias_instability,
+            self.bias_correlation_time_s,
+        ]
+        .iter()
+        .filter(|v| v.is_some())
+        .count()
+    }
+
     /// No key set: the sensor's model as it is.
     pub fn is_empty(&self) -> bool {
         self.entries().iter().all(|(_, v)| v.is_none())
     }
 
     /// The keys set, by name, for range checks and messages.
-    pub fn entries(&self) -> [(&'static str, Option<f64>); 4] {
+    pub fn entries(&self) -> [(&'static str, Option<f64>); 7] {
         [
             ("gyroscope_noise_density", self.gyroscope_noise_density),
             (
@@ -61,6 +95,15 @@ impl ImuNoiseModel {
             ),
             ("gyroscope_random_walk", self.gyroscope_random_walk),
             ("accelerometer_random_walk", self.accelerometer_random_walk),
+            (
+                "gyroscope_bias_instability",
+                self.gyroscope_bias_instability,
+            ),
+            (
+                "accelerometer_bias_instability",
+                self.accelerometer_bias_instability,
+            ),
+            ("bias_correlation_time_s", self.bias_correlation_time_s),
         ]
     }
 }

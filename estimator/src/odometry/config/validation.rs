@@ -90,6 +90,12 @@ impl EstimatorConfig {
                 positive(&format!("imu_noise.{key}"), v)?;
             }
         }
+        if !matches!(self.imu_noise_model.bias_process_keys_set(), 0 | 3) {
+            return Err(ConfigError::new(
+                "imu_noise.bias_correlation_time_s",
+                "the bias instability takes three keys together: gyroscope_bias_instability, accelerometer_bias_instability and bias_correlation_time_s",
+            ));
+        }
         count_in(
             "init_frames",
             self.init_frames,
