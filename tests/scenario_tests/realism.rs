@@ -115,7 +115,10 @@ fn the_gauss_markov_bias_model_is_more_confident_of_the_biases_and_consistent() 
     let name = "euroc_v1_01_realistic_features_stereo_imu";
     let gauss_markov = Scenario::load(name).unwrap();
     let c = gauss_markov.estimator_config().unwrap();
-    assert!(c.imu_noise_model.bias_process().is_some(), "euroc_mav models it");
+    assert!(
+        c.imu_noise_model.bias_process().is_some(),
+        "euroc_mav models it"
+    );
     let n = c.assumed_imu_noise_as_random_walks();
     let table = format!(
         "{{ gyroscope_noise_density = {:?}, accelerometer_noise_density = {:?}, gyroscope_random_walk = {:?}, accelerometer_random_walk = {:?} }}",
@@ -155,7 +158,13 @@ fn the_gauss_markov_bias_model_is_more_confident_of_the_biases_and_consistent() 
     };
     for bias in ["gyro_bias", "accel_bias"] {
         let (a, b) = (of(&gm, bias), of(&rw, bias));
-        assert!(a > 1.1 * b, "{bias}: Gauss–Markov {a:.3}, random walk {b:.3}");
+        assert!(
+            a > 1.1 * b,
+            "{bias}: Gauss–Markov {a:.3}, random walk {b:.3}"
+        );
     }
-    assert!(gm.passed, "a NEES of the Gauss–Markov model leaves its band");
+    assert!(
+        gm.passed,
+        "a NEES of the Gauss–Markov model leaves its band"
+    );
 }

@@ -221,8 +221,14 @@ fn exported_kalibr_files_give_back_every_catalog_rig_exactly() {
         let n = est.assumed_imu_noise_as_random_walks();
         if est.imu_noise_model.bias_process().is_some() {
             let own = est.assumed_imu_noise();
-            assert!(n.gyroscope_random_walk > own.gyroscope_random_walk, "{name}");
-            assert!(n.accelerometer_random_walk > own.accelerometer_random_walk, "{name}");
+            assert!(
+                n.gyroscope_random_walk > own.gyroscope_random_walk,
+                "{name}"
+            );
+            assert!(
+                n.accelerometer_random_walk > own.accelerometer_random_walk,
+                "{name}"
+            );
         }
         assert_eq!(f("rate_hz"), rig.imu.rate_hz, "{name}");
         assert_eq!(f("gyroscope_noise_density"), n.gyroscope_noise_density);
