@@ -21,6 +21,8 @@ pub struct ExportSummary {
     pub groundtruth: usize,
     /// Rendered images written (rendered scenarios).
     pub images: usize,
+    /// The camera stamps (ns) of the frames written, images or feature frames, in order.
+    pub frame_stamps_ns: Vec<i64>,
 }
 
 /// Errors from [`super::export`] and [`super::export_bag`].

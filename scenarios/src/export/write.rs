@@ -60,6 +60,7 @@ fn export_into(
         observations: 0,
         groundtruth: 0,
         images: 0,
+        frame_stamps_ns: Vec::new(),
     };
     let mut frames: Vec<FeatureFrame> = Vec::new();
     while let Some(m) = stream.next() {
@@ -79,6 +80,7 @@ fn export_into(
             Measurement::Images(frame) => {
                 sink.images(&frame)?;
                 summary.images += frame.cameras.len();
+                summary.frame_stamps_ns.push(frame.t_ns);
             }
             Measurement::Frame(f) => frames.push(f),
             Measurement::Gnss(g) => sink.gnss(&g)?,
@@ -88,6 +90,11 @@ fn export_into(
     stream_result(scenario, &stream)?;
     compact_feature_ids(&mut frames);
     summary.frames = frames.len();
+    summary
+        .frame_stamps_ns
+        .extend(frames.iter().map(|f| f.t_ns));
+    summary.frame_stamps_ns.sort_unstable();
+    summary.frame_stamps_ns.dedup();
     summary.observations = frames
         .iter()
         .flat_map(|f| f.cameras.iter())

@@ -20,6 +20,7 @@ use sim::World;
 use sim::stream::GroundTruth;
 
 use super::program::{log_tail, run_program};
+use super::stamped_rows::nearest_stamp;
 use super::state_covariance::read_state_covariance;
 use super::trajectory::{frame_check, read_timing, read_trajectory};
 use crate::dataset::StampedPose;
@@ -43,11 +44,12 @@ fn export_error(e: ExportError) -> RunError {
     }
 }
 
-/// An estimate holding only what an outside estimator reports: its pose.
-fn outside_estimate(p: &StampedPose, suite: SuiteSpec, backend_s: f64) -> Estimate {
+/// An estimate holding only what an outside estimator reports: its pose, stamped on the IMU
+/// clock (`t_ns`) and with the camera stamp of the frame it is of (`stamp_ns`).
+fn outside_estimate(p: &StampedPose, stamp_ns: i64, suite: SuiteSpec, backend_s: f64) -> Estimate {
     Estimate {
         t_ns: p.t_ns,
-        stamp_ns: p.t_ns,
+        stamp_ns,
         T_w_b: p.pose,
         v_w: nalgebra::Vector3::zeros(),
         ba: nalgebra::Vector3::zeros(),
@@ -73,6 +75,19 @@ fn outside_estimate(p: &StampedPose, suite: SuiteSpec, backend_s: f64) -> Estima
         relative_pose: None,
         gnss_alignment: None,
     }
+}
+
+/// The camera stamp of the frame a pose stamped `t_ns` (IMU clock: the frame's stamp plus the
+/// estimator's time offset) is of: the nearest exported frame's within half a frame period,
+/// else `t_ns` itself. Seeds with different offset estimates then meet at the same frames
+/// (`vio nees` averages over runs by camera stamp).
+fn frame_stamp(frame_stamps: &[i64], t_ns: i64) -> i64 {
+    let period = frame_stamps
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .min()
+        .unwrap_or(0);
+    nearest_stamp(frame_stamps, t_ns, period / 2).map_or(t_ns, |k| frame_stamps[k])
 }
 
 /// A folder emptied for the run (what an earlier run left removed).
@@ -173,6 +188,7 @@ pub fn run_outside(
             adapter,
             &out_dir,
             &cameras,
+            &summary.frame_stamps_ns,
             scenario.spec.suite,
             &mut outside,
         )
@@ -198,6 +214,7 @@ fn score(
     adapter: &EstimatorAdapter,
     out_dir: &Path,
     cameras: &[estimator::geometry::Pose],
+    frame_stamps: &[i64],
     suite: SuiteSpec,
     outside: &mut OutsideRun,
 ) -> Result<Vec<FrameRecord>, String> {
@@ -236,7 +253,8 @@ fn score(
         .into_iter()
         .map(|(p, gt)| {
             let backend_s = timing.get(&p.t_ns).copied().unwrap_or(0.0);
-            let mut estimate = outside_estimate(&p, suite, backend_s);
+            let stamp_ns = frame_stamp(frame_stamps, p.t_ns);
+            let mut estimate = outside_estimate(&p, stamp_ns, suite, backend_s);
             if let Some(s) = states.remove(&p.t_ns) {
                 estimate.v_w = s.v_w;
                 estimate.ba = s.ba;

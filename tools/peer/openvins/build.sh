@@ -33,10 +33,15 @@ fi
 mkdir -p "$work"
 src=${OPENVINS_SRC:-$work/src}
 if [ -z "${OPENVINS_SRC:-}" ]; then
-  if [ ! -d "$src/.git" ]; then
+  if [ -d "$src/.git" ]; then
+    git -C "$src" checkout --quiet "$commit"
+  elif [ -f "$src/ov_msckf/CMakeLists.txt" ]; then
+    # A source tree put there by hand (an archive of the pinned commit, say): used as it is.
+    echo "build.sh: $src is not a git checkout: building it as it is (the commit is not checked)" >&2
+  else
     git clone --quiet https://github.com/rpng/open_vins.git "$src"
+    git -C "$src" checkout --quiet "$commit"
   fi
-  git -C "$src" checkout --quiet "$commit"
 fi
 [ -f "$src/ov_msckf/CMakeLists.txt" ] || { echo "build.sh: $src is not an OpenVINS checkout (no ov_msckf/CMakeLists.txt)" >&2; exit 2; }
 echo "build.sh: OpenVINS $(git -C "$src" rev-parse HEAD 2>/dev/null || echo '(not a git checkout)') from $src" >&2

@@ -1,7 +1,7 @@
 // ov_feature_driver: runs OpenVINS (ov_msckf, no ROS) on a `vio export` folder's IMU log and
 // feature tracks and writes its estimate as TUM, with the wall time each frame took.
 //
-//   ov_feature_driver CONFIG.yaml EXPORT_DIR ESTIMATE.tum TIMING.csv
+//   ov_feature_driver CONFIG.yaml EXPORT_DIR ESTIMATE.tum TIMING.csv [COVARIANCE.txt]
 //
 // CONFIG.yaml is an OpenVINS estimator config (`%YAML:1.0`, its Kalibr files beside it, as
 // `run.sh` lays them out). EXPORT_DIR holds `mav0/imu0/data.csv` and `features.csv`
@@ -13,6 +13,9 @@
 // ESTIMATE.tum: one row per frame once initialized, `t x y z qx qy qz qw`, the IMU pose in the
 // filter's world at the IMU-clock time of the frame (frame time + the estimated time offset).
 // TIMING.csv: `t_ns,seconds` per frame fed (tracks → propagate → update, all of OpenVINS's work).
+//
+// COVARIANCE.txt (optional): per pose, the state and its 15x15 covariance in the harness's
+// error-state order (ov_state_io.h), for `vio nees`.
 //
 // Written for this project; it links OpenVINS (GPL-3.0), built by `build.sh`.
 
@@ -45,6 +48,7 @@
 
 #define DRIVER_NAME "ov_feature_driver"
 #include "asl_io.h"
+#include "ov_state_io.h"
 
 namespace {
 
@@ -162,19 +166,8 @@ public:
     do_feature_propagate_update(message);
   }
 
-  // The pose row of the newest frame, if the filter has one at `timestamp`.
-  bool pose_row(double timestamp, char *row, size_t size) {
-    if (!initialized() || state->_timestamp != timestamp) {
-      return false;
-    }
-    Eigen::Matrix3d R_ItoG = ov_core::quat_2_Rot(state->_imu->quat()).transpose();
-    Eigen::Quaterniond q(R_ItoG);
-    Eigen::Vector3d p = state->_imu->pos();
-    double t = state->_timestamp + state->_calib_dt_CAMtoIMU->value()(0);
-    std::snprintf(row, size, "%.9f %.9f %.9f %.9f %.9f %.9f %.9f %.9f\n", t, p.x(), p.y(), p.z(), q.x(), q.y(), q.z(),
-                  q.w());
-    return true;
-  }
+  // Whether the filter's newest state is the frame at `timestamp`.
+  bool has_state_at(double timestamp) { return initialized() && state->_timestamp == timestamp; }
 
   // The filter's camera-IMU time offset (s), 0 before initialization.
   double time_offset() { return initialized() ? state->_calib_dt_CAMtoIMU->value()(0) : 0.0; }
@@ -183,11 +176,12 @@ public:
 }  // namespace
 
 int main(int argc, char **argv) {
-  if (argc != 5) {
-    std::cerr << "usage: ov_feature_driver CONFIG.yaml EXPORT_DIR ESTIMATE.tum TIMING.csv" << std::endl;
+  if (argc != 5 && argc != 6) {
+    std::cerr << "usage: ov_feature_driver CONFIG.yaml EXPORT_DIR ESTIMATE.tum TIMING.csv [COVARIANCE.txt]" << std::endl;
     return 2;
   }
   const std::string config = argv[1], dir = argv[2], est_path = argv[3], timing_path = argv[4];
+  const std::string cov_path = argc == 6 ? argv[5] : "";
 
   auto parser = std::make_shared<ov_core::YamlParser>(config);
   std::string verbosity = "WARNING";
@@ -208,15 +202,17 @@ int main(int argc, char **argv) {
   }
 
   TrackFedVio vio(options);
-  std::ofstream est(est_path), timing(timing_path);
-  if (!est || !timing) {
-    fail("cannot write " + est_path + " or " + timing_path);
+  std::ofstream est(est_path), timing(timing_path), cov;
+  if (!cov_path.empty()) {
+    cov.open(cov_path);
+  }
+  if (!est || !timing || (!cov_path.empty() && !cov)) {
+    fail("cannot write " + est_path + ", " + timing_path + " or " + cov_path);
   }
   timing << "t_ns,seconds\n";
   std::vector<double> after_init;
   size_t next_imu = 0, estimates = 0;
   double init_time = -1.0;
-  char row[256];
   for (const auto &fr : frames) {
     double t = fr.t_ns * 1e-9;
     while (next_imu < imu.size() && imu[next_imu].timestamp <= t + 0.02) {
@@ -226,8 +222,8 @@ int main(int argc, char **argv) {
     vio.feed_tracks(t, fr.cam_ids, fr.feats);
     double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     timing << fr.t_ns << "," << seconds << "\n";
-    if (vio.pose_row(t, row, sizeof row)) {
-      est << row;
+    if (vio.has_state_at(t)) {
+      ov_state_io::write_state(vio.get_state(), est, cov_path.empty() ? nullptr : &cov);
       if (init_time < 0.0) {
         init_time = t;
       }

@@ -2,7 +2,7 @@
 // folder's rendered images and IMU log, and writes its estimate as TUM, with the wall time each
 // frame took — OpenVINS's whole pipeline on the frames our front end tracks.
 //
-//   ov_image_driver CONFIG.yaml EXPORT_DIR ESTIMATE.tum TIMING.csv
+//   ov_image_driver CONFIG.yaml EXPORT_DIR ESTIMATE.tum TIMING.csv [COVARIANCE.txt]
 //
 // CONFIG.yaml is an OpenVINS estimator config (`%YAML:1.0`, its Kalibr files beside it, as
 // `run_adapter.sh` lays them out; its front-end keys use_klt, num_pts, fast_threshold, grid_x/y,
@@ -16,6 +16,9 @@
 // ESTIMATE.tum: one row per capture once initialized, the IMU pose in the filter's world at the
 // IMU-clock time of the capture (its stamp + the estimated time offset). TIMING.csv: `t_ns,seconds`
 // per capture fed (track → propagate → update).
+//
+// COVARIANCE.txt (optional): per pose, the state and its 15x15 covariance in the harness's
+// error-state order (ov_state_io.h), for `vio nees`.
 //
 // Written for this project; it links OpenVINS (GPL-3.0), built by `build.sh`.
 
@@ -45,6 +48,7 @@
 
 #define DRIVER_NAME "ov_image_driver"
 #include "asl_io.h"
+#include "ov_state_io.h"
 
 namespace {
 
@@ -90,11 +94,12 @@ std::vector<std::pair<int64_t, std::string>> read_images(const std::string &cam_
 }  // namespace
 
 int main(int argc, char **argv) {
-  if (argc != 5) {
-    std::cerr << "usage: ov_image_driver CONFIG.yaml EXPORT_DIR ESTIMATE.tum TIMING.csv" << std::endl;
+  if (argc != 5 && argc != 6) {
+    std::cerr << "usage: ov_image_driver CONFIG.yaml EXPORT_DIR ESTIMATE.tum TIMING.csv [COVARIANCE.txt]" << std::endl;
     return 2;
   }
   const std::string config = argv[1], dir = argv[2], est_path = argv[3], timing_path = argv[4];
+  const std::string cov_path = argc == 6 ? argv[5] : "";
 
   auto parser = std::make_shared<ov_core::YamlParser>(config);
   std::string verbosity = "WARNING";
@@ -123,15 +128,17 @@ int main(int argc, char **argv) {
   }
 
   ov_msckf::VioManager vio(options);
-  std::ofstream est(est_path), timing(timing_path);
-  if (!est || !timing) {
-    fail("cannot write " + est_path + " or " + timing_path);
+  std::ofstream est(est_path), timing(timing_path), cov;
+  if (!cov_path.empty()) {
+    cov.open(cov_path);
+  }
+  if (!est || !timing || (!cov_path.empty() && !cov)) {
+    fail("cannot write " + est_path + ", " + timing_path + " or " + cov_path);
   }
   timing << "t_ns,seconds\n";
   std::vector<double> after_init;
   size_t next_imu = 0, estimates = 0;
   double init_time = -1.0;
-  char row[256];
   for (size_t k = 0; k < images[0].size(); k++) {
     const int64_t t_ns = images[0][k].first;
     const double t = t_ns * 1e-9;
@@ -158,13 +165,7 @@ int main(int argc, char **argv) {
     timing << t_ns << "," << seconds << "\n";
     auto state = vio.get_state();
     if (vio.initialized() && state->_timestamp == t) {
-      Eigen::Matrix3d R_ItoG = ov_core::quat_2_Rot(state->_imu->quat()).transpose();
-      Eigen::Quaterniond q(R_ItoG);
-      Eigen::Vector3d p = state->_imu->pos();
-      double ts = state->_timestamp + state->_calib_dt_CAMtoIMU->value()(0);
-      std::snprintf(row, sizeof row, "%.9f %.9f %.9f %.9f %.9f %.9f %.9f %.9f\n", ts, p.x(), p.y(), p.z(), q.x(), q.y(),
-                    q.z(), q.w());
-      est << row;
+      ov_state_io::write_state(state, est, cov_path.empty() ? nullptr : &cov);
       if (init_time < 0.0) {
         init_time = t;
       }

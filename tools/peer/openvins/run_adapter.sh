@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The built-in adapters' program (`vio run … --estimator openvins-tracks | openvins-images`,
 # scenarios/catalog/estimators/): runs OpenVINS on an exported ASL folder and writes what the
-# adapter contract asks for into OUT: `estimate.tum` (TUM, the IMU's pose, IMU clock) and
-# `timing.csv` (`t_ns,seconds` per frame fed).
+# adapter contract asks for into OUT: `estimate.tum` (TUM, the IMU's pose, IMU clock),
+# `timing.csv` (`t_ns,seconds` per frame fed) and `covariance.txt` (per pose, the state and its
+# covariance in the harness's order, for `vio nees`).
 #
 #   run_adapter.sh tracks|images DATASET OUT SUITE
 #
@@ -47,4 +48,4 @@ indent_sequences() { sed 's/^\( *\)- /\1  - /'; }
 } | indent_sequences >"$ov/kalibr_imu_chain.yaml"
 sed -e "s/@PIXEL_SIGMA@/$sigma/" -e "s/@CAMERAS@/$cameras/" "$here/estimator_config.yaml" >"$ov/estimator_config.yaml"
 echo "run_adapter.sh: $mode, $cameras camera(s), pixel sigma $sigma px"
-exec "$driver" "$ov/estimator_config.yaml" "$dataset" "$out/estimate.tum" "$out/timing.csv"
+exec "$driver" "$ov/estimator_config.yaml" "$dataset" "$out/estimate.tum" "$out/timing.csv" "$out/covariance.txt"
