@@ -153,8 +153,14 @@ impl Estimator {
     ) -> (Window, SolverSummary, Option<BatchUncertainty>) {
         let uses_imu = self.config.suite.uses_imu();
         // A window over the given frames, chained by their own IMU intervals, with today's
-        // extrinsics and time offset and no prior.
+        // extrinsics and time offset, and no prior. Extrinsics the window estimates online are
+        // estimated here too, under the same gates and priors: held constant, a calibration
+        // that is off makes the filter sure of what it is not (its relative-pose NEES read
+        // 31–40 against a band to 10.5 on the realistic V1_01 stand-in, 3 seeds × 20 s; 11.3
+        // estimated). The time offset stays today's constant, as before.
         let mut window = Window::new(self.window.extrinsics.clone(), self.window.td);
+        window.calibration.rotation = self.window.calibration.rotation;
+        window.calibration.translation = self.window.calibration.translation;
         window.prior = prior;
         for f in frames {
             let mut f = f.clone();
