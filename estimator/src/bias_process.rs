@@ -51,6 +51,14 @@ impl BiasProcess {
         let f = 1.0 - k * k;
         (self.sigma_accel.powi(2) * f, self.sigma_gyro.powi(2) * f)
     }
+
+    /// The densities of the random walks the wander spreads like over times short against
+    /// `T`, `σ_b·√(2/T)`: (accelerometer m/s³/√Hz, gyroscope rad/s²/√Hz). What an estimator
+    /// whose biases only random-walk would add to its random walks.
+    pub fn random_walk_equivalents(&self) -> (f64, f64) {
+        let per_sigma = (2.0 / self.correlation_s).sqrt();
+        (self.sigma_accel * per_sigma, self.sigma_gyro * per_sigma)
+    }
 }
 
 #[cfg(test)]

@@ -29,8 +29,9 @@ pub struct ImuFactor {
     lin_bg: Vector3<f64>,
     bias_jacobian: BiasJacobian,
     sqrt_info: SMatrix<f64, 15, 15>,
-    /// `(φ_a, φ_g)` of the bias process; `None`: the biases random-walk (`φ = 1`, no mean).
-    keep: Option<(f64, f64)>,
+    /// `φ` of the bias process over the interval; `None`: the biases random-walk (`φ = 1`, no
+    /// mean).
+    keep: Option<f64>,
 }
 
 const SIZES: [usize; 4] = [7, 9, 7, 9];
@@ -89,7 +90,7 @@ impl ImuFactor {
             lin_bg: *preint.linearized_bg(),
             bias_jacobian: *preint.bias_jacobian(),
             sqrt_info,
-            keep: process.map(|p| (p.keep(preint.dt()), p.keep(preint.dt()))),
+            keep: process.map(|p| p.keep(preint.dt())),
         })
     }
 
@@ -136,7 +137,7 @@ impl ImuFactor {
         let v3 = |s: &[f64], o: usize| Vector3::new(s[o], s[o + 1], s[o + 2]);
         let (vi, bai, bgi) = (v3(sb_i, 0), v3(sb_i, 3), v3(sb_i, 6));
         let (vj, baj, bgj) = (v3(sb_j, 0), v3(sb_j, 3), v3(sb_j, 6));
-        let (keep_a, keep_g) = self.keep.unwrap_or((1.0, 1.0));
+        let keep = self.keep.unwrap_or(1.0);
         let (mean_a, mean_g) = match self.keep {
             Some(_) => (v3(params[4], 0), v3(params[4], 3)),
             None => (Vector3::zeros(), Vector3::zeros()),
@@ -169,9 +170,9 @@ impl ImuFactor {
         r.fixed_rows_mut::<3>(O_R).copy_from(&r_theta);
         r.fixed_rows_mut::<3>(O_V).copy_from(&(ri_t * dv_w - beta));
         r.fixed_rows_mut::<3>(O_BA)
-            .copy_from(&(baj - keep_a * bai - (1.0 - keep_a) * mean_a));
+            .copy_from(&(baj - keep * bai - (1.0 - keep) * mean_a));
         r.fixed_rows_mut::<3>(O_BG)
-            .copy_from(&(bgj - keep_g * bgi - (1.0 - keep_g) * mean_g));
+            .copy_from(&(bgj - keep * bgi - (1.0 - keep) * mean_g));
         if whiten {
             r = self.sqrt_info * r;
         }
@@ -205,10 +206,8 @@ impl ImuFactor {
             jm.fixed_view_mut::<3, 3>(O_V, 0).copy_from(&-ri_t);
             jm.fixed_view_mut::<3, 3>(O_V, 3).copy_from(&-j_v_ba);
             jm.fixed_view_mut::<3, 3>(O_V, 6).copy_from(&-j_v_bg);
-            jm.fixed_view_mut::<3, 3>(O_BA, 3)
-                .copy_from(&(-keep_a * i3));
-            jm.fixed_view_mut::<3, 3>(O_BG, 6)
-                .copy_from(&(-keep_g * i3));
+            jm.fixed_view_mut::<3, 3>(O_BA, 3).copy_from(&(-keep * i3));
+            jm.fixed_view_mut::<3, 3>(O_BG, 6).copy_from(&(-keep * i3));
             let jm = if whiten { self.sqrt_info * jm } else { jm };
             write_row_major(&jm, out);
         }
@@ -232,9 +231,9 @@ impl ImuFactor {
         {
             let mut jm = SMatrix::<f64, 15, 6>::zeros();
             jm.fixed_view_mut::<3, 3>(O_BA, 0)
-                .copy_from(&(-(1.0 - keep_a) * i3));
+                .copy_from(&(-(1.0 - keep) * i3));
             jm.fixed_view_mut::<3, 3>(O_BG, 3)
-                .copy_from(&(-(1.0 - keep_g) * i3));
+                .copy_from(&(-(1.0 - keep) * i3));
             let jm = if whiten { self.sqrt_info * jm } else { jm };
             write_row_major(&jm, out);
         }

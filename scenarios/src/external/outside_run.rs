@@ -77,17 +77,28 @@ fn outside_estimate(p: &StampedPose, stamp_ns: i64, suite: SuiteSpec, backend_s:
     }
 }
 
-/// The camera stamp of the frame a pose stamped `t_ns` (IMU clock: the frame's stamp plus the
-/// estimator's time offset) is of: the nearest exported frame's within half a frame period,
-/// else `t_ns` itself. Seeds with different offset estimates then meet at the same frames
-/// (`vio nees` averages over runs by camera stamp).
-fn frame_stamp(frame_stamps: &[i64], t_ns: i64) -> i64 {
-    let period = frame_stamps
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .min()
-        .unwrap_or(0);
-    nearest_stamp(frame_stamps, t_ns, period / 2).map_or(t_ns, |k| frame_stamps[k])
+/// The camera stamps of the exported frames and half their period, for [`FrameStamps::of`].
+struct FrameStamps<'a> {
+    stamps: &'a [i64],
+    half_period_ns: i64,
+}
+
+impl<'a> FrameStamps<'a> {
+    fn new(stamps: &'a [i64]) -> Self {
+        let period = stamps.windows(2).map(|w| w[1] - w[0]).min().unwrap_or(0);
+        Self {
+            stamps,
+            half_period_ns: period / 2,
+        }
+    }
+
+    /// The camera stamp of the frame a pose stamped `t_ns` (IMU clock: the frame's stamp plus
+    /// the estimator's time offset) is of: the nearest exported frame's within half a frame
+    /// period, else `t_ns` itself. Seeds with different offset estimates then meet at the same
+    /// frames (`vio nees` averages over runs by camera stamp).
+    fn of(&self, t_ns: i64) -> i64 {
+        nearest_stamp(self.stamps, t_ns, self.half_period_ns).map_or(t_ns, |k| self.stamps[k])
+    }
 }
 
 /// A folder emptied for the run (what an earlier run left removed).
@@ -249,11 +260,12 @@ fn score(
     let est: Vec<StampedPose> = pairs.iter().map(|(p, _)| *p).collect();
     let truth: Vec<_> = pairs.iter().map(|(_, g)| g.pose).collect();
     frame_check(&est, &truth, cameras)?;
+    let frame_stamps = FrameStamps::new(frame_stamps);
     Ok(pairs
         .into_iter()
         .map(|(p, gt)| {
             let backend_s = timing.get(&p.t_ns).copied().unwrap_or(0.0);
-            let stamp_ns = frame_stamp(frame_stamps, p.t_ns);
+            let stamp_ns = frame_stamps.of(p.t_ns);
             let mut estimate = outside_estimate(&p, stamp_ns, suite, backend_s);
             if let Some(s) = states.remove(&p.t_ns) {
                 estimate.v_w = s.v_w;

@@ -22,6 +22,8 @@
 //! ones, and left the gyroscope-bias NEES under-confident on the V1_01 preset, 1.46 against a
 //! band from 1.68.)
 
+use estimator::bias_process::BiasProcess;
+
 use super::allan::AllanCurve;
 use super::report::{EstimatorNoise, KalibrReference, SensorAllan, SensorPair};
 use crate::spec::imu_error_model::BiasInstabilitySpec;
@@ -151,11 +153,10 @@ pub fn recommend(
     // wander about a constant (the three bias-instability keys), and the random walks are the
     // sensor's own beside it; the random walk an estimator without that model would use
     // instead (the wander's spread over times short against T, added in quadrature) is said.
-    let walk = |sheet: Option<f64>, floor_b: Option<f64>, name: &str, r: &mut Vec<String>| {
-        let wander = bias.zip(floor_b).map(|(b, floor_b)| {
-            let sigma_b = floor_b / sim::bias_instability::ALLAN_PEAK_PER_SIGMA;
-            sigma_b * (2.0 / b.correlation_s).sqrt()
-        });
+    let process =
+        bias.map(|b| BiasProcess::from_allan_floors(b.gyro_rad_s, b.accel_m_s2, b.correlation_s));
+    let spreads = process.map(|p| p.random_walk_equivalents());
+    let walk = |sheet: Option<f64>, wander: Option<f64>, name: &str, r: &mut Vec<String>| {
         r.push(match (sheet, wander) {
             (Some(s), Some(w)) => format!(
                 "{name}: the sensor.yaml's {s:.3e}, beside the bias instability (an estimator that models the bias as a random walk alone: √({s:.3e}² + {w:.3e}²) = {:.3e}, the wander σ_b·√(2/T))",
@@ -171,24 +172,20 @@ pub fn recommend(
     };
     let gyro_k = walk(
         kalibr.map(|k| k.gyroscope_random_walk),
-        bias.map(|b| b.gyro_rad_s),
+        spreads.map(|(_, g)| g),
         "gyroscope_random_walk",
         &mut reasoning,
     );
     let accel_k = walk(
         kalibr.map(|k| k.accelerometer_random_walk),
-        bias.map(|b| b.accel_m_s2),
+        spreads.map(|(a, _)| a),
         "accelerometer_random_walk",
         &mut reasoning,
     );
-    if let Some(b) = bias {
+    if let (Some(b), Some(p)) = (bias, process) {
         reasoning.push(format!(
             "bias instability: the fitted Gauss–Markov wander, Allan floors {:.3e} rad/s and {:.3e} m/s² (σ_b = floor/0.617: {:.3e} and {:.3e}), correlation time {:.2} s; the estimator holds the biases' constant mean as a state",
-            b.gyro_rad_s,
-            b.accel_m_s2,
-            b.gyro_rad_s / sim::bias_instability::ALLAN_PEAK_PER_SIGMA,
-            b.accel_m_s2 / sim::bias_instability::ALLAN_PEAK_PER_SIGMA,
-            b.correlation_s
+            b.gyro_rad_s, b.accel_m_s2, p.sigma_gyro, p.sigma_accel, b.correlation_s
         ));
     }
     Some(EstimatorNoise {

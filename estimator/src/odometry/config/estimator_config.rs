@@ -506,10 +506,10 @@ impl EstimatorConfig {
     pub fn assumed_imu_noise_as_random_walks(&self) -> ImuNoise {
         let mut n = self.assumed_imu_noise();
         if let Some(p) = self.imu_noise_model.bias_process() {
-            let spread = |sigma: f64| sigma * (2.0 / p.correlation_s).sqrt();
-            let walk = |rw: f64, sigma: f64| (rw.powi(2) + spread(sigma).powi(2)).sqrt();
-            n.gyroscope_random_walk = walk(n.gyroscope_random_walk, p.sigma_gyro);
-            n.accelerometer_random_walk = walk(n.accelerometer_random_walk, p.sigma_accel);
+            let (spread_a, spread_g) = p.random_walk_equivalents();
+            let walk = |rw: f64, spread: f64| (rw.powi(2) + spread.powi(2)).sqrt();
+            n.gyroscope_random_walk = walk(n.gyroscope_random_walk, spread_g);
+            n.accelerometer_random_walk = walk(n.accelerometer_random_walk, spread_a);
         }
         n
     }
